@@ -1,0 +1,189 @@
+"""Tag values, error codes, flag bits and limits shared by host and firmware.
+
+These numbers are the protocol: the firmware's C header is generated from this module and
+the message table (``python -m arduinoio_async.protocol.cheader``), and a test fails when
+the committed header drifts from them.  The class and descriptor tags keep the values of the
+paper's original implementation; everything marked *extension* goes beyond the paper.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum, IntFlag
+from typing import Final
+
+PROTOCOL_VERSION: Final = 1
+FIRMWARE_VERSION: Final = (0, 1)
+
+
+class ClassTag(IntEnum):
+    """The first byte of every frame (CT)."""
+
+    MISC = 0x01
+    GPIO = 0x02
+    ANALOG = 0x03
+    I2C = 0x04
+    PWM = 0x05
+    COUNTER = 0x06
+    STREAM = 0x07  # extension
+    FAILSAFE = 0x08  # extension
+    EVENT = 0x40  # extension: frames the board sends without a request
+
+
+#: Set on the class tag of an error reply: ``CT | 0x80, DT, code, CS``.
+ERROR_FLAG: Final = 0x80
+
+
+class ErrorCode(IntEnum):
+    """The code byte of an error reply."""
+
+    BAD_CHECKSUM = 0x01
+    UNKNOWN_CLASS = 0x02
+    UNKNOWN_DESCRIPTOR = 0x03
+    INCOMPLETE_FRAME = 0x04
+    RX_OVERFLOW = 0x05
+    PIN_NOT_CAPABLE = 0x06
+    PIN_NOT_CONFIGURED = 0x07
+    PIN_BUSY = 0x08
+    VALUE_OUT_OF_RANGE = 0x09
+    I2C_NACK_ADDRESS = 0x0A
+    I2C_NACK_DATA = 0x0B
+    I2C_TIMEOUT = 0x0C
+    I2C_NOT_CONFIGURED = 0x0D
+    LINK_CAPACITY = 0x0E
+    FAILSAFE_TRIPPED = 0x0F
+    EEPROM_FAILED = 0x10
+
+
+#: Codes that mean the board could not find the request's frame boundaries: after sending
+#: one of these it discards input until the line has been quiet for ``INTER_BYTE_GAP_MS``.
+FRAMING_ERRORS: Final = frozenset(
+    {
+        ErrorCode.BAD_CHECKSUM,
+        ErrorCode.UNKNOWN_CLASS,
+        ErrorCode.UNKNOWN_DESCRIPTOR,
+        ErrorCode.INCOMPLETE_FRAME,
+        ErrorCode.RX_OVERFLOW,
+    }
+)
+
+
+class GpioFlags(IntFlag):
+    """Option bits of a GPIO configuration (the original implementation's layout)."""
+
+    INPUT = 0
+    OUTPUT = 0x01
+    INITIAL_HIGH = 0x02
+    PULL_UP = 0x04
+
+
+class GpioState(IntFlag):
+    """Bits of a GPIO read reply: the level and the edges latched since the last read."""
+
+    LOW = 0
+    HIGH = 0x01
+    ROSE = 0x02
+    FELL = 0x04
+
+
+class I2CSpeed(IntEnum):
+    """I2C bus clock."""
+
+    KHZ_100 = 0
+    KHZ_400 = 1
+
+
+class Edge(IntEnum):
+    """Which transition an event counter counts."""
+
+    FALLING = 0
+    RISING = 1
+
+
+class StreamFlags(IntFlag):
+    """What a stream sample carries besides the analog channels (extension)."""
+
+    NONE = 0
+    LEVELS = 0x01
+    EDGES = 0x02
+    COUNTERS = 0x04
+
+
+class SafeKind(IntEnum):
+    """What the failsafe does to a pin when it fires (extension)."""
+
+    NONE = 0
+    LEVEL = 1
+    PULSE = 2
+
+
+class StatusFlags(IntFlag):
+    """Bits of the status reply (extension)."""
+
+    NONE = 0
+    FAILSAFE_ARMED = 0x01
+    FAILSAFE_TRIPPED = 0x02
+    STREAMING = 0x04
+
+
+class Feature(IntFlag):
+    """Feature bits of the capabilities reply (extension)."""
+
+    NONE = 0
+    GPIO = 0x0001
+    ANALOG = 0x0002
+    I2C = 0x0004
+    SERVO_PWM = 0x0008
+    SOFT_PWM = 0x0010
+    COUNTER = 0x0020
+    TEMPERATURE = 0x0040
+    EEPROM_ID = 0x0080
+    STREAM = 0x0100
+    FAILSAFE = 0x0200
+
+
+#: The firmware answers nothing to a half-received frame until the line has been idle this
+#: long; then it sends INCOMPLETE_FRAME and is ready for the next frame.  After a framing
+#: error it discards bytes until the line has been idle this long.
+INTER_BYTE_GAP_MS: Final = 10
+
+#: Largest variable payload (I2C data, stream values) of any frame.
+MAX_BLOB: Final = 32
+I2C_MAX_LENGTH: Final = 32
+
+#: Receive FIFO and transmit buffer sizes of the firmware, in bytes.  A host that keeps
+#: no more request bytes in flight than RX_FIFO_SIZE never overruns the board.
+RX_FIFO_SIZE: Final = 128
+TX_BUFFER_SIZE: Final = 192
+
+PULSE_MIN_US: Final = 1000
+PULSE_MAX_US: Final = 2000
+SOFT_PWM_STEP_US: Final = 100
+SERVO_PERIOD_US: Final = 20000
+
+ANALOG_MAX: Final = 1023
+ANALOG_CHANNELS: Final = 6
+VCC_MV: Final = 5000
+
+#: Temperature sensor model (ATmega328P datasheet, typical): 314 mV at 25 C, 1 mV per C,
+#: measured against the internal 1.1 V reference.
+TEMP_REFERENCE_MV: Final = 1100
+TEMP_MV_AT_25C: Final = 314
+TEMP_MV_PER_C: Final = 1.0
+
+STREAM_MIN_PERIOD_US: Final = 1000
+STREAM_MAX_PERIOD_US: Final = 60000
+STREAM_PERIOD_STEP_US: Final = 100
+
+#: A sample frame is 12 bytes plus its values; a stream may use at most 3/4 of the link's
+#: byte rate (10 bit times per byte), leaving room for command replies.
+STREAM_FRAME_OVERHEAD: Final = 12
+STREAM_LINK_SHARE_NUM: Final = 3
+STREAM_LINK_SHARE_DEN: Final = 4
+
+FAILSAFE_MIN_TIMEOUT_MS: Final = 20
+FAILSAFE_MAX_TIMEOUT_MS: Final = 10000
+
+#: Where the board ID lives in the AVR's EEPROM (big-endian, two bytes).
+EEPROM_ID_ADDRESS: Final = 0
+DEFAULT_BAUD: Final = 115200
+FAST_BAUD: Final = 1000000

@@ -1,0 +1,141 @@
+"""Incremental frame decoder: bytes in, frames out, never an exception for bad data.
+
+Theory of operation: the decoder keeps unconsumed bytes in a buffer.  At the buffer's head
+it asks "which frame can start here?": a known ``(CT, DT)`` pair gives the frame length
+(plus the length byte's value for frames with a variable part), a class tag with the high
+bit set gives a 4-byte error reply.  When the whole candidate is buffered its XOR must be
+zero; then it is decoded and emitted.  Anything else -- an unknown tag, a bad checksum, a
+field value its type forbids -- costs exactly one byte, which is reported as
+:class:`Garbage`, and the search restarts at the next byte.  Skipping one byte (not the
+whole candidate) is what lets a valid frame that begins inside a corrupt one be found.
+
+An 8-bit checksum accepts a random candidate with probability 1/256, so after garbage a
+spurious frame is possible; callers that see :class:`Garbage` should resynchronise (the
+transport does: it fails what is in flight and confirms the board with an ID request).
+
+The same class decodes both directions: ``Decoder.from_board()`` (replies, error replies,
+events) for the host, ``Decoder.from_host()`` (requests) for boards and test peers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from ._constants import ERROR_FLAG, ErrorCode
+from ._layout import Frame, Layout
+from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply
+
+__all__ = ["Decoded", "Decoder", "Garbage"]
+
+
+@dataclass(frozen=True, slots=True)
+class Garbage:
+    """Bytes that did not form a valid frame, in the order they arrived."""
+
+    data: bytes
+
+
+Decoded = Frame | Garbage
+
+
+def _layouts(*tables: Mapping[tuple[int, int], type[Frame]]) -> dict[int, Layout]:
+    return {(ct << 8) | dt: cls.LAYOUT for table in tables for (ct, dt), cls in table.items()}
+
+
+class Decoder:
+    """Turns arbitrary chunks of a byte stream into frames and garbage."""
+
+    __slots__ = ("_accept_errors", "_buffer", "_first_bytes", "_layouts", "_pending_garbage")
+
+    def __init__(self, layouts: dict[int, Layout], *, accept_errors: bool) -> None:
+        self._layouts = layouts
+        self._accept_errors = accept_errors
+        self._buffer = bytearray()
+        self._pending_garbage = bytearray()
+        self._first_bytes = frozenset(key >> 8 for key in layouts)
+
+    @classmethod
+    def from_board(cls) -> Decoder:
+        """Decoder for what a board sends: replies, error replies and events."""
+        return cls(_layouts(REPLY_TYPES, EVENT_TYPES), accept_errors=True)
+
+    @classmethod
+    def from_host(cls) -> Decoder:
+        """Decoder for what a host sends: requests."""
+        return cls(_layouts(REQUEST_TYPES), accept_errors=False)
+
+    @property
+    def buffered(self) -> int:
+        """Bytes held back because they may be the start of a frame."""
+        return len(self._buffer)
+
+    def reset(self) -> bytes:
+        """Forget buffered bytes (after a resync); returns what was dropped."""
+        dropped = bytes(self._pending_garbage + self._buffer)
+        self._buffer.clear()
+        self._pending_garbage.clear()
+        return dropped
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[Decoded]:
+        """Add received bytes; return every frame (and garbage run) now complete."""
+        buffer = self._buffer
+        buffer += data
+        out: list[Decoded] = []
+        pos = 0
+        end = len(buffer)
+        while pos < end:
+            size = self._candidate_size(buffer, pos, end)
+            if size == 0:
+                break  # need more bytes
+            if size > 0 and pos + size > end:
+                break
+            if size > 0:
+                frame = self._decode(buffer, pos, size)
+                if frame is not None:
+                    if self._pending_garbage:
+                        out.append(Garbage(bytes(self._pending_garbage)))
+                        self._pending_garbage.clear()
+                    out.append(frame)
+                    pos += size
+                    continue
+            self._pending_garbage.append(buffer[pos])
+            pos += 1
+        del buffer[:pos]
+        if self._pending_garbage and not buffer:
+            out.append(Garbage(bytes(self._pending_garbage)))
+            self._pending_garbage.clear()
+        return out
+
+    def _candidate_size(self, buffer: bytearray, pos: int, end: int) -> int:
+        """Length of the frame that may start at ``pos``: 0 = need more, -1 = none."""
+        first = buffer[pos]
+        if first & ERROR_FLAG:
+            return ErrorReply.SIZE if self._accept_errors else -1
+        if pos + 1 >= end:
+            # A lone first byte: wait only if some frame can start with it.
+            return 0 if first in self._first_bytes else -1
+        layout = self._layouts.get((first << 8) | buffer[pos + 1])
+        if layout is None:
+            return -1
+        if layout.length_offset < 0:
+            return layout.base_size
+        if pos + layout.length_offset >= end:
+            return 0
+        size = layout.base_size + buffer[pos + layout.length_offset]
+        return size if size <= layout.max_size else -1
+
+    def _decode(self, buffer: bytearray, pos: int, size: int) -> Frame | None:
+        check = 0
+        for byte in buffer[pos : pos + size]:
+            check ^= byte
+        if check:
+            return None
+        raw = bytes(buffer[pos : pos + size])
+        try:
+            first = raw[0]
+            if first & ERROR_FLAG:
+                return ErrorReply(first & ~ERROR_FLAG, raw[1], ErrorCode(raw[2]))
+            return self._layouts[(first << 8) | raw[1]].decode(raw)
+        except ValueError:
+            return None
