@@ -106,7 +106,7 @@ class BoardError(ArduinoIOError):
     def __init__(self, code: object, request: object, detail: str = "") -> None:
         self.code = code
         self.request = request
-        text = f"board refused {type(request).__name__}: {code}"
+        text = f"board refused {request!r}: {getattr(code, 'name', code)}"
         super().__init__(f"{text} ({detail})" if detail else text)
 
 

@@ -183,6 +183,13 @@ def _request(reply: type[Reply], *, extension: bool = False) -> Callable[[Q], Q]
     return register
 
 
+def _check_10_bit(value: int) -> None:
+    """Replies are validated where the range is known: it catches corrupt frames that an
+    8-bit XOR checksum lets through (one in 256)."""
+    if not 0 <= value <= 0x3FF:
+        raise ValueError(f"{value} is not a 10-bit ADC value")
+
+
 # ---- MISC (0x01) --------------------------------------------------------------------------
 
 
@@ -218,6 +225,9 @@ class ReadTemperatureReply(Reply):
     """Raw 10-bit ADC reading of the chip's sensor against the internal 1.1 V reference."""
 
     raw: Annotated[int, U16]
+
+    def __post_init__(self) -> None:
+        _check_10_bit(self.raw)
 
     @property
     def millivolts(self) -> float:
@@ -324,6 +334,10 @@ class GpioReadReply(Reply):
     pin: Annotated[int, U8]
     state: Annotated[GpioState, U8]
 
+    def __post_init__(self) -> None:
+        if self.state & ~0x07:
+            raise ValueError(f"GPIO state {int(self.state):#04x} has undefined bits")
+
     @property
     def level(self) -> bool:
         return bool(self.state & GpioState.HIGH)
@@ -384,6 +398,9 @@ class AnalogReadReply(Reply):
     channel: Annotated[int, U8]
     value: Annotated[int, U16]
 
+    def __post_init__(self) -> None:
+        _check_10_bit(self.value)
+
 
 @_request(AnalogReadReply)
 @dataclass(frozen=True, slots=True)
@@ -397,6 +414,10 @@ class AnalogRead(Request[AnalogReadReply]):
 @dataclass(frozen=True, slots=True)
 class AnalogReadAllReply(Reply):
     values: Annotated[tuple[int, ...], Array(U16, 6)]
+
+    def __post_init__(self) -> None:
+        for value in self.values:
+            _check_10_bit(value)
 
 
 @_request(AnalogReadAllReply)
@@ -441,7 +462,7 @@ class I2CRead(Request[I2CReadReply]):
 
     def matches(self, reply: Reply) -> bool:
         return (
-            super().matches(reply)
+            Request.matches(self, reply)
             and isinstance(reply, I2CReadReply)
             and len(reply.data) == self.length
         )
@@ -466,7 +487,7 @@ class I2CWrite(Request[I2CWriteReply]):
 
     def matches(self, reply: Reply) -> bool:
         return (
-            super().matches(reply)
+            Request.matches(self, reply)
             and isinstance(reply, I2CWriteReply)
             and reply.length == len(self.data)
         )

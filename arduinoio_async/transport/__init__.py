@@ -1,0 +1,34 @@
+"""Transport layer: byte streams to boards and the request/response engine.
+
+Any anyio ``ByteStream`` carries the protocol: :func:`open_serial_stream` for device paths
+and pyserial URLs (``/dev/ttyACM0``, ``socket://host:port``, ``rfc2217://...``), a
+pseudo-terminal of the virtual Uno, or :func:`memory_link` in tests.
+"""
+
+from ._link import (
+    DEFAULT_TIMEOUT,
+    QUIET_TIME,
+    LinkState,
+    LinkStats,
+    TraceHook,
+    TraceRecord,
+    Transport,
+    board_error,
+)
+from ._memory import MemoryByteStream, memory_link
+from ._serial import SerialByteStream, open_serial_stream
+
+__all__ = [
+    "DEFAULT_TIMEOUT",
+    "QUIET_TIME",
+    "LinkState",
+    "LinkStats",
+    "MemoryByteStream",
+    "SerialByteStream",
+    "TraceHook",
+    "TraceRecord",
+    "Transport",
+    "board_error",
+    "memory_link",
+    "open_serial_stream",
+]

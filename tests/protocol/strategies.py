@@ -1,0 +1,71 @@
+"""Hypothesis strategies that build any message of the command table from its layout."""
+
+from __future__ import annotations
+
+from enum import IntEnum, IntFlag
+from typing import Any
+
+from hypothesis import strategies as st
+
+from arduinoio_async import protocol as p
+from arduinoio_async.protocol._layout import Array, Blob, FieldSpec, Frame, Scalar
+
+
+def _field(spec: FieldSpec) -> st.SearchStrategy[Any]:
+    wire = spec.wire
+    if isinstance(wire, Blob):
+        return st.binary(max_size=wire.max_length)
+    if isinstance(wire, Array):
+        item = st.integers(0, (1 << (8 * wire.item.size)) - 1)
+        return st.tuples(*[item] * wire.count)
+    assert isinstance(wire, Scalar)
+    if spec.pytype is bool:
+        return st.booleans()
+    if issubclass(spec.pytype, IntFlag):
+        flag_bits = 0
+        for member in spec.pytype:
+            flag_bits |= int(member)
+        return st.integers(0, flag_bits).map(spec.pytype)
+    if issubclass(spec.pytype, IntEnum):
+        return st.sampled_from(list(spec.pytype))
+    return st.integers(0, (1 << (8 * wire.size)) - 1)
+
+
+def message(cls: type[Frame]) -> st.SearchStrategy[Frame]:
+    """Any valid instance of ``cls``."""
+    if cls is p.StreamSample:
+        return _stream_sample()
+    fields = {spec.name: _field(spec) for spec in cls.LAYOUT.fields}
+    return st.builds(cls, **fields)
+
+
+def _stream_sample() -> st.SearchStrategy[Frame]:
+    @st.composite
+    def build(draw: st.DrawFn) -> Frame:
+        mask = draw(st.integers(0, 0x3F))
+        flags = p.StreamFlags(draw(st.integers(0, 7)))
+        size = p.sample_payload_size(mask, flags)
+        return p.StreamSample(
+            analog_mask=mask,
+            flags=flags,
+            sequence=draw(st.integers(0, 0xFFFF)),
+            timestamp_us=draw(st.integers(0, 0xFFFFFFFF)),
+            payload=draw(st.binary(min_size=size, max_size=size)),
+        )
+
+    return build()
+
+
+error_replies = st.builds(
+    p.ErrorReply,
+    class_tag=st.integers(0, 0x7F),
+    descriptor=st.integers(0, 0xFF),
+    code=st.sampled_from(list(p.ErrorCode)),
+)
+
+requests = st.one_of(*[message(cls) for cls in p.REQUEST_TYPES.values()])
+board_frames = st.one_of(
+    *[message(cls) for cls in p.REPLY_TYPES.values()],
+    *[message(cls) for cls in p.EVENT_TYPES.values()],
+    error_replies,
+)

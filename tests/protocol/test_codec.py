@@ -1,0 +1,185 @@
+"""Encode/decode of every frame, the paper's tables, chunking and garbage resistance."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from arduinoio_async import protocol as p
+from arduinoio_async.errors import FieldRangeError
+
+from .strategies import board_frames, message, requests
+
+
+def frames_of(decoded: list[p.Decoded]) -> list[p.Frame]:
+    return [item for item in decoded if not isinstance(item, p.Garbage)]
+
+
+@pytest.mark.parametrize("cls", list(p.REQUEST_TYPES.values()), ids=lambda c: c.__name__)
+@settings(max_examples=30)
+@given(data=st.data())
+def test_every_request_round_trips(cls: type[p.Frame], data: st.DataObject) -> None:
+    request = data.draw(message(cls))
+    assert p.Decoder.from_host().feed(p.encode(request)) == [request]
+
+
+@pytest.mark.parametrize(
+    "cls",
+    [*p.REPLY_TYPES.values(), *p.EVENT_TYPES.values()],
+    ids=lambda c: c.__name__,
+)
+@settings(max_examples=30)
+@given(data=st.data())
+def test_every_reply_and_event_round_trips(cls: type[p.Frame], data: st.DataObject) -> None:
+    reply = data.draw(message(cls))
+    assert p.Decoder.from_board().feed(reply.encode()) == [reply]
+
+
+@given(board_frames)
+def test_checksum_makes_the_xor_of_every_frame_zero(frame: p.Frame) -> None:
+    assert p.checksum(frame.encode()) == 0
+
+
+def test_paper_table_i_is_the_id_request() -> None:
+    assert p.encode(p.ReadId()) == bytes([0x01, 0x02, 0x03])
+
+
+def test_paper_table_ii_decodes_to_the_board_id() -> None:
+    ct, dt, high, low = 0x01, 0x02, 0xAB, 0xCD
+    table_ii = bytes([ct, dt, high, low, ct ^ dt ^ high ^ low])
+    assert p.Decoder.from_board().feed(table_ii) == [p.ReadIdReply(board_id=0xABCD)]
+    assert p.ReadIdReply(board_id=0xABCD).encode() == table_ii
+
+
+def test_error_reply_layout_sets_the_high_bit_of_the_class_tag() -> None:
+    error = p.ErrorReply(class_tag=0x02, descriptor=0x03, code=p.ErrorCode.PIN_NOT_CONFIGURED)
+    assert error.encode() == bytes([0x82, 0x03, 0x07, 0x82 ^ 0x03 ^ 0x07])
+    assert error.answers(p.GpioWrite(pin=2, value=True))
+    assert not error.answers(p.GpioRead(pin=2))
+
+
+def test_reply_matching_checks_the_echoed_fields() -> None:
+    request = p.GpioWrite(pin=4, value=True)
+    assert request.matches(p.GpioWriteReply(pin=4, value=True))
+    assert not request.matches(p.GpioWriteReply(pin=5, value=True))
+    assert not request.matches(p.GpioWriteReply(pin=4, value=False))
+    assert not request.matches(p.GpioReadReply(pin=4, state=p.GpioState.HIGH))
+    read = p.I2CRead(address=0x50, register=3, length=2)
+    assert read.matches(p.I2CReadReply(address=0x50, register=3, data=b"ab"))
+    assert not read.matches(p.I2CReadReply(address=0x50, register=3, data=b"a"))
+
+
+def test_values_that_do_not_fit_raise_the_protocols_own_error() -> None:
+    with pytest.raises(FieldRangeError):
+        p.encode(p.GpioWrite(pin=256, value=True))
+    with pytest.raises(FieldRangeError):
+        p.encode(p.I2CWrite(address=0x50, register=0, data=bytes(33)))
+
+
+@given(st.lists(board_frames, max_size=20), st.data())
+def test_chunked_stream_decodes_like_the_whole(frames: list[p.Frame], data: st.DataObject) -> None:
+    stream = b"".join(f.encode() for f in frames)
+    cuts = sorted(data.draw(st.lists(st.integers(0, len(stream)), max_size=12)))
+    decoder = p.Decoder.from_board()
+    out: list[p.Decoded] = []
+    for start, end in zip([0, *cuts], [*cuts, len(stream)], strict=True):
+        out += decoder.feed(stream[start:end])
+    assert out == frames
+    assert decoder.buffered == 0
+
+
+@given(st.lists(requests, max_size=20), st.data())
+def test_requests_split_at_every_byte_decode_intact(
+    frames: list[p.Frame], data: st.DataObject
+) -> None:
+    stream = b"".join(f.encode() for f in frames)
+    decoder = p.Decoder.from_host()
+    out: list[p.Decoded] = []
+    for byte in stream:
+        out += decoder.feed(bytes([byte]))
+    assert out == frames
+
+
+#: Bytes that cannot start any board frame: garbage made of them never hides a frame.
+_NON_STARTERS = [b for b in range(0x80) if b not in {int(t) for t in p.ClassTag}]
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.binary(max_size=8).map(
+                lambda b: bytes(_NON_STARTERS[x % len(_NON_STARTERS)] for x in b)
+            ),
+            board_frames,
+        ),
+        max_size=15,
+    )
+)
+def test_frames_between_non_frame_garbage_all_come_out(
+    pieces: list[tuple[bytes, p.Frame]],
+) -> None:
+    stream = b"".join(junk + frame.encode() for junk, frame in pieces)
+    out = p.Decoder.from_board().feed(stream)
+    assert frames_of(out) == [frame for _, frame in pieces]
+    garbage = b"".join(g.data for g in out if isinstance(g, p.Garbage))
+    assert garbage == b"".join(junk for junk, _ in pieces)
+
+
+@given(st.lists(st.tuples(st.binary(max_size=12), board_frames), max_size=15), st.data())
+def test_arbitrary_garbage_never_raises_and_never_yields_a_bad_frame(
+    pieces: list[tuple[bytes, p.Frame]], data: st.DataObject
+) -> None:
+    stream = b"".join(junk + frame.encode() for junk, frame in pieces)
+    cuts = sorted(data.draw(st.lists(st.integers(0, len(stream)), max_size=8)))
+    decoder = p.Decoder.from_board()
+    out: list[p.Decoded] = []
+    for start, end in zip([0, *cuts], [*cuts, len(stream)], strict=True):
+        out += decoder.feed(stream[start:end])
+    decoded = frames_of(out)
+    for frame in decoded:
+        assert p.checksum(frame.encode()) == 0
+    originals = [frame for _, frame in pieces]
+    spurious = [f for f in decoded if f not in originals]
+    missing = [f for f in originals if f not in decoded]
+    # An 8-bit checksum lets a garbage run form a valid-looking frame with probability
+    # 1/256; only such a spurious frame can swallow a real one.
+    if missing:
+        assert spurious
+    # Every byte is accounted for: frames plus garbage plus what is still buffered.
+    total = sum(len(f.encode()) for f in decoded)
+    total += sum(len(g.data) for g in out if isinstance(g, p.Garbage))
+    assert total + decoder.buffered == len(stream)
+
+
+@given(st.binary(max_size=400))
+def test_random_bytes_never_raise(data: bytes) -> None:
+    for decoder in (p.Decoder.from_board(), p.Decoder.from_host()):
+        for item in decoder.feed(data):
+            if not isinstance(item, p.Garbage):
+                assert p.checksum(item.encode()) == 0
+
+
+def test_reset_drops_a_partial_frame() -> None:
+    decoder = p.Decoder.from_board()
+    assert decoder.feed(bytes([0x01, 0x02, 0x00])) == []
+    assert decoder.reset() == bytes([0x01, 0x02, 0x00])
+    assert decoder.feed(p.ReadIdReply(board_id=7).encode()) == [p.ReadIdReply(board_id=7)]
+
+
+def test_a_stream_sample_with_a_payload_that_contradicts_its_mask_is_garbage() -> None:
+    good = p.StreamSample(
+        analog_mask=0b11, flags=p.StreamFlags.NONE, sequence=1, timestamp_us=5, payload=bytes(4)
+    )
+    raw = bytearray(good.encode())
+    raw[2] = 0b111  # three channels announced, two carried
+    raw[-1] = p.checksum(raw[:-1])
+    out = p.Decoder.from_board().feed(bytes(raw))
+    assert not frames_of(out)
+
+
+def test_stream_admission_rule_matches_the_documented_limits() -> None:
+    four = 0b1111
+    assert p.stream_min_period_us(four, p.StreamFlags.NONE, 115200) == 2400
+    assert p.stream_min_period_us(four, p.StreamFlags.NONE, 1_000_000) == 1000
+    assert not p.stream_fits_link(20, 2300, 115200)

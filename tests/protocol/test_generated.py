@@ -1,0 +1,28 @@
+"""The firmware header and the spec's layout tables are renderings of the Python table."""
+
+from __future__ import annotations
+
+from arduinoio_async.protocol import cheader, docgen
+
+
+def test_committed_c_header_matches_the_command_table() -> None:
+    committed = cheader.HEADER_PATH.read_text()
+    assert committed == cheader.render(), (
+        "firmware/include/aio_protocol.h drifted from the Python command table: run "
+        "`python -m arduinoio_async.protocol.cheader`"
+    )
+
+
+def test_protocol_doc_layouts_match_the_command_table() -> None:
+    committed = docgen.DOC_PATH.read_text()
+    assert committed == docgen.splice(committed), (
+        "docs/protocol.md's generated block drifted: "
+        "run `python -m arduinoio_async.protocol.docgen`"
+    )
+
+
+def test_header_names_every_request() -> None:
+    from arduinoio_async import protocol as p
+
+    text = cheader.render()
+    assert text.count("    X(") == len(p.REQUEST_TYPES)
