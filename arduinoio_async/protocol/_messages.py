@@ -120,11 +120,11 @@ class Event(Frame):
     __slots__ = ()
 
 
-R = TypeVar("R", bound=Reply)
+R_co = TypeVar("R_co", bound=Reply, covariant=True)
 
 
-class Request(Frame, Generic[R]):
-    """A host request whose success reply has type ``R``."""
+class Request(Frame, Generic[R_co]):
+    """A host request whose success reply has type ``R_co``."""
 
     __slots__ = ()
     REPLY: ClassVar[type[Reply]]
@@ -741,7 +741,7 @@ class ErrorReply(Frame):
         body = bytes((ERROR_FLAG | self.class_tag, self.descriptor, self.code))
         return body + bytes((body[0] ^ body[1] ^ body[2],))
 
-    def answers(self, request: Request[Reply]) -> bool:
+    def answers(self, request: Request[Any]) -> bool:
         """True when this error names the tags of ``request``."""
         layout = request.LAYOUT
         return self.class_tag == layout.class_tag and self.descriptor == layout.descriptor

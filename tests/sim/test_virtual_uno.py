@@ -168,7 +168,7 @@ async def test_unplug_and_replug(virtual_uno_factory: VirtualUnoFactory) -> None
     finally:
         link.close()
     new_port = await uno.replug()
-    assert new_port == uno.port
+    assert new_port == uno.port and new_port != old_port
     print(f"\nreplug: {old_port} -> {new_port}")
     link = Link(new_port)
     try:

@@ -6,6 +6,8 @@ exception, and nothing hangs.
 
 from __future__ import annotations
 
+from typing import Any
+
 import anyio
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -22,7 +24,7 @@ from arduinoio_async.errors import (
 from arduinoio_async.testing import FakeBoard, Faults
 from arduinoio_async.transport import LinkState, TraceRecord, Transport
 
-FAST = {"timeout": 0.2, "quiet_time": 0.005}
+FAST: dict[str, Any] = {"timeout": 0.2, "quiet_time": 0.005}
 
 
 def make_fake(faults: Faults | None = None) -> FakeBoard:

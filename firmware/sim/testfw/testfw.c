@@ -12,8 +12,8 @@
  *   0x82 pin              digital read; reply 0 or 1
  *   0x83 ch               ADC read (ch 0..7, 8 = temperature sensor with 1.1 V ref); reply lo, hi
  *   0x84 addr             read internal EEPROM byte; reply byte
- *   0x85 value            write value to I2C EEPROM (7-bit 0x50) at address 0x10; reply 0x85
- *                         (0xEE when the bus transaction failed)
+ *   0x85 value            write value to I2C EEPROM (7-bit 0x50) at address 0x10; reply 0x85,
+ *                         or (unexpected TWSR status | step 1..4) when a step failed
  *   0x86 x                start "servo" pulses: Timer1 fast PWM, 20 ms period,
  *                         OC1A (D9) 1500 us high, OC1B (D10) 1000 us high; reply 0x86
  *   0x87 pin              INT0 (pin 2) / INT1 (pin 3) rising edge count; reply lo, hi
@@ -138,24 +138,25 @@ static uint8_t twi_wait(void)
 	return TWSR & 0xF8;
 }
 
+/* returns 0 on success, else the unexpected TWSR status (for harness debugging) */
 static uint8_t i2c_write(uint8_t value)
 {
-	uint8_t ok = 1;
+	uint8_t st, bad = 0;
 	TWBR = 72; /* 100 kHz */
 	TWSR = 0;
 	TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN);
-	if (twi_wait() != 0x08) ok = 0;
+	if ((st = twi_wait()) != 0x08 && !bad) bad = st | 1;
 	TWDR = 0xA0;
 	TWCR = _BV(TWINT) | _BV(TWEN);
-	if (ok && twi_wait() != 0x18) ok = 0;
+	if ((st = twi_wait()) != 0x18 && !bad) bad = st | 2;
 	TWDR = 0x10;
 	TWCR = _BV(TWINT) | _BV(TWEN);
-	if (ok && twi_wait() != 0x28) ok = 0;
+	if ((st = twi_wait()) != 0x28 && !bad) bad = st | 3;
 	TWDR = value;
 	TWCR = _BV(TWINT) | _BV(TWEN);
-	if (ok && twi_wait() != 0x28) ok = 0;
+	if ((st = twi_wait()) != 0x28 && !bad) bad = st | 4;
 	TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN);
-	return ok;
+	return bad;
 }
 
 static void command(uint8_t op)
@@ -194,7 +195,10 @@ static void command(uint8_t op)
 		put(EEDR);
 		break;
 	case 0x85:
-		put(i2c_write(arg) ? 0x85 : 0xEE);
+		{
+			uint8_t bad = i2c_write(arg);
+			put(bad ? bad : 0x85);
+		}
 		break;
 	case 0x86:
 		DDRB |= _BV(PB1) | _BV(PB2);
