@@ -31,11 +31,23 @@ def _field(spec: FieldSpec) -> st.SearchStrategy[Any]:
     return st.integers(0, (1 << (8 * wire.size)) - 1)
 
 
+_ADC = st.integers(0, 1023)
+#: Fields whose replies validate a narrower range than their wire type.
+_OVERRIDES: dict[tuple[type[Frame], str], st.SearchStrategy[Any]] = {
+    (p.ReadTemperatureReply, "raw"): _ADC,
+    (p.AnalogReadReply, "value"): _ADC,
+    (p.AnalogReadAllReply, "values"): st.tuples(*[_ADC] * 6),
+}
+
+
 def message(cls: type[Frame]) -> st.SearchStrategy[Frame]:
     """Any valid instance of ``cls``."""
     if cls is p.StreamSample:
         return _stream_sample()
-    fields = {spec.name: _field(spec) for spec in cls.LAYOUT.fields}
+    fields = {
+        spec.name: _OVERRIDES.get((cls, spec.name)) or _field(spec)
+        for spec in cls.LAYOUT.fields
+    }
     return st.builds(cls, **fields)
 
 

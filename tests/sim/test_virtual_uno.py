@@ -170,6 +170,7 @@ async def test_unplug_and_replug(virtual_uno_factory: VirtualUnoFactory) -> None
     new_port = await uno.replug()
     assert new_port == uno.port and new_port != old_port
     print(f"\nreplug: {old_port} -> {new_port}")
+    await anyio.sleep(0.05)  # as on a real board, bytes sent before the UART is enabled are lost
     link = Link(new_port)
     try:
         link.echo_rtt_us()
