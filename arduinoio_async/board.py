@@ -1,0 +1,327 @@
+"""One I/O board: connection set-up, pin roles, and typed handles for every feature.
+
+``Board`` sits on a :class:`~arduinoio_async.transport.Transport`.  It enforces Table III
+and the one-role-per-pin rule *before* anything is sent (the board would refuse too, but a
+local error names the pins that can do it and costs no round trip), and it keeps the
+configuration every handle set up, so that after a reset or replug the manager can replay
+it on the fresh board and hand back the same ``Board`` and the same handles.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from typing import Any, TypeVar
+
+import anyio
+import anyio.abc
+
+from . import protocol as p
+from .errors import (
+    BoardDisconnectedError,
+    LinkError,
+    PinRoleError,
+    ProtocolError,
+    ValueRangeError,
+)
+from .handles import (
+    AnalogInput,
+    Counter,
+    DigitalInput,
+    DigitalOutput,
+    Gpio,
+    I2CBus,
+    PulseOutput,
+    Servo,
+    SoftPwm,
+    _input_config,
+    _output_config,
+    _PinHandle,
+)
+from .protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
+from .protocol.pins import require as require_capable
+from .transport import (
+    DEFAULT_TIMEOUT,
+    TraceHook,
+    Transport,
+    open_serial_stream,
+)
+from .transport._ready import wait_ready
+
+__all__ = ["READY_TIMEOUT", "Board"]
+
+#: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
+#: opens and answers 1.6-2 s later.
+READY_TIMEOUT = 5.0
+
+R = TypeVar("R", bound=p.Reply)
+H = TypeVar("H", bound=_PinHandle)
+
+
+class Board:
+    """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
+
+    def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
+        self._link: Transport | None = link
+        self.board_id = board_id
+        self.capabilities = capabilities
+        self.port = link.name
+        self._roles: dict[DigitalPin, tuple[_PinHandle, p.Request[Any]]] = {}
+        self._gpio: dict[DigitalPin, Gpio] = {}
+        self._i2c: I2CBus | None = None
+        self.session = 0
+
+    def __repr__(self) -> str:
+        return f"<Board 0x{self.board_id:04X} on {self.port or 'nothing'}>"
+
+    # ---- opening -------------------------------------------------------------------------
+
+    @classmethod
+    @asynccontextmanager
+    async def open(
+        cls,
+        port: str,
+        *,
+        baudrate: int = p.DEFAULT_BAUD,
+        timeout: float = DEFAULT_TIMEOUT,
+        ready_timeout: float = READY_TIMEOUT,
+        trace: TraceHook | None = None,
+    ) -> AsyncIterator[Board]:
+        """Open ``port`` (a device path or pyserial URL) and wait until the board answers.
+
+        ``timeout`` is the default per-request timeout; ``ready_timeout`` bounds the wait
+        for a board that resets when its port opens.
+        """
+        stream = await open_serial_stream(port, baudrate)
+        async with cls.connect(
+            stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=port
+        ) as board:
+            yield board
+
+    @classmethod
+    @asynccontextmanager
+    async def connect(
+        cls,
+        stream: anyio.abc.ByteStream,
+        *,
+        timeout: float = DEFAULT_TIMEOUT,
+        ready_timeout: float = READY_TIMEOUT,
+        trace: TraceHook | None = None,
+        name: str = "",
+    ) -> AsyncIterator[Board]:
+        """Use an already open byte stream (a memory link in tests, a custom transport)."""
+        link = await cls.start_link(
+            stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=name
+        )
+        async with link:
+            board = await cls.from_link(link)
+            try:
+                yield board
+            finally:
+                board._link = None
+
+    @classmethod
+    async def from_link(cls, link: Transport) -> Board:
+        """A board on a started transport: reads its capabilities and ID, tags its session."""
+        caps = await link.request(p.ReadCapabilities())
+        board = cls(link, (await link.request(p.ReadId())).board_id, caps)
+        await board._handshake(link)
+        return board
+
+    @staticmethod
+    async def start_link(
+        stream: anyio.abc.ByteStream,
+        *,
+        timeout: float = DEFAULT_TIMEOUT,
+        ready_timeout: float = READY_TIMEOUT,
+        trace: TraceHook | None = None,
+        name: str = "",
+    ) -> Transport:
+        """Wait for the board on ``stream`` and wrap it in a (not yet started) transport."""
+        name = name or getattr(stream, "port", "") or "board"
+        try:
+            await wait_ready(stream, deadline=anyio.current_time() + ready_timeout, name=name)
+        except BaseException:
+            with anyio.CancelScope(shield=True):
+                await stream.aclose()
+            raise
+        return Transport(stream, timeout=timeout, trace=trace, name=name)
+
+    async def _handshake(self, link: Transport) -> None:
+        """Check the protocol version and tag this boot of the board (to detect resets)."""
+        caps = self.capabilities
+        if caps.protocol_version != p.PROTOCOL_VERSION:
+            raise ProtocolError(
+                f"{link.name} speaks protocol version {caps.protocol_version}; this library "
+                f"speaks {p.PROTOCOL_VERSION} (update the firmware or the library)"
+            )
+        link.expected_id = self.board_id
+        self.session = random.randint(1, 0xFFFF)
+        await link.request(p.SetSession(self.session))
+        self.port = link.name
+
+    # ---- plumbing ---------------------------------------------------------------------------
+
+    @property
+    def link(self) -> Transport:
+        """The current transport; raises BoardDisconnectedError while there is none."""
+        if self._link is None:
+            raise BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
+        return self._link
+
+    @property
+    def connected(self) -> bool:
+        return self._link is not None and self._link.state.value != "closed"
+
+    async def request(self, request: p.Request[R], *, timeout: float | None = None) -> R:
+        """Send a raw protocol request and return its verified reply."""
+        return await self.link.request(request, timeout=timeout)
+
+    def _check_free(self, pin: DigitalPin, handle: _PinHandle) -> None:
+        current = self._roles.get(pin)
+        if current is not None and current[0] is not handle:
+            raise PinRoleError(pin.name, current[0].ROLE, handle.ROLE)
+
+    async def _configure(self, pin: DigitalPin, handle: _PinHandle, config: p.Request[Any]) -> None:
+        self._check_free(pin, handle)
+        await self.request(config)
+        self._roles[pin] = (handle, config)
+
+    def _remember(self, pin: DigitalPin, handle: _PinHandle, config: p.Request[Any]) -> None:
+        if pin in self._roles and self._roles[pin][0] is handle:
+            self._roles[pin] = (handle, config)
+
+    def _new_handle(
+        self, pin: object, function: Function, factory: Callable[[Board, DigitalPin], H]
+    ) -> H:
+        require_capable(pin, function)
+        assert isinstance(pin, DigitalPin)
+        existing = self._roles.get(pin)
+        handle = factory(self, pin)
+        if existing is not None:
+            raise PinRoleError(pin.name, existing[0].ROLE, handle.ROLE)
+        return handle
+
+    async def release(self, pin: DigitalPin) -> None:
+        """End whatever role ``pin`` has, on the board and here."""
+        require_capable(pin, Function.DIGITAL_INPUT)
+        await self.request(p.PinRelease(int(pin)))
+        self._roles.pop(pin, None)
+        gpio = self._gpio.pop(pin, None)
+        if gpio is not None:
+            gpio.direction = None
+
+    async def restore(self) -> None:
+        """Replay every pin role and the I2C speed on a board that has lost them."""
+        for _handle, config in list(self._roles.values()):
+            await self.request(config)
+        if self._i2c is not None:
+            await self.request(p.I2CConfig(self._i2c.speed))
+
+    # ---- handles -----------------------------------------------------------------------------
+
+    def gpio(self, pin: DigitalPin) -> Gpio:
+        """A digital pin that configures itself on first use (output on write, input on read)."""
+        require_capable(pin, Function.DIGITAL_OUTPUT)
+        handle = self._gpio.get(pin)
+        if handle is None:
+            handle = Gpio(self, pin)
+            self._check_free(pin, handle)
+            self._gpio[pin] = handle
+        return handle
+
+    async def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> DigitalOutput:
+        handle = self._new_handle(pin, Function.DIGITAL_OUTPUT, DigitalOutput)
+        await self._configure(handle.pin, handle, _output_config(handle.pin, initial))
+        return handle
+
+    async def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> DigitalInput:
+        handle = self._new_handle(pin, Function.DIGITAL_INPUT, DigitalInput)
+        await self._configure(handle.pin, handle, _input_config(handle.pin, pull_up))
+        return handle
+
+    def analog(self, pin: AnalogPin) -> AnalogInput:
+        """An analog input (no configuration needed); A4/A5 are busy while I2C is on."""
+        if self._i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
+            raise PinRoleError(pin.name, "I2C", "analog input")
+        return AnalogInput(self, pin)
+
+    async def read_analog_all(self) -> tuple[int, ...]:
+        """All six analog inputs, A0 first, in one request."""
+        return (await self.request(p.AnalogReadAll())).values
+
+    async def _pulse_output(
+        self, pin: DigitalPin, function: Function, cls: type[PulseOutput], pulse_us: int
+    ) -> Any:
+        handle = self._new_handle(pin, function, cls)
+        pulse_us = cls.check_pulse(pulse_us)
+        await self._configure(handle.pin, handle, p.PwmConfig(handle.pin, pulse_us))
+        handle.pulse_us = pulse_us
+        return handle
+
+    async def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> Servo:
+        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
+        handle: Servo = await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us)
+        return handle
+
+    async def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> SoftPwm:
+        """Software servo PWM on D2-D7 (100 us resolution)."""
+        handle: SoftPwm = await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us)
+        return handle
+
+    async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
+        """An event counter on D2/D3 counting rising or falling edges, from zero."""
+        handle = self._new_handle(pin, Function.COUNTER, Counter)
+        await self._configure(handle.pin, handle, p.CounterConfig(handle.pin, p.Edge(edge)))
+        return handle
+
+    async def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> I2CBus:
+        """The I2C bridge on A4/A5 at 100 or 400 kHz."""
+        reply = await self.request(p.I2CConfig(p.I2CSpeed(speed)))
+        self._i2c = I2CBus(self, reply.speed)
+        return self._i2c
+
+    # ---- misc ------------------------------------------------------------------------------
+
+    async def read_id(self) -> int:
+        return (await self.request(p.ReadId())).board_id
+
+    async def write_id(self, board_id: int) -> None:
+        """Store a new board ID in EEPROM; it survives resets."""
+        if not 0 <= board_id <= 0xFFFF:
+            raise ValueRangeError("board ID", board_id, "0x0000-0xFFFF")
+        await self.request(p.WriteId(board_id))
+        self.board_id = board_id
+        self.link.expected_id = board_id
+
+    async def temperature(self) -> float:
+        """Chip temperature in degrees C (datasheet-typical calibration)."""
+        return (await self.request(p.ReadTemperature())).celsius
+
+    async def status(self) -> p.ReadStatusReply:
+        return await self.request(p.ReadStatus())
+
+    async def reset(self, *, restore: bool = False, deadline: float = READY_TIMEOUT) -> None:
+        """Reset the board through its watchdog and wait until it answers again.
+
+        Pin roles are lost on the board; the local records are kept, and with
+        ``restore=True`` (or a later :meth:`restore`) they are set up again.
+        """
+        await self.request(p.Reset())
+        await self.wait_rebooted(deadline=deadline)
+        if restore:
+            await self.restore()
+
+    async def wait_rebooted(self, *, deadline: float = READY_TIMEOUT) -> None:
+        """Poll until the board answers with a fresh boot's session 0, then tag it again."""
+        link = self.link
+        with anyio.fail_after(deadline):
+            while True:
+                try:
+                    status = await link.request(p.ReadStatus(), timeout=0.1)
+                except LinkError:
+                    continue
+                if status.session != self.session:
+                    break
+        await self._handshake(link)

@@ -1,0 +1,257 @@
+"""Typed pin handles: what robot code holds on to.
+
+A handle knows its board and its pin, never the port: when a board is replaced by a fresh
+connection (reset, replug) the manager re-attaches the same :class:`Board`, and every
+handle keeps working.  Handles record the configuration they set up (direction, pull-up,
+last pulse, edge, speed) with the board, which replays it after a reconnect.
+
+Values are checked before anything is sent, with errors that say what is allowed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, NamedTuple
+
+from . import protocol as p
+from .errors import ValueRangeError
+from .protocol.pins import AnalogPin, DigitalPin, Function, require
+
+if TYPE_CHECKING:
+    from .board import Board
+
+__all__ = [
+    "AnalogInput",
+    "Counter",
+    "DigitalInput",
+    "DigitalOutput",
+    "Gpio",
+    "I2CBus",
+    "PinState",
+    "PulseOutput",
+    "Servo",
+    "SoftPwm",
+]
+
+
+class PinState(NamedTuple):
+    """A digital read: the level now and the edges seen since the previous read.
+
+    Truthy when the level is high, so ``if await pin.read():`` reads naturally.
+    """
+
+    level: bool
+    rose: bool
+    fell: bool
+
+    def __bool__(self) -> bool:
+        return self.level
+
+    @classmethod
+    def from_reply(cls, reply: p.GpioReadReply) -> PinState:
+        return cls(reply.level, reply.rose, reply.fell)
+
+
+class _PinHandle:
+    """Shared behaviour: the board, the pin and releasing the pin's role."""
+
+    ROLE: str = "pin"
+
+    def __init__(self, board: Board, pin: DigitalPin) -> None:
+        self.board = board
+        self.pin = pin
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.pin.name} on {self.board}>"
+
+    async def release(self) -> None:
+        """End the pin's role on the board so another role may use it."""
+        await self.board.release(self.pin)
+
+
+class DigitalOutput(_PinHandle):
+    """A digital output on D2-D13."""
+
+    ROLE = "digital output"
+
+    async def write(self, value: bool) -> None:
+        reply = await self.board.request(p.GpioWrite(self.pin, bool(value)))
+        self.board._remember(self.pin, self, _output_config(self.pin, reply.value))
+
+    async def read(self) -> bool:
+        """The level the pin drives now."""
+        reply = await self.board.request(p.GpioRead(self.pin))
+        return reply.level
+
+
+class DigitalInput(_PinHandle):
+    """A digital input on D2-D13, optionally with pull-up."""
+
+    ROLE = "digital input"
+
+    async def read(self) -> PinState:
+        """Level now, and the rising/falling edges latched since the previous read."""
+        return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
+
+
+def _output_config(pin: DigitalPin, level: bool) -> p.GpioConfig:
+    flags = p.GpioFlags.OUTPUT | (p.GpioFlags.INITIAL_HIGH if level else p.GpioFlags.INPUT)
+    return p.GpioConfig(pin, flags)
+
+
+def _input_config(pin: DigitalPin, pull_up: bool) -> p.GpioConfig:
+    return p.GpioConfig(pin, p.GpioFlags.PULL_UP if pull_up else p.GpioFlags.INPUT)
+
+
+class Gpio(_PinHandle):
+    """A digital pin that becomes an output on its first write, an input on its first read.
+
+    For robot code that just wants ``await board.gpio(D2).write(True)``.  Reading a pin
+    that is an output returns the level it drives.
+    """
+
+    ROLE = "GPIO"
+
+    def __init__(self, board: Board, pin: DigitalPin) -> None:
+        super().__init__(board, pin)
+        self.direction: str | None = None
+
+    async def write(self, value: bool) -> None:
+        if self.direction != "output":
+            await self.board._configure(self.pin, self, _output_config(self.pin, bool(value)))
+            self.direction = "output"
+            return
+        reply = await self.board.request(p.GpioWrite(self.pin, bool(value)))
+        self.board._remember(self.pin, self, _output_config(self.pin, reply.value))
+
+    async def read(self) -> PinState:
+        if self.direction is None:
+            await self.board._configure(self.pin, self, _input_config(self.pin, False))
+            self.direction = "input"
+        return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
+
+    async def configure_input(self, *, pull_up: bool = False) -> None:
+        await self.board._configure(self.pin, self, _input_config(self.pin, pull_up))
+        self.direction = "input"
+
+
+class AnalogInput:
+    """An analog input A0-A5: 10-bit conversions against AVCC."""
+
+    def __init__(self, board: Board, pin: AnalogPin, vref: float = p.VCC_MV / 1000) -> None:
+        require(pin, Function.ANALOG_INPUT)
+        self.board = board
+        self.pin = pin
+        self.vref = vref
+
+    def __repr__(self) -> str:
+        return f"<AnalogInput {self.pin.name} on {self.board}>"
+
+    async def read(self) -> int:
+        """Raw value 0-1023."""
+        reply = await self.board.request(p.AnalogRead(int(self.pin)))
+        return reply.value
+
+    async def read_volts(self) -> float:
+        return await self.read() * self.vref / 1024
+
+
+class PulseOutput(_PinHandle):
+    """Servo pulses every 20 ms; subclasses fix the pins and the resolution."""
+
+    STEP_US = 1
+
+    def __init__(self, board: Board, pin: DigitalPin) -> None:
+        super().__init__(board, pin)
+        self.pulse_us: int = 0
+
+    @classmethod
+    def check_pulse(cls, pulse_us: int) -> int:
+        """Validate a pulse width (0 = no pulses) before it is sent."""
+        if pulse_us == 0:
+            return 0
+        if not p.PULSE_MIN_US <= pulse_us <= p.PULSE_MAX_US:
+            raise ValueRangeError(
+                "pulse width (us)", pulse_us, f"0 (off) or {p.PULSE_MIN_US}-{p.PULSE_MAX_US}"
+            )
+        if pulse_us % cls.STEP_US:
+            raise ValueRangeError(
+                "pulse width (us)", pulse_us, f"a multiple of {cls.STEP_US} us on {cls.ROLE}"
+            )
+        return pulse_us
+
+    async def set_pulse(self, pulse_us: int) -> None:
+        """Pulse width in microseconds, 1000-2000; 0 stops the pulses."""
+        pulse_us = self.check_pulse(int(pulse_us))
+        reply = await self.board.request(p.PwmSet(self.pin, pulse_us))
+        self.pulse_us = reply.pulse_us
+        self.board._remember(self.pin, self, p.PwmConfig(self.pin, reply.pulse_us))
+
+    async def set_angle(
+        self, degrees: float, *, min_us: int = p.PULSE_MIN_US, max_us: int = p.PULSE_MAX_US
+    ) -> None:
+        """0-180 degrees mapped linearly onto ``min_us``-``max_us``."""
+        if not 0 <= degrees <= 180:
+            raise ValueRangeError("servo angle (degrees)", degrees, "0-180")
+        pulse = min_us + (max_us - min_us) * degrees / 180
+        await self.set_pulse(round(pulse / self.STEP_US) * self.STEP_US)
+
+    async def stop(self) -> None:
+        """Stop the pulses (the line stays low); the pin stays attached."""
+        await self.set_pulse(0)
+
+
+class Servo(PulseOutput):
+    """Hardware servo PWM on D9 or D10: 1 us resolution."""
+
+    ROLE = "servo PWM"
+    STEP_US = 1
+
+
+class SoftPwm(PulseOutput):
+    """Software servo PWM on D2-D7: 100 us resolution."""
+
+    ROLE = "software PWM"
+    STEP_US = p.SOFT_PWM_STEP_US
+
+
+class Counter(_PinHandle):
+    """An event counter on D2 (INT0) or D3 (INT1)."""
+
+    ROLE = "event counter"
+
+    async def read(self) -> int:
+        return (await self.board.request(p.CounterRead(self.pin))).count
+
+    async def reset(self) -> int:
+        """Clear the counter; returns the count it had (read and clear are atomic)."""
+        return (await self.board.request(p.CounterReset(self.pin))).count
+
+
+@dataclass
+class I2CBus:
+    """The I2C bridge on A4 (SDA) / A5 (SCL)."""
+
+    board: Board
+    speed: p.I2CSpeed
+
+    @staticmethod
+    def _check(address: int, register: int) -> None:
+        if not 0 <= address <= 0x7F:
+            raise ValueRangeError("I2C address", address, "7-bit, 0x00-0x7F")
+        if not 0 <= register <= 0xFF:
+            raise ValueRangeError("I2C register", register, "0x00-0xFF")
+
+    async def read(self, address: int, register: int, length: int) -> bytes:
+        """Read ``length`` (1-32) bytes from ``register`` of the device at ``address``."""
+        self._check(address, register)
+        if not 1 <= length <= p.I2C_MAX_LENGTH:
+            raise ValueRangeError("I2C read length", length, f"1-{p.I2C_MAX_LENGTH}")
+        return (await self.board.request(p.I2CRead(address, register, length))).data
+
+    async def write(self, address: int, register: int, data: bytes) -> None:
+        """Write up to 32 bytes to ``register`` of the device at ``address``."""
+        self._check(address, register)
+        if len(data) > p.I2C_MAX_LENGTH:
+            raise ValueRangeError("I2C write length", len(data), f"0-{p.I2C_MAX_LENGTH}")
+        await self.board.request(p.I2CWrite(address, register, bytes(data)))

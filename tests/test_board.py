@@ -1,0 +1,204 @@
+"""Board and handles against the in-memory fake board: behaviour and misuse."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+
+import pytest
+
+from arduinoio_async import (
+    A0,
+    A4,
+    D2,
+    D3,
+    D4,
+    D5,
+    D9,
+    D10,
+    PinCapabilityError,
+    PinRoleError,
+    ValueRangeError,
+)
+from arduinoio_async import protocol as p
+from arduinoio_async.board import Board
+from arduinoio_async.handles import PinState
+from arduinoio_async.testing import FakeBoard
+
+
+@asynccontextmanager
+async def connected() -> AsyncIterator[tuple[Board, FakeBoard]]:
+    """A board on a fake (not a yield fixture: task groups must exit in their own task)."""
+    async with (
+        FakeBoard(board_id=0x0042) as fake,
+        Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as board,
+    ):
+        yield board, fake
+
+
+async def test_connect_reads_id_capabilities_and_tags_the_session() -> None:
+    async with connected() as (board, fake):
+        assert board.board_id == 0x0042
+        assert board.capabilities.protocol_version == p.PROTOCOL_VERSION
+        assert fake.session == board.session != 0
+
+
+async def test_the_design_cards_line() -> None:
+    async with connected() as (board, fake):
+        await board.gpio(D2).write(True)
+        assert fake.levels[2] is True
+        assert fake.role(2) == "output"
+        await board.gpio(D2).write(False)
+        assert fake.levels[2] is False
+
+
+async def test_gpio_read_configures_an_input_and_reports_edges() -> None:
+    async with connected() as (board, fake):
+        pin = board.gpio(D3)
+        assert await pin.read() == PinState(False, False, False)
+        fake.drive(3, True)
+        fake.drive(3, False)
+        fake.drive(3, True)
+        state = await pin.read()
+        assert state == PinState(True, True, True)
+        assert state
+        assert await pin.read() == PinState(True, False, False)
+
+
+async def test_explicit_handles_do_what_they_say() -> None:
+    async with connected() as (board, fake):
+        out = await board.digital_output(D4, initial=True)
+        assert fake.levels[4] is True
+        await out.write(False)
+        assert await out.read() is False
+        inp = await board.digital_input(D5, pull_up=True)
+        fake.drive(5, True)
+        assert (await inp.read()).rose
+        fake.analog[0] = 512
+        assert await board.analog(A0).read() == 512
+        assert await board.analog(A0).read_volts() == pytest.approx(2.5)
+        servo = await board.servo(D9, pulse_us=1500)
+        assert fake.pulses[9] == 1500
+        await servo.set_angle(180)
+        assert fake.pulses[9] == 2000
+        soft = await board.soft_pwm(D2, pulse_us=1200)
+        await soft.set_pulse(1800)
+        assert fake.pulses[2] == 1800
+        counter = await board.counter(D3)
+        fake.drive(3, True)
+        fake.drive(3, False)
+        assert await counter.read() == 2
+        assert await counter.reset() == 2
+        assert await counter.read() == 0
+        bus = await board.i2c()
+        await bus.write(0x50, 0x10, b"\x01\x02\x03")
+        assert await bus.read(0x50, 0x10, 3) == b"\x01\x02\x03"
+        assert await board.read_analog_all() == tuple(fake.analog)
+
+
+async def test_a_pin_in_one_role_refuses_another_until_released() -> None:
+    async with connected() as (board, _fake):
+        await board.digital_output(D9)
+        with pytest.raises(PinRoleError, match="D9 is in use as digital output"):
+            await board.servo(D9)
+        with pytest.raises(PinRoleError):
+            await board.gpio(D9).write(True)
+        await board.release(D9)
+        servo = await board.servo(D9, pulse_us=1000)
+        assert servo.pulse_us == 1000
+
+
+async def test_analog_a4_a5_are_busy_while_i2c_is_on() -> None:
+    async with connected() as (board, _fake):
+        await board.i2c()
+        with pytest.raises(PinRoleError):
+            board.analog(A4)
+
+
+@pytest.mark.parametrize(
+    "misuse",
+    [
+        lambda b: b.servo(D2),  # type: ignore[arg-type]
+        lambda b: b.soft_pwm(D9),  # type: ignore[arg-type]
+        lambda b: b.counter(D4),  # type: ignore[arg-type]
+        lambda b: b.servo(D9, pulse_us=2500),
+        lambda b: b.servo(D10, pulse_us=999),
+        lambda b: b.soft_pwm(D2, pulse_us=1550),
+        lambda b: b.write_id(0x10000),
+    ],
+)
+async def test_misuse_raises_before_anything_is_sent(misuse: object) -> None:
+    async with connected() as (board, fake):
+        seen = fake.requests_seen
+        with pytest.raises((PinCapabilityError, ValueRangeError)):
+            await misuse(board)  # type: ignore[operator]
+        assert fake.requests_seen == seen
+
+
+async def test_value_errors_on_handles_are_raised_locally() -> None:
+    async with connected() as (board, fake):
+        servo = await board.servo(D10)
+        bus = await board.i2c()
+        seen = fake.requests_seen
+        for call in (
+            lambda: servo.set_pulse(2001),
+            lambda: servo.set_angle(181),
+            lambda: bus.read(0x50, 0, 33),
+            lambda: bus.read(0x80, 0, 1),
+            lambda: bus.write(0x50, 256, b"x"),
+            lambda: bus.write(0x50, 0, bytes(33)),
+        ):
+            with pytest.raises(ValueRangeError):
+                await call()
+        assert fake.requests_seen == seen
+
+
+async def test_restore_replays_the_configuration() -> None:
+    async with connected() as (board, fake):
+        await board.gpio(D2).write(True)
+        servo = await board.servo(D9, pulse_us=1500)
+        await servo.set_pulse(1700)
+        await board.counter(D3)
+        await board.i2c(p.I2CSpeed.KHZ_400)
+        await board.request(p.Reset())
+        assert fake.role(2) == "free" and 9 not in fake.pulses
+        await board.restore()
+        assert fake.role(2) == "output" and fake.levels[2] is True
+        assert fake.pulses[9] == 1700
+        assert fake.role(3) == "counter"
+
+
+async def test_write_id_then_read_id() -> None:
+    async with connected() as (board, _fake):
+        await board.write_id(0x0007)
+        assert await board.read_id() == 0x0007
+
+
+def test_mypy_rejects_a_servo_on_a_pin_table_iii_forbids(tmp_path: Path) -> None:
+    snippet = tmp_path / "misuse.py"
+    snippet.write_text(
+        textwrap.dedent(
+            """
+            from arduinoio_async import D2, D9
+            from arduinoio_async.board import Board
+
+            async def main(board: Board) -> None:
+                await board.servo(D9)
+                await board.servo(D2)
+                await board.counter(D9)
+            """
+        )
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(snippet)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    errors = [line for line in result.stdout.splitlines() if ": error:" in line]
+    assert len(errors) == 2, result.stdout
+    assert "misuse.py:7" in errors[0] and "misuse.py:8" in errors[1]
