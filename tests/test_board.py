@@ -122,9 +122,9 @@ async def test_analog_a4_a5_are_busy_while_i2c_is_on() -> None:
 @pytest.mark.parametrize(
     "misuse",
     [
-        lambda b: b.servo(D2),  # type: ignore[arg-type]
-        lambda b: b.soft_pwm(D9),  # type: ignore[arg-type]
-        lambda b: b.counter(D4),  # type: ignore[arg-type]
+        lambda b: b.servo(D2),
+        lambda b: b.soft_pwm(D9),
+        lambda b: b.counter(D4),
         lambda b: b.servo(D9, pulse_us=2500),
         lambda b: b.servo(D10, pulse_us=999),
         lambda b: b.soft_pwm(D2, pulse_us=1550),

@@ -1,7 +1,6 @@
 """Shared helpers for the virtual Uno harness tests (they use the harness's own test firmware).
 
-The fixture is imported here instead of via ``pytest_plugins`` because pytest only accepts
-``pytest_plugins`` in the top-level conftest, which belongs to the project lead.
+The ``virtual_uno_factory`` fixture comes from the top-level conftest's ``pytest_plugins``.
 """
 
 from __future__ import annotations
@@ -13,9 +12,9 @@ import pytest
 import serial
 
 from arduinoio_async.sim import SimulatorNotAvailable, VirtualUno, find_test_firmware
-from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory, virtual_uno_factory
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
-__all__ = ["Link", "start_test_board", "virtual_uno_factory"]
+__all__ = ["Link", "start_test_board"]
 
 
 def test_elf(baud: int) -> str:
