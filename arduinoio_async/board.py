@@ -161,6 +161,24 @@ class Board:
         await link.request(p.SetSession(self.session))
         self.port = link.name
 
+    async def adopt(self, link: Transport) -> None:
+        """Make ``link`` (to a fresh boot of this board) the board's link.
+
+        Used after a replug or a reset: the capabilities are read again, the session is
+        tagged, and every pin role is replayed *before* the link is handed to callers,
+        so handles never see a half-restored board.
+        """
+        self._link = None
+        self.capabilities = await link.request(p.ReadCapabilities())
+        await self._handshake(link)
+        await self._restore_on(link)
+        self._link = link
+
+    def detach(self, link: Transport | None = None) -> None:
+        """Forget the link (if it is ``link``); calls fail with BoardDisconnectedError."""
+        if link is None or self._link is link:
+            self._link = None
+
     # ---- plumbing ---------------------------------------------------------------------------
 
     @property
@@ -214,10 +232,13 @@ class Board:
 
     async def restore(self) -> None:
         """Replay every pin role and the I2C speed on a board that has lost them."""
+        await self._restore_on(self.link)
+
+    async def _restore_on(self, link: Transport) -> None:
         for _handle, config in list(self._roles.values()):
-            await self.request(config)
+            await link.request(config)
         if self._i2c is not None:
-            await self.request(p.I2CConfig(self._i2c.speed))
+            await link.request(p.I2CConfig(self._i2c.speed))
 
     # ---- handles -----------------------------------------------------------------------------
 

@@ -8,6 +8,7 @@ firmware did.
 from __future__ import annotations
 
 import random
+from functools import partial
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from typing import Any, TypeVar
@@ -61,18 +62,18 @@ async def check_jumpers(board: Board, outputs: list[DigitalPin], inputs: list[Di
     rnd = random.Random(1234 + int(outputs[0]))
     previous = [False] * len(outputs)
     # Inputs first (so no jumper has two drivers), then outputs low, then clear the edges.
-    await gather([lambda pin=pin: board.gpio(pin).configure_input() for pin in inputs])
-    await gather([lambda pin=pin: board.gpio(pin).write(False) for pin in outputs])
-    await gather([lambda pin=pin: board.gpio(pin).read() for pin in inputs])
+    await gather([board.gpio(pin).configure_input for pin in inputs])
+    await gather([partial(board.gpio(pin).write, False) for pin in outputs])
+    await gather([board.gpio(pin).read for pin in inputs])
     for _ in range(PATTERNS):
         pattern = [rnd.random() < 0.5 for _ in outputs]
         await gather(
             [
-                lambda pin=pin, level=level: board.gpio(pin).write(level)
+                partial(board.gpio(pin).write, level)
                 for pin, level in zip(outputs, pattern, strict=True)
             ]
         )
-        states = await gather([lambda pin=pin: board.gpio(pin).read() for pin in inputs])
+        states = await gather([board.gpio(pin).read for pin in inputs])
         for state, level, before in zip(states, pattern, previous, strict=True):
             assert state.level == level
             assert state.rose == (level and not before)
@@ -106,7 +107,7 @@ async def test_r2r_ladders_read_back_random_codes(virtual_uno_factory: VirtualUn
                 levels += [bool(code & 1), bool(code & 2)]  # B0 = D(2+2k), B1 = D(3+2k)
             await gather(
                 [
-                    lambda pin=pin, level=level: board.gpio(pin).write(level)
+                    partial(board.gpio(pin).write, level)
                     for pin, level in zip(pins, levels, strict=True)
                 ]
             )

@@ -1,0 +1,61 @@
+"""The ``arduinoio`` command: bench checks, discovery, IDs, flashing, simulator, benchmark.
+
+Every sub-command is an ``async def`` taking parsed arguments; :func:`main` takes
+``argv`` and returns the exit code, so tests call it directly.  Errors of the library are
+printed as one line and exit with 1; a missing tool (avrdude, simulator) exits with 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+import anyio
+from rich.console import Console
+
+from ..errors import ArduinoIOError
+from . import _board_commands, _discovery
+
+__all__ = ["main", "run"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="arduinoio", description="Arduino Unos as robot I/O boards (arduinoio_async)."
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _discovery.add_commands(sub)
+    _board_commands.add_commands(sub)
+    sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)
+    sim.add_argument("rest", nargs=argparse.REMAINDER)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -> int:
+    """Run the command line ``argv``; returns the process exit code."""
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    console = console or Console()
+    errors = Console(stderr=True)
+    if args_list[:1] == ["sim"]:
+        from ..sim.cli import main as sim_main
+
+        return sim_main(args_list[1:])
+    parser = build_parser()
+    args = parser.parse_args(args_list)
+    try:
+        result: int = anyio.run(args.handler, args, console)
+    except ArduinoIOError as exc:
+        errors.print(f"[red]error:[/] {exc}", highlight=False)
+        return 1
+    except _board_commands.ToolMissing as exc:
+        errors.print(f"[red]error:[/] {exc}", highlight=False)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    return result
+
+
+def run() -> int:
+    """Console-script entry point."""
+    return main()

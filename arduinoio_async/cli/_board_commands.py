@@ -1,0 +1,183 @@
+"""Bench checks and maintenance: read, write, servo, analog, i2c, set-id, flash."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+from pathlib import Path
+from typing import Any
+
+import anyio
+from rich.console import Console
+
+from .. import protocol as p
+from ..errors import ArduinoIOError, UsageError
+from ..protocol.pins import AnalogPin, DigitalPin, Function, require
+from ._target import add_target_options, board_id, target_board
+
+FIRMWARE_HEX = Path(__file__).resolve().parents[2] / "firmware" / "build" / "arduinoio-115200.hex"
+
+
+class ToolMissing(Exception):
+    """A program or file the command needs is not there; the message says what to do."""
+
+
+def digital_pin(text: str) -> DigitalPin:
+    try:
+        return DigitalPin[text.upper()]
+    except KeyError:
+        raise argparse.ArgumentTypeError(f"{text}: digital pins are D2-D13") from None
+
+
+def analog_pin(text: str) -> AnalogPin:
+    try:
+        return AnalogPin[text.upper()]
+    except KeyError:
+        raise argparse.ArgumentTypeError(f"{text}: analog pins are A0-A5") from None
+
+
+def byte_value(text: str) -> int:
+    value = int(text, 0)
+    if not 0 <= value <= 0xFF:
+        raise argparse.ArgumentTypeError(f"{text} is not a byte")
+    return value
+
+
+def add_commands(sub: Any) -> None:
+    read = sub.add_parser("read", help="read a digital input (level and edges)")
+    read.add_argument("pin", type=digital_pin)
+    read.add_argument("--pull-up", action="store_true")
+    read.set_defaults(handler=read_pin)
+    write = sub.add_parser("write", help="set a digital output")
+    write.add_argument("pin", type=digital_pin)
+    write.add_argument("value", type=int, choices=[0, 1])
+    write.set_defaults(handler=write_pin)
+    servo = sub.add_parser("servo", help="servo pulse in us (D9/D10 hardware, D2-D7 software)")
+    servo.add_argument("pin", type=digital_pin)
+    servo.add_argument("pulse_us", type=int)
+    servo.set_defaults(handler=set_servo)
+    analog = sub.add_parser("analog", help="read one analog input or all six")
+    analog.add_argument("pin", type=analog_pin, nargs="?")
+    analog.set_defaults(handler=read_analog)
+    i2c = sub.add_parser("i2c", help="I2C register read or write")
+    i2c.add_argument("action", choices=["read", "write"])
+    i2c.add_argument("address", type=byte_value)
+    i2c.add_argument("register", type=byte_value)
+    i2c.add_argument("values", type=byte_value, nargs="+", help="read: length; write: bytes")
+    i2c.add_argument("--speed", type=int, choices=[100, 400], default=100)
+    i2c.set_defaults(handler=i2c_transfer)
+    set_id = sub.add_parser("set-id", help="write a board ID to EEPROM and verify after reset")
+    set_id.add_argument("new_id", type=board_id)
+    flash = sub.add_parser("flash", help="flash the built firmware with avrdude")
+    flash.add_argument("--port", required=True)
+    flash.add_argument("--hex", type=Path, default=FIRMWARE_HEX)
+    flash.add_argument("--set-id", type=board_id, default=None)
+    flash.add_argument("--baud", type=int, default=p.DEFAULT_BAUD)
+    flash.set_defaults(handler=flash_firmware)
+    for parser in (read, write, servo, analog, i2c, set_id):
+        add_target_options(parser)
+    set_id.set_defaults(handler=set_board_id)
+
+
+async def read_pin(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as board:
+        state = await (await board.digital_input(args.pin, pull_up=args.pull_up)).read()
+        console.print(
+            f"{args.pin.name}: level {int(state.level)} rose {int(state.rose)} "
+            f"fell {int(state.fell)}"
+        )
+    return 0
+
+
+async def write_pin(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as board:
+        await board.gpio(args.pin).write(bool(args.value))
+        console.print(f"{args.pin.name} = {args.value}")
+    return 0
+
+
+async def set_servo(args: argparse.Namespace, console: Console) -> int:
+    pin = args.pin
+    async with target_board(args) as board:
+        if pin in (DigitalPin.D9, DigitalPin.D10):
+            await board.servo(pin, pulse_us=args.pulse_us)
+        else:
+            require(pin, Function.SOFT_PWM)
+            await board.soft_pwm(pin, pulse_us=args.pulse_us)
+        console.print(f"{pin.name}: {args.pulse_us} us every 20 ms")
+    return 0
+
+
+async def read_analog(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as board:
+        if args.pin is not None:
+            value = await board.analog(args.pin).read()
+            console.print(f"{args.pin.name}: {value} ({value * 5 / 1024:.3f} V)")
+        else:
+            for pin, value in zip(AnalogPin, await board.read_analog_all(), strict=True):
+                console.print(f"{pin.name}: {value} ({value * 5 / 1024:.3f} V)")
+    return 0
+
+
+async def i2c_transfer(args: argparse.Namespace, console: Console) -> int:
+    speed = p.I2CSpeed.KHZ_400 if args.speed == 400 else p.I2CSpeed.KHZ_100
+    async with target_board(args) as board:
+        bus = await board.i2c(speed)
+        if args.action == "read":
+            if len(args.values) != 1:
+                raise UsageError("i2c read takes one length")
+            data = await bus.read(args.address, args.register, args.values[0])
+            console.print(data.hex(" "))
+        else:
+            await bus.write(args.address, args.register, bytes(args.values))
+            console.print(f"wrote {len(args.values)} bytes")
+    return 0
+
+
+async def set_board_id(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as board:
+        old = board.board_id
+        await board.write_id(args.new_id)
+        await board.reset()
+        read_back = await board.read_id()
+        if read_back != args.new_id:
+            raise ArduinoIOError(
+                f"board answered ID 0x{read_back:04X} after reset, not 0x{args.new_id:04X}"
+            )
+        console.print(f"board ID 0x{old:04X} -> 0x{read_back:04X} (verified after reset)")
+    return 0
+
+
+async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
+    avrdude = shutil.which("avrdude")
+    if avrdude is None:
+        raise ToolMissing("avrdude is not installed: apt-get install avrdude")
+    if not args.hex.is_file():
+        raise ToolMissing(f"{args.hex} does not exist: build it with `make firmware`")
+    command = [
+        avrdude,
+        "-p",
+        "atmega328p",
+        "-c",
+        "arduino",
+        "-P",
+        args.port,
+        "-b",
+        "115200",
+        "-D",
+        "-U",
+        f"flash:w:{args.hex}:i",
+    ]
+    with console.status(f"flashing {args.hex.name} to {args.port}..."):
+        result = await anyio.run_process(command, check=False)
+    if result.returncode != 0:
+        tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:]
+        raise ArduinoIOError(f"avrdude failed ({result.returncode}): {' '.join(tail)}")
+    console.print(f"flashed {args.hex} to {args.port}")
+    if args.set_id is not None:
+        args.id = None
+        args.new_id = args.set_id
+        args.probe_timeout = 5.0
+        args.ports = []
+        return await set_board_id(args, console)
+    return 0

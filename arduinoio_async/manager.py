@@ -1,0 +1,342 @@
+"""Find boards by their 16-bit ID and keep them working through resets and replugs.
+
+Theory of operation
+-------------------
+The manager owns a task group.  A *scan* collects candidate ports -- USB serial devices
+from pyserial's port listing (by vendor/product ID), explicit paths, glob patterns, and
+the ``ARDUINOIO_PORTS`` environment variable -- and probes every candidate that is not in
+use *concurrently*, each with a deadline long enough for a Uno's auto-reset on open.  A
+port that does not answer an ID request is closed at once and not probed again until it
+disappears from the candidates and comes back, so foreign devices are left alone.
+
+Each board that answers gets a supervisor task: it runs the transport, re-tags the
+board's session and replays its pin configuration whenever it meets a fresh boot of the
+board, and polls the board's status on a heartbeat.  A session that reads 0 (or anything
+but what was set) means the board reset by itself; it is restored on the spot.  When the
+port is lost, pending calls fail at once (the transport does that), the :class:`Board`
+object is detached, and the scan loop goes on looking; when the board turns up again on
+any port, the *same* ``Board`` and its handles are re-attached after the restore.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import anyio
+import anyio.abc
+from serial.tools import list_ports
+
+from . import protocol as p
+from .board import READY_TIMEOUT, Board
+from .errors import (
+    ArduinoIOError,
+    BoardNotFoundError,
+    DuplicateBoardError,
+    LinkError,
+)
+from .transport import DEFAULT_TIMEOUT, LinkState, Transport, open_serial_stream
+from .transport._ready import wait_ready
+
+__all__ = [
+    "ENV_PORTS",
+    "USB_IDS",
+    "BoardManager",
+    "ManagerEvent",
+    "ProbeResult",
+    "candidate_ports",
+]
+
+#: Deployments list ports here: paths or glob patterns separated by ``os.pathsep`` or ",".
+ENV_PORTS = "ARDUINOIO_PORTS"
+
+#: (vendor ID, product ID or None for any) of the USB serial bridges Unos ship with.
+USB_IDS: tuple[tuple[int, int | None], ...] = (
+    (0x2341, None),  # Arduino SA (Uno R3's ATmega16U2 and others)
+    (0x2A03, None),  # Arduino.org
+    (0x1A86, 0x7523),  # WCH CH340
+    (0x1A86, 0x55D4),  # WCH CH9102
+    (0x0403, None),  # FTDI
+    (0x10C4, 0xEA60),  # Silicon Labs CP210x
+    (0x03EB, 0x2FEF),  # Atmel ATmega16U2 DFU / clones
+)
+
+HEARTBEAT = 0.25
+RESCAN_INTERVAL = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class ProbeResult:
+    """What one port answered to a probe."""
+
+    port: str
+    board_id: int | None = None
+    capabilities: p.ReadCapabilitiesReply | None = None
+    error: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.board_id is not None
+
+
+@dataclass(frozen=True, slots=True)
+class ManagerEvent:
+    """A change in the set of boards: connected, disconnected, reset (restored), duplicate."""
+
+    kind: Literal["connected", "disconnected", "reset", "duplicate"]
+    board_id: int
+    port: str
+    detail: str = ""
+
+
+def _env_patterns() -> list[str]:
+    raw = os.environ.get(ENV_PORTS, "")
+    return [part for chunk in raw.split(os.pathsep) for part in chunk.split(",") if part]
+
+
+def _usb_ports() -> list[str]:
+    found = []
+    for info in list_ports.comports():
+        for vid, pid in USB_IDS:
+            if info.vid == vid and (pid is None or info.pid == pid):
+                found.append(info.device)
+                break
+    return found
+
+
+def candidate_ports(
+    ports: Iterable[str] = (), patterns: Iterable[str] = (), *, usb: bool = True, env: bool = True
+) -> list[str]:
+    """Ports worth probing, in a stable order without duplicates."""
+    seen: dict[str, None] = {}
+    for port in ports:
+        seen[port] = None
+    for pattern in [*patterns, *(_env_patterns() if env else [])]:
+        matches = sorted(glob.glob(pattern)) if glob.has_magic(pattern) else [pattern]
+        for port in matches:
+            seen[port] = None
+    if usb:
+        for port in _usb_ports():
+            seen[port] = None
+    return list(seen)
+
+
+@dataclass
+class _Known:
+    """A port the manager has dealt with: held by a board, or known not to be one."""
+
+    result: ProbeResult
+    held: bool = False
+
+
+@dataclass
+class BoardManager:
+    """Boards by ID.  ``async with BoardManager() as boards: left = await boards.get(1)``."""
+
+    ports: Sequence[str] = ()
+    patterns: Sequence[str] = ()
+    usb: bool = True
+    env: bool = True
+    baudrate: int = p.DEFAULT_BAUD
+    timeout: float = DEFAULT_TIMEOUT
+    probe_deadline: float = READY_TIMEOUT
+    heartbeat: float = HEARTBEAT
+    rescan_interval: float = RESCAN_INTERVAL
+    _boards: dict[int, Board] = field(default_factory=dict, init=False)
+    _known: dict[str, _Known] = field(default_factory=dict, init=False)
+    _duplicates: dict[int, set[str]] = field(default_factory=dict, init=False)
+    _extra_ports: list[str] = field(default_factory=list, init=False)
+    _listeners: list[Callable[[ManagerEvent], None]] = field(default_factory=list, init=False)
+    _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
+    _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
+    _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
+    _last_error: dict[int, str] = field(default_factory=dict, init=False)
+
+    async def __aenter__(self) -> BoardManager:
+        self._task_group = anyio.create_task_group()
+        await self._task_group.__aenter__()
+        await self.scan()
+        self._task_group.start_soon(self._rescan_forever, name="arduinoio manager scan")
+        return self
+
+    async def __aexit__(self, *exc_info: object) -> None:
+        if self._task_group is not None:
+            self._task_group.cancel_scope.cancel()
+            group, self._task_group = self._task_group, None
+            await group.__aexit__(None, None, None)
+        for board in self._boards.values():
+            board.detach()
+
+    # ---- public API ------------------------------------------------------------------------
+
+    def present(self) -> dict[int, Board]:
+        """Boards connected now, by ID."""
+        return {bid: board for bid, board in self._boards.items() if board.connected}
+
+    def probed(self) -> dict[str, ProbeResult]:
+        """What every port answered at its last probe."""
+        return {port: known.result for port, known in self._known.items()}
+
+    def add_port(self, port: str) -> None:
+        """Also look at ``port`` from the next scan on (for example a new virtual Uno)."""
+        if port not in self._extra_ports:
+            self._extra_ports.append(port)
+
+    def subscribe(self, callback: Callable[[ManagerEvent], None]) -> Callable[[], None]:
+        """Call ``callback`` on every connect, disconnect, reset and duplicate."""
+        self._listeners.append(callback)
+        return lambda: self._listeners.remove(callback)
+
+    async def get(self, board_id: int, *, timeout: float | None = None) -> Board:
+        """The board with ``board_id``, waiting up to ``timeout`` for it to connect.
+
+        Raises :class:`DuplicateBoardError` when two ports answer with the ID, and
+        :class:`BoardNotFoundError` (naming every port tried and its answer) on timeout.
+        """
+        limit = self.probe_deadline + self.rescan_interval if timeout is None else timeout
+        with anyio.move_on_after(limit):
+            return await self.wait_connected(board_id)
+        self._raise_duplicate(board_id)
+        tried = {
+            port: known.result.error or f"board 0x{known.result.board_id:04X}"
+            for port, known in self._known.items()
+        }
+        raise BoardNotFoundError(board_id, tried)
+
+    async def wait_connected(self, board_id: int) -> Board:
+        """Wait (without limit) until the board with ``board_id`` is connected."""
+        while True:
+            self._raise_duplicate(board_id)
+            board = self._boards.get(board_id)
+            if board is not None and board.connected:
+                return board
+            await self._changed.wait()
+
+    async def scan(self) -> dict[str, ProbeResult]:
+        """Probe every new candidate port concurrently; return what each answered."""
+        async with self._scan_lock:
+            candidates = candidate_ports(
+                [*self.ports, *self._extra_ports], self.patterns, usb=self.usb, env=self.env
+            )
+            for gone in set(self._known) - set(candidates):
+                if not self._known[gone].held:
+                    del self._known[gone]  # it may come back as something else
+            fresh = [port for port in candidates if port not in self._known]
+            results: dict[str, ProbeResult] = {}
+            async with anyio.create_task_group() as tg:
+                for port in fresh:
+                    tg.start_soon(self._probe_and_attach, port, results)
+            return results
+
+    # ---- internals --------------------------------------------------------------------------
+
+    def _raise_duplicate(self, board_id: int) -> None:
+        ports = self._duplicates.get(board_id)
+        if ports:
+            raise DuplicateBoardError(board_id, ports)
+
+    def _emit(self, event: ManagerEvent) -> None:
+        changed, self._changed = self._changed, anyio.Event()
+        changed.set()
+        for callback in list(self._listeners):
+            callback(event)
+
+    async def _rescan_forever(self) -> None:
+        while True:
+            await anyio.sleep(self.rescan_interval)
+            await self.scan()
+
+    async def _probe_and_attach(self, port: str, results: dict[str, ProbeResult]) -> None:
+        try:
+            stream = await open_serial_stream(port, self.baudrate)
+        except ArduinoIOError as exc:
+            results[port] = self._remember(ProbeResult(port, error=str(exc)))
+            return
+        try:
+            board_id = await wait_ready(
+                stream, deadline=anyio.current_time() + self.probe_deadline, name=port
+            )
+        except ArduinoIOError as exc:
+            with anyio.CancelScope(shield=True):
+                await stream.aclose()
+            results[port] = self._remember(ProbeResult(port, error=str(exc)))
+            return
+        current = self._boards.get(board_id)
+        if current is not None and current.connected:
+            with anyio.CancelScope(shield=True):
+                await stream.aclose()
+            self._duplicates.setdefault(board_id, set()).update({current.port, port})
+            results[port] = self._remember(
+                ProbeResult(port, board_id, error=f"duplicate of {current.port}")
+            )
+            self._emit(ManagerEvent("duplicate", board_id, port, f"also on {current.port}"))
+            return
+        result = ProbeResult(port, board_id)
+        results[port] = self._remember(result, held=True)
+        link = Transport(stream, timeout=self.timeout, name=port)
+        assert self._task_group is not None
+        # start() returns once the board is attached (or failed), so a scan's caller sees it.
+        await self._task_group.start(self._supervise, board_id, link, name=f"board {port}")
+
+    def _remember(self, result: ProbeResult, *, held: bool = False) -> ProbeResult:
+        self._known[result.port] = _Known(result, held)
+        return result
+
+    async def _supervise(
+        self,
+        board_id: int,
+        link: Transport,
+        *,
+        task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED,
+    ) -> None:
+        """Run one board's link: attach and restore, heartbeat, detach when it is lost."""
+        board = self._boards.get(board_id)
+        started = False
+        closed = anyio.Event()
+        link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
+        try:
+            async with link:
+                if board is None:
+                    board = await Board.from_link(link)
+                    self._boards[board_id] = board
+                else:
+                    await board.adopt(link)
+                self._emit(ManagerEvent("connected", board_id, link.name))
+                task_status.started()
+                started = True
+                await self._heartbeat(board, link, closed)
+        except ArduinoIOError as exc:
+            # The port failed mid-handshake or went away: it is forgotten below, so the
+            # next scan probes it afresh.
+            self._last_error[board_id] = f"{link.name}: {exc}"
+        finally:
+            if board is not None:
+                board.detach(link)
+            self._known.pop(link.name, None)
+            for ports in self._duplicates.values():
+                ports.discard(link.name)
+            self._duplicates = {
+                bid: ports for bid, ports in self._duplicates.items() if len(ports) > 1
+            }
+            if board is not None:
+                self._emit(ManagerEvent("disconnected", board_id, link.name))
+            if not started:
+                task_status.started()
+
+    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
+        while not closed.is_set():
+            with anyio.move_on_after(self.heartbeat):
+                await closed.wait()
+                return
+            try:
+                status = await link.request(p.ReadStatus())
+            except LinkError:
+                if link.state is LinkState.CLOSED:
+                    return
+                continue
+            if status.session != board.session:
+                self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
+                await board.adopt(link)
