@@ -154,6 +154,8 @@ class BoardManager:
     _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
     _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
     _last_error: dict[int, str] = field(default_factory=dict, init=False)
+    #: Board ID -> the port whose supervisor owns it (set the moment a probe finds it).
+    _claims: dict[int, str] = field(default_factory=dict, init=False)
 
     async def __aenter__(self) -> BoardManager:
         self._task_group = anyio.create_task_group()
@@ -264,16 +266,18 @@ class BoardManager:
                 await stream.aclose()
             results[port] = self._remember(ProbeResult(port, error=str(exc)))
             return
-        current = self._boards.get(board_id)
-        if current is not None and current.connected:
+        holder = self._claims.get(board_id)
+        if holder is not None:
+            # Claimed without an await since the check: concurrent probes cannot both win.
             with anyio.CancelScope(shield=True):
                 await stream.aclose()
-            self._duplicates.setdefault(board_id, set()).update({current.port, port})
+            self._duplicates.setdefault(board_id, set()).update({holder, port})
             results[port] = self._remember(
-                ProbeResult(port, board_id, error=f"duplicate of {current.port}")
+                ProbeResult(port, board_id, error=f"duplicate of {holder}")
             )
-            self._emit(ManagerEvent("duplicate", board_id, port, f"also on {current.port}"))
+            self._emit(ManagerEvent("duplicate", board_id, port, f"also on {holder}"))
             return
+        self._claims[board_id] = port
         result = ProbeResult(port, board_id)
         results[port] = self._remember(result, held=True)
         link = Transport(stream, timeout=self.timeout, name=port)
@@ -316,6 +320,8 @@ class BoardManager:
             if board is not None:
                 board.detach(link)
             self._known.pop(link.name, None)
+            if self._claims.get(board_id) == link.name:
+                del self._claims[board_id]
             for ports in self._duplicates.values():
                 ports.discard(link.name)
             self._duplicates = {

@@ -29,6 +29,10 @@ def build_parser() -> argparse.ArgumentParser:
     _board_commands.add_commands(sub)
     sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)
     sim.add_argument("rest", nargs=argparse.REMAINDER)
+    bench = sub.add_parser(
+        "bench", help="latency benchmark against the paper's Table IV", add_help=False
+    )
+    bench.add_argument("rest", nargs=argparse.REMAINDER)
     return parser
 
 
@@ -41,6 +45,10 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
         from ..sim.cli import main as sim_main
 
         return sim_main(args_list[1:])
+    if args_list[:1] == ["bench"]:
+        from ..bench.cli import main as bench_main
+
+        return bench_main(args_list[1:], console=console)
     parser = build_parser()
     args = parser.parse_args(args_list)
     try:

@@ -8,9 +8,9 @@ firmware did.
 from __future__ import annotations
 
 import random
-from functools import partial
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
+from functools import partial
 from typing import Any, TypeVar
 
 import anyio

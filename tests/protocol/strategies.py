@@ -45,7 +45,7 @@ def message(cls: type[Frame]) -> st.SearchStrategy[Frame]:
     if cls is p.StreamSample:
         return _stream_sample()
     fields = {
-        spec.name: _OVERRIDES.get((cls, spec.name)) or _field(spec)
+        spec.name: _OVERRIDES[(cls, spec.name)] if (cls, spec.name) in _OVERRIDES else _field(spec)
         for spec in cls.LAYOUT.fields
     }
     return st.builds(cls, **fields)

@@ -1,0 +1,308 @@
+"""The benchmark scenarios.
+
+Each scenario opens a board -- a virtual Uno started with the scenario's link settings,
+or the real board the user named -- and measures the ten Table IV commands.  Latency is
+measured from the call to the return of ``Board.request`` (as the paper measured its C++
+calls).  In the sequential scenarios a random pause of up to one bridge tick separates
+the commands, so each reply meets the 16U2's free-running tick at a random phase, as the
+model assumes; back to back, the loop would lock to the tick.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+import anyio
+import serial
+
+from .. import protocol as p
+from ..board import Board
+from ..manager import BoardManager
+from ..sim import VirtualUno
+from ..transport import Transport, open_serial_stream
+from .commands import COMMANDS, BenchCommand, prepare
+from .model import LinkModel, predict_ms
+from .responder import InstantStream
+from .stats import Summary, summarize
+
+__all__ = ["CommandResult", "ScenarioResult", "Target", "host_overhead", "run_scenario"]
+
+Progress = Callable[[str, int], None]
+
+
+@dataclass
+class Target:
+    """Where to run: a real board (port or ID) or virtual Unos started per scenario."""
+
+    port: str | None = None
+    board_id: int | None = None
+    baud: int = p.DEFAULT_BAUD
+
+    @property
+    def virtual(self) -> bool:
+        return self.port is None and self.board_id is None
+
+
+@dataclass
+class CommandResult:
+    name: str
+    paper_ms: float
+    latency: Summary
+    samples_ms: list[float]
+    firmware_cycles: float | None = None
+    predicted_ms: float | None = None
+    commands_per_s: float | None = None
+
+
+@dataclass
+class ScenarioResult:
+    name: str
+    description: str
+    link: dict[str, Any]
+    commands: list[CommandResult] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+SCENARIOS: dict[str, dict[str, Any]] = {
+    "paper": {
+        "description": "115200 baud through the 16U2 bridge model, one request at a time",
+        "baud": 115_200,
+        "usb_bridge": "16u2",
+        "pipelined": False,
+    },
+    "pipelined": {
+        "description": "115200 baud through the 16U2 bridge model, many requests in flight",
+        "baud": 115_200,
+        "usb_bridge": "16u2",
+        "pipelined": True,
+    },
+    "fast": {
+        "description": "1,000,000 baud, no bridge delay, one request at a time",
+        "baud": 1_000_000,
+        "usb_bridge": "none",
+        "pipelined": False,
+    },
+    "fast-pipelined": {
+        "description": "1,000,000 baud, no bridge delay, many requests in flight",
+        "baud": 1_000_000,
+        "usb_bridge": "none",
+        "pipelined": True,
+    },
+}
+
+
+def link_model(baud: int, bridge: bool, *, simulated: bool) -> LinkModel:
+    """The model of the link a scenario runs on (the simulator's UART counts 11 bits)."""
+    avr_baud = 117_647 if baud == 115_200 else baud  # UBRR 16 with U2X at 16 MHz
+    return LinkModel(
+        baud_to_board=baud if simulated else avr_baud,
+        baud_to_host=avr_baud,
+        bits_to_board=10,
+        bits_to_host=11 if simulated else 10,
+        bridge_16u2=bridge,
+    )
+
+
+@asynccontextmanager
+async def _open(
+    target: Target, scenario: dict[str, Any]
+) -> AsyncIterator[tuple[Board, VirtualUno | None]]:
+    if target.virtual:
+        async with (
+            VirtualUno(board_id=1, baud=scenario["baud"], usb_bridge=scenario["usb_bridge"]) as uno,
+            Board.open(uno.port, baudrate=uno.baud, timeout=2.0) as board,
+        ):
+            yield board, uno
+    elif target.port is not None:
+        async with Board.open(target.port, baudrate=target.baud, timeout=2.0) as board:
+            yield board, None
+    else:
+        assert target.board_id is not None
+        async with BoardManager(baudrate=target.baud) as boards:
+            yield await boards.get(target.board_id), None
+
+
+async def _sequential(
+    board: Board,
+    command: BenchCommand,
+    n: int,
+    warmup: int,
+    gap_ms: float,
+    rnd: random.Random,
+) -> list[float]:
+    call = command.call(board)
+    samples: list[float] = []
+    for index in range(warmup + n):
+        if gap_ms:
+            await anyio.sleep(rnd.uniform(0, gap_ms) / 1e3)
+        start = time.perf_counter_ns()
+        await call()
+        if index >= warmup:
+            samples.append((time.perf_counter_ns() - start) / 1e6)
+    return samples
+
+
+async def _pipelined(
+    board: Board, command: BenchCommand, n: int, workers: int
+) -> tuple[list[float], float]:
+    call = command.call(board)
+    samples: list[float] = []
+    remaining = n
+
+    async def worker() -> None:
+        nonlocal remaining
+        while remaining > 0:
+            remaining -= 1
+            start = time.perf_counter_ns()
+            await call()
+            samples.append((time.perf_counter_ns() - start) / 1e6)
+
+    begin = time.perf_counter()
+    async with anyio.create_task_group() as tg:
+        for _ in range(workers):
+            tg.start_soon(worker)
+    return samples, n / (time.perf_counter() - begin)
+
+
+async def run_scenario(
+    name: str,
+    target: Target,
+    *,
+    n: int,
+    warmup: int,
+    host_ms: float,
+    progress: Progress | None = None,
+) -> ScenarioResult:
+    """Run one scenario over all ten commands."""
+    scenario = SCENARIOS[name]
+    bridge = scenario["usb_bridge"] == "16u2" and target.virtual
+    baud = scenario["baud"] if target.virtual else target.baud
+    model = link_model(baud, bridge, simulated=target.virtual)
+    result = ScenarioResult(
+        name,
+        scenario["description"] if target.virtual else f"{scenario['description']} (real board)",
+        {"baud": baud, "usb_bridge": "16u2" if bridge else "none", "virtual": target.virtual},
+    )
+    rnd = random.Random(1)
+    async with _open(target, scenario) as (board, uno):
+        await prepare(board)
+        for command in COMMANDS:
+            cycles: float | None = None
+            rate: float | None = None
+            if scenario["pipelined"]:
+                window = max(1, p.RX_FIFO_SIZE // command.request_bytes)
+                samples, rate = await _pipelined(board, command, n, min(window, 32))
+            else:
+                if uno is not None:
+                    await uno.firmware_cycles(clear=True)
+                gap = model.tick_ms if bridge else 0.0
+                samples = await _sequential(board, command, n, warmup, gap, rnd)
+                if uno is not None:
+                    measured = [c for c in (await uno.firmware_cycles()).samples if c > 0]
+                    cycles = statistics.median(measured) if measured else None
+            predicted = None
+            if cycles is not None:
+                predicted = predict_ms(
+                    model, command.request_bytes, command.reply_bytes, cycles, host_ms
+                )
+            result.commands.append(
+                CommandResult(
+                    command.name,
+                    command.paper_ms,
+                    summarize(samples),
+                    samples,
+                    cycles,
+                    predicted,
+                    rate,
+                )
+            )
+            if progress is not None:
+                progress(f"{name}: {command.name}", 1)
+    return result
+
+
+async def host_overhead(n: int, progress: Progress | None = None) -> ScenarioResult:
+    """The library's own CPU time per command, and the bare-pyserial floor on a pty."""
+    result = ScenarioResult(
+        "host",
+        "library CPU per command against an instant in-memory responder; "
+        "bare pyserial write/read loop on a pseudo-terminal as the floor",
+        {"baud": None, "usb_bridge": "none", "virtual": True},
+    )
+    stream = InstantStream()
+    async with Transport(stream, name="instant") as link:
+        board = await Board.from_link(link)
+        for command in COMMANDS:
+            call = command.call(board)
+            for _ in range(100):
+                await call()
+            samples: list[float] = []
+            cpu_start = time.process_time()
+            for _ in range(n):
+                start = time.perf_counter_ns()
+                await call()
+                samples.append((time.perf_counter_ns() - start) / 1e6)
+            cpu_us = (time.process_time() - cpu_start) / n * 1e6
+            entry = CommandResult(command.name, command.paper_ms, summarize(samples), samples)
+            result.commands.append(entry)
+            result.extra.setdefault("cpu_us_per_command", {})[command.name] = cpu_us
+            if progress is not None:
+                progress(f"host: {command.name}", 1)
+    result.extra["pty"] = await _pty_floor(n)
+    return result
+
+
+async def _pty_floor(n: int) -> dict[str, float]:
+    """Read ID round trips on a pty to a responder process: bare pyserial vs the library."""
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    child = subprocess.Popen(  # noqa: ASYNC220 - the floor is a plain blocking loop
+        [sys.executable, "-m", "arduinoio_async.bench.responder", str(master)],
+        pass_fds=(master,),
+    )
+    os.close(master)
+    request = p.ReadId().encode()
+    try:
+        port = serial.Serial(path, timeout=1)
+        for _ in range(200):
+            port.write(request)
+            port.read(5)
+        rtts = []
+        cpu = time.process_time()
+        for _ in range(n):
+            start = time.perf_counter_ns()
+            port.write(request)
+            port.read(5)
+            rtts.append((time.perf_counter_ns() - start) / 1e3)
+        bare_cpu = (time.process_time() - cpu) / n * 1e6
+        port.close()
+        stream = await open_serial_stream(path)
+        async with Transport(stream, name=path) as link:
+            for _ in range(200):
+                await link.request(p.ReadId())
+            lib_rtts = []
+            cpu = time.process_time()
+            for _ in range(n):
+                start = time.perf_counter_ns()
+                await link.request(p.ReadId())
+                lib_rtts.append((time.perf_counter_ns() - start) / 1e3)
+            lib_cpu = (time.process_time() - cpu) / n * 1e6
+    finally:
+        os.close(slave)
+        child.terminate()
+        child.wait()
+    return {
+        "bare_pyserial_rtt_us_p50": statistics.median(rtts),
+        "bare_pyserial_cpu_us": bare_cpu,
+        "library_rtt_us_p50": statistics.median(lib_rtts),
+        "library_cpu_us": lib_cpu,
+    }

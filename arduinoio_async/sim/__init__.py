@@ -1,0 +1,37 @@
+"""Virtual Arduino Uno: the project firmware running unmodified in simavr.
+
+Tests and benchmarks open :attr:`VirtualUno.port` with pyserial exactly like a real
+``/dev/ttyACM0``, and steer the simulated circuit (analog voltages, pin drives, pulses,
+faults, unplug/replug) through the harness's control socket.  See
+``firmware/sim/README.md`` for the harness itself.
+"""
+
+from ._board import (
+    FirmwareCycles,
+    Fixture,
+    PinState,
+    PulseStats,
+    SimulatorError,
+    SimulatorNotAvailable,
+    UsbBridge,
+    VirtualUno,
+    find_firmware_elf,
+    find_harness_binary,
+    find_test_firmware,
+    start_virtual_unos,
+)
+
+__all__ = [
+    "FirmwareCycles",
+    "Fixture",
+    "PinState",
+    "PulseStats",
+    "SimulatorError",
+    "SimulatorNotAvailable",
+    "UsbBridge",
+    "VirtualUno",
+    "find_firmware_elf",
+    "find_harness_binary",
+    "find_test_firmware",
+    "start_virtual_unos",
+]

@@ -1,0 +1,119 @@
+"""``arduinoio sim``: run virtual Unos until interrupted, printing where to connect.
+
+Each board gets one JSON line on stdout (``{"id": 1, "port": "/dev/pts/5", "control": ...,
+"baud": ...}``) so scripts and the multi-board manager can pick the ports up.  A missing
+simulator is reported in one line on stderr with exit code 2 rather than a traceback,
+because this is the first thing a new user runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+import anyio
+
+from ._board import SimulatorError, SimulatorNotAvailable, start_virtual_unos
+
+__all__ = ["build_parser", "main"]
+
+
+def _board_id(text: str) -> int:
+    value = int(text, 0)
+    if not 0 <= value <= 0xFFFF:
+        raise argparse.ArgumentTypeError(f"board ID must be 0..0xFFFF, got {text}")
+    return value
+
+
+def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
+    """The argument parser, exposed so the top-level ``arduinoio`` command can embed it."""
+    p = argparse.ArgumentParser(prog=prog, description="Run virtual Arduino Unos (simavr).")
+    p.add_argument(
+        "--id",
+        dest="ids",
+        action="append",
+        type=_board_id,
+        default=None,
+        help="board ID (repeat for several boards; 0x prefix allowed)",
+    )
+    p.add_argument("--fixture", choices=["open", "loopback", "r2r"], default="open")
+    p.add_argument("--baud", type=int, choices=[115200, 1000000], default=115200)
+    p.add_argument("--fast", action="store_true", help="run unpaced, as fast as possible")
+    p.add_argument("--usb-bridge", choices=["none", "16u2"], default="none")
+    p.add_argument("--reset-on-open", action="store_true", help="reset like a real Uno on open")
+    p.add_argument("--boot-delay-ms", type=int, default=None)
+    p.add_argument("--fault-drop", type=float, default=0.0)
+    p.add_argument("--fault-insert", type=float, default=0.0)
+    p.add_argument("--fault-flip", type=float, default=0.0)
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--r2r-tolerance", type=float, default=None)
+    p.add_argument("--elf", type=Path, default=None, help="firmware ELF (default: firmware/build)")
+    return p
+
+
+async def _run(args: argparse.Namespace) -> None:
+    options: dict[str, Any] = {
+        "fixture": args.fixture,
+        "baud": args.baud,
+        "fast": args.fast,
+        "usb_bridge": args.usb_bridge,
+        "reset_on_open": args.reset_on_open,
+        "boot_delay_ms": args.boot_delay_ms,
+        "fault_drop": args.fault_drop,
+        "fault_insert": args.fault_insert,
+        "fault_flip": args.fault_flip,
+        "seed": args.seed,
+        "r2r_tolerance": args.r2r_tolerance,
+        "elf": args.elf,
+    }
+    ids: list[int | None] = list(args.ids) if args.ids else [None]
+    with anyio.open_signal_receiver(signal.SIGINT, signal.SIGTERM) as signals:
+        async with start_virtual_unos(ids, **options) as boards:
+            for board in boards:
+                line = {
+                    "id": board.board_id,
+                    "port": board.port,
+                    "control": board.control_path,
+                    "baud": board.baud,
+                }
+                print(json.dumps(line), flush=True)
+            async with anyio.create_task_group() as tg:
+
+                async def watch(board_index: int) -> None:
+                    board = boards[board_index]
+                    await board.wait_exited()
+                    raise SimulatorError(f"virtual Uno {board.board_id} exited unexpectedly")
+
+                for i in range(len(boards)):
+                    tg.start_soon(watch, i)
+                async for _ in signals:
+                    tg.cancel_scope.cancel()
+                    break
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: 0 after Ctrl-C/SIGTERM, 2 when the simulator is unavailable, 1 on failure."""
+    args = build_parser().parse_args(argv)
+    try:
+        anyio.run(_run, args)
+    except SimulatorNotAvailable as exc:
+        print(f"arduinoio sim: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 0
+    except (SimulatorError, ExceptionGroup) as exc:
+        first = exc.exceptions[0] if isinstance(exc, ExceptionGroup) else exc
+        if isinstance(first, SimulatorNotAvailable):
+            print(f"arduinoio sim: {first}", file=sys.stderr)
+            return 2
+        print(f"arduinoio sim: {first}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

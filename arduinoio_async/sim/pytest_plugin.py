@@ -1,0 +1,49 @@
+"""pytest fixture ``virtual_uno_factory``: start virtual Unos that are stopped after the test.
+
+Load it with ``pytest_plugins = ["arduinoio_async.sim.pytest_plugin"]``.  When the simulator
+is not built or simavr is missing, tests using the fixture are *skipped* with the reason
+(so the suite still runs on machines without simavr); set ``ARDUINOIO_SIM_REQUIRED=1`` to
+make that a failure instead, e.g. in CI where the simulator must be present.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import AsyncIterator
+from typing import Any, Protocol
+
+import pytest
+import pytest_asyncio
+
+from ._board import SimulatorNotAvailable, VirtualUno
+
+__all__ = ["VirtualUnoFactory", "virtual_uno_factory"]
+
+
+class VirtualUnoFactory(Protocol):
+    """Starts a board with :class:`VirtualUno` keyword options and returns it running."""
+
+    async def __call__(self, **options: Any) -> VirtualUno: ...
+
+
+@pytest_asyncio.fixture
+async def virtual_uno_factory() -> AsyncIterator[VirtualUnoFactory]:
+    """Function-scoped factory; every board it started is stopped when the test ends."""
+    boards: list[VirtualUno] = []
+
+    async def factory(**options: Any) -> VirtualUno:
+        board = VirtualUno(**options)
+        try:
+            await board.start()
+        except SimulatorNotAvailable as exc:
+            if os.environ.get("ARDUINOIO_SIM_REQUIRED"):
+                raise
+            pytest.skip(f"virtual Uno not available: {exc}")
+        boards.append(board)
+        return board
+
+    try:
+        yield factory
+    finally:
+        for board in reversed(boards):
+            await board.stop()

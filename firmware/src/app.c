@@ -1,0 +1,82 @@
+/*
+ * app.c - the main loop: RX FIFO -> parser -> class sub-parsers -> TX buffer.
+ *
+ * A reply is queued only when the whole frame fits the transmit buffer; until
+ * then the loop waits and takes no further byte from the receive FIFO.
+ */
+#include "app.h"
+
+#include "counter.h"
+#include "dispatch.h"
+#include "failsafe.h"
+#include "gpio.h"
+#include "hal.h"
+#include "i2c.h"
+#include "misc.h"
+#include "parser.h"
+#include "pins.h"
+#include "pwm.h"
+#include "stream.h"
+
+static parser_t parser;
+static uint8_t pending[AIO_FRAME_MAX];
+static uint8_t pending_len;
+
+void app_init(void)
+{
+    parser_init(&parser);
+    pending_len = 0;
+    pins_init();
+    gpio_init();
+    i2c_init();
+    pwm_init();
+    counter_init();
+    stream_init();
+    failsafe_init();
+    misc_init();
+}
+
+void app_tick(void)
+{
+    pwm_tick();
+    stream_tick();
+    failsafe_tick();
+}
+
+static uint8_t handle(uint8_t event)
+{
+    if (event == PARSER_REQUEST)
+        pending_len = dispatch(&parser.rq, pending);
+    else if (event == PARSER_ERROR)
+        pending_len = dispatch_error(parser.err_ct, parser.err_dt, parser.err_code, pending);
+    return event != PARSER_NONE;
+}
+
+uint8_t app_step(void)
+{
+    int16_t c;
+
+    failsafe_poll();
+    if (pending_len) {
+        if (!hal_tx_send(pending, pending_len))
+            return 0;
+        pending_len = 0;
+        return 1;
+    }
+    if (misc_reset_pending) {
+        if (hal_tx_idle())
+            hal_system_reset();
+        return 0;
+    }
+    if (hal_rx_take_overflow()) {
+        pending_len = dispatch_error(AIO_ERROR_FLAG, 0, AIO_ERR_RX_OVERFLOW, pending);
+        parser_discard(&parser, hal_ticks());
+        return 1;
+    }
+    c = hal_rx_get();
+    if (c >= 0) {
+        handle(parser_feed(&parser, (uint8_t)c, hal_rx_last_tick()));
+        return 1;
+    }
+    return handle(parser_poll(&parser, hal_ticks()));
+}

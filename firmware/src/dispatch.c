@@ -1,0 +1,72 @@
+/*
+ * dispatch.c - class dispatch, the failsafe gate, reply framing.
+ */
+#include "dispatch.h"
+
+#include "analog.h"
+#include "counter.h"
+#include "failsafe.h"
+#include "gpio.h"
+#include "i2c.h"
+#include "misc.h"
+#include "pwm.h"
+#include "stream.h"
+
+uint8_t dispatch_error(uint8_t ct, uint8_t dt, uint8_t code, uint8_t *frame)
+{
+    frame[0] = ct;
+    frame[1] = dt;
+    frame[2] = code;
+    frame[3] = (uint8_t)(ct ^ dt ^ code);
+    return 4;
+}
+
+/* Requests that change an output: refused while the failsafe is tripped. */
+static uint8_t changes_output(const aio_request_t *rq)
+{
+    if (rq->ct == AIO_CT_GPIO)
+        return rq->dt != AIO_DT_GPIO_READ;
+    return rq->ct == AIO_CT_PWM;
+}
+
+static aio_handler_t handler(uint8_t ct)
+{
+    switch (ct) {
+    case AIO_CT_MISC: return misc_handle;
+    case AIO_CT_GPIO: return gpio_handle;
+    case AIO_CT_ANALOG: return analog_handle;
+    case AIO_CT_I2C: return i2c_handle;
+    case AIO_CT_PWM: return pwm_handle;
+    case AIO_CT_COUNTER: return counter_handle;
+    case AIO_CT_STREAM: return stream_handle;
+    case AIO_CT_FAILSAFE: return failsafe_handle;
+    default: return 0;
+    }
+}
+
+uint8_t dispatch(const aio_request_t *rq, uint8_t *frame)
+{
+    aio_reply_t rp;
+    aio_handler_t h = handler(rq->ct);
+    uint8_t err, i, cs;
+
+    failsafe_feed();
+    rp.len = 0;
+    if (!h)
+        err = AIO_ERR_UNKNOWN_CLASS; /* not reached: the parser checked the tags */
+    else if (failsafe_tripped() && changes_output(rq))
+        err = AIO_ERR_FAILSAFE_TRIPPED;
+    else
+        err = h(rq, &rp);
+    if (err)
+        return dispatch_error((uint8_t)(rq->ct | AIO_ERROR_FLAG), rq->dt, err, frame);
+    frame[0] = rq->ct;
+    frame[1] = rq->dt;
+    cs = (uint8_t)(rq->ct ^ rq->dt);
+    for (i = 0; i < rp.len; i++) {
+        frame[2 + i] = rp.data[i];
+        cs ^= rp.data[i];
+    }
+    frame[2 + i] = cs;
+    return (uint8_t)(rp.len + 3u);
+}

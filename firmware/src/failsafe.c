@@ -1,0 +1,117 @@
+/*
+ * failsafe.c - FAILSAFE class (CT 0x08) and the FAILSAFE_TRIPPED event.
+ */
+#include "failsafe.h"
+
+#include "hal.h"
+#include "pins.h"
+#include "pwm.h"
+
+typedef struct {
+    uint8_t kind;
+    uint16_t value;
+} safe_state_t;
+
+static volatile uint8_t armed, tripped, event_pending;
+static uint16_t timeout_ms;
+static volatile uint16_t last_feed;
+static safe_state_t safe[PINS_COUNT];
+
+static const uint8_t tripped_event[3] = {AIO_CT_EVENT, AIO_DT_EVENT_FAILSAFE_TRIPPED,
+                                         AIO_CT_EVENT ^ AIO_DT_EVENT_FAILSAFE_TRIPPED};
+
+void failsafe_init(void)
+{
+    uint8_t i;
+    armed = tripped = event_pending = 0;
+    for (i = 0; i < PINS_COUNT; i++)
+        safe[i].kind = AIO_SAFE_NONE;
+}
+
+void failsafe_feed(void)
+{
+    uint8_t s = hal_irq_save();
+    last_feed = hal_millis();
+    hal_irq_restore(s);
+}
+
+uint8_t failsafe_tripped(void) { return tripped; }
+
+uint8_t failsafe_status(void)
+{
+    return (uint8_t)((armed ? AIO_STATUS_FAILSAFE_ARMED : 0) |
+                     (tripped ? AIO_STATUS_FAILSAFE_TRIPPED : 0));
+}
+
+void failsafe_tick(void)
+{
+    uint8_t pin;
+    if (!armed || (uint16_t)(hal_millis() - last_feed) < timeout_ms)
+        return;
+    for (pin = 0; pin < PINS_COUNT; pin++) {
+        if (safe[pin].kind == AIO_SAFE_LEVEL && pins_role[pin] == ROLE_GPIO_OUT)
+            hal_pin_write(pin, (uint8_t)safe[pin].value);
+        else if (safe[pin].kind == AIO_SAFE_PULSE && pins_role[pin] == ROLE_PWM)
+            pwm_set_pulse(pin, safe[pin].value);
+    }
+    armed = 0;
+    tripped = 1;
+    event_pending = !hal_tx_send(tripped_event, sizeof tripped_event);
+}
+
+void failsafe_poll(void)
+{
+    if (event_pending && hal_tx_send(tripped_event, sizeof tripped_event))
+        event_pending = 0;
+}
+
+uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp)
+{
+    uint8_t pin, kind, s, err;
+    uint16_t v;
+
+    switch (rq->dt) {
+    case AIO_DT_FAILSAFE_ARM:
+        v = aio_be16(rq->data);
+        if (v < AIO_FAILSAFE_MIN_TIMEOUT_MS || v > AIO_FAILSAFE_MAX_TIMEOUT_MS)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        s = hal_irq_save();
+        timeout_ms = v;
+        last_feed = hal_millis();
+        tripped = 0;
+        event_pending = 0;
+        armed = 1;
+        hal_irq_restore(s);
+        break;
+    case AIO_DT_FAILSAFE_SAFE_STATE:
+        pin = rq->data[0];
+        kind = rq->data[1];
+        v = aio_be16(rq->data + 2);
+        if (!pins_capable(pin, AIO_PINS_DIGITAL_OUTPUT))
+            return AIO_ERR_PIN_NOT_CAPABLE;
+        if (kind > AIO_SAFE_PULSE)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        if (kind == AIO_SAFE_LEVEL && v > 1u)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        if (kind == AIO_SAFE_PULSE) {
+            if (!pins_capable(pin, AIO_PINS_SOFT_PWM | AIO_PINS_SERVO_PWM))
+                return AIO_ERR_PIN_NOT_CAPABLE;
+            err = pwm_check_pulse(pin, v);
+            if (err)
+                return err;
+        }
+        s = hal_irq_save();
+        safe[pin].kind = kind;
+        safe[pin].value = v;
+        hal_irq_restore(s);
+        break;
+    default: /* DISARM */
+        s = hal_irq_save();
+        armed = 0;
+        tripped = 0;
+        event_pending = 0;
+        hal_irq_restore(s);
+        break;
+    }
+    return aio_echo(rq, rp);
+}

@@ -1,0 +1,126 @@
+/*
+ * gpio.c - GPIO class (CT 0x02).
+ *
+ * Inputs are watched by pin-change interrupts: gpio_pin_change() latches
+ * rising and falling edges per pin until a READ of that pin (and, separately,
+ * until the next stream sample).
+ */
+#include "gpio.h"
+
+#include "hal.h"
+#include "pins.h"
+
+static volatile uint16_t watch;       /* GPIO inputs */
+static volatile uint16_t last_levels;
+static volatile uint16_t rose, fell;  /* for READ */
+static volatile uint16_t s_rose, s_fell; /* for stream samples */
+
+void gpio_init(void)
+{
+    watch = 0;
+    rose = fell = s_rose = s_fell = 0;
+    last_levels = 0;
+    hal_edge_watch(0);
+}
+
+void gpio_pin_change(uint16_t levels)
+{
+    uint16_t changed = (uint16_t)((levels ^ last_levels) & watch);
+    last_levels = levels;
+    rose |= (uint16_t)(changed & levels);
+    fell |= (uint16_t)(changed & ~levels);
+    s_rose |= (uint16_t)(changed & levels);
+    s_fell |= (uint16_t)(changed & ~levels);
+}
+
+void gpio_take_stream_edges(uint16_t *r, uint16_t *f)
+{
+    uint8_t s = hal_irq_save();
+    *r = s_rose;
+    *f = s_fell;
+    s_rose = s_fell = 0;
+    hal_irq_restore(s);
+}
+
+static void set_watch(uint8_t pin, uint8_t on)
+{
+    uint16_t bit = (uint16_t)(1u << pin);
+    uint8_t s = hal_irq_save();
+    if (on)
+        watch |= bit;
+    else
+        watch &= (uint16_t)~bit;
+    last_levels = (uint16_t)((last_levels & ~bit) | (hal_pin_levels() & bit));
+    rose &= (uint16_t)~bit;
+    fell &= (uint16_t)~bit;
+    s_rose &= (uint16_t)~bit;
+    s_fell &= (uint16_t)~bit;
+    hal_edge_watch(watch);
+    hal_irq_restore(s);
+}
+
+void gpio_release(uint8_t pin) { set_watch(pin, 0); }
+
+uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp)
+{
+    uint8_t pin = rq->data[0];
+    uint8_t arg = rq->data[1];
+    uint8_t err, role, state, s;
+    uint16_t bit;
+
+    if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
+        return AIO_ERR_PIN_NOT_CAPABLE;
+    bit = (uint16_t)(1u << pin);
+    role = pins_role[pin];
+
+    switch (rq->dt) {
+    case AIO_DT_GPIO_CONFIG:
+        if (arg & ~(AIO_GPIO_OUTPUT | AIO_GPIO_INITIAL_HIGH | AIO_GPIO_PULL_UP))
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        if ((arg & AIO_GPIO_OUTPUT) ? (arg & AIO_GPIO_PULL_UP) : (arg & AIO_GPIO_INITIAL_HIGH))
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        err = pins_claim_check(pin, (arg & AIO_GPIO_OUTPUT) ? AIO_PINS_DIGITAL_OUTPUT
+                                                            : AIO_PINS_DIGITAL_INPUT,
+                               ROLE_GPIO_IN, ROLE_GPIO_OUT);
+        if (err)
+            return err;
+        if (arg & AIO_GPIO_OUTPUT) {
+            set_watch(pin, 0);
+            hal_pin_mode(pin, (arg & AIO_GPIO_INITIAL_HIGH) ? HAL_OUT_HIGH : HAL_OUT_LOW);
+            pins_role[pin] = ROLE_GPIO_OUT;
+        } else {
+            hal_pin_mode(pin, (arg & AIO_GPIO_PULL_UP) ? HAL_IN_PULLUP : HAL_IN);
+            pins_role[pin] = ROLE_GPIO_IN;
+            set_watch(pin, 1); /* clears the latched edges */
+        }
+        return aio_echo(rq, rp);
+    case AIO_DT_GPIO_READ:
+        if (role != ROLE_GPIO_IN && role != ROLE_GPIO_OUT)
+            return AIO_ERR_PIN_NOT_CONFIGURED;
+        s = hal_irq_save();
+        state = (hal_pin_levels() & bit) ? AIO_GPIO_STATE_HIGH : 0;
+        if (rose & bit)
+            state |= AIO_GPIO_STATE_ROSE;
+        if (fell & bit)
+            state |= AIO_GPIO_STATE_FELL;
+        rose &= (uint16_t)~bit;
+        fell &= (uint16_t)~bit;
+        hal_irq_restore(s);
+        rp->data[0] = pin;
+        rp->data[1] = state;
+        rp->len = 2;
+        return 0;
+    case AIO_DT_GPIO_WRITE:
+        if (arg > 1)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        if (role != ROLE_GPIO_OUT)
+            return AIO_ERR_PIN_NOT_CONFIGURED;
+        hal_pin_write(pin, arg);
+        return aio_echo(rq, rp);
+    case AIO_DT_GPIO_PIN_RELEASE:
+        pins_release(pin);
+        return aio_echo(rq, rp);
+    default:
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
+    }
+}

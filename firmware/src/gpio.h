@@ -1,0 +1,17 @@
+/* gpio.h - GPIO class: digital inputs/outputs with latched edges. */
+#ifndef GPIO_H
+#define GPIO_H
+
+#include <stdint.h>
+
+#include "aio.h"
+
+void gpio_init(void);
+uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp);
+void gpio_release(uint8_t pin);
+/* Pin-change interrupt: the levels of D2-D13 now (bit n = Dn). */
+void gpio_pin_change(uint16_t levels);
+/* Edges of GPIO inputs since the previous call (for stream samples); clears them. */
+void gpio_take_stream_edges(uint16_t *rose, uint16_t *fell);
+
+#endif

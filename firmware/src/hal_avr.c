@@ -1,0 +1,369 @@
+/*
+ * hal_avr.c - hal.h for the ATmega328P on an Arduino Uno: pins, ADC, EEPROM,
+ * TWI, Timer1 servo PWM, external and pin-change interrupts, sleep, reset.
+ * (UART: uart.c; time: clock.c.)
+ *
+ * Pin map: D2-D7 = PD2-PD7, D8-D13 = PB0-PB5, A0-A5 = PC0-PC5.
+ */
+#include <avr/eeprom.h>
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/sleep.h>
+#include <avr/wdt.h>
+#include <util/delay.h>
+
+#include "counter.h"
+#include "gpio.h"
+#include "aio_protocol.h"
+#include "hal.h"
+#include "stream.h"
+
+#define TWI_STEP_TICKS 20u /* 2 ms */
+
+uint8_t hal_irq_save(void)
+{
+    uint8_t s = SREG;
+    cli();
+    return s;
+}
+
+void hal_irq_restore(uint8_t state) { SREG = state; }
+
+/* ---------------------------------------------------------------- system */
+
+void hal_wait(void)
+{
+    set_sleep_mode(SLEEP_MODE_IDLE);
+    sleep_enable();
+    sleep_cpu(); /* the 100 us tick wakes it at the latest */
+    sleep_disable();
+}
+
+void hal_system_reset(void)
+{
+    cli();
+    wdt_disable(); /* restart it with the short timeout (simavr 1.6 does not
+                      rescale a running watchdog) */
+    wdt_enable(WDTO_15MS);
+    for (;;) {
+    }
+}
+
+uint16_t hal_eeprom_read_u16(uint16_t address)
+{
+    const uint8_t *p = (const uint8_t *)address;
+    return (uint16_t)((uint16_t)eeprom_read_byte(p) << 8 | eeprom_read_byte(p + 1));
+}
+
+void hal_eeprom_write_u16(uint16_t address, uint16_t value)
+{
+    uint8_t *p = (uint8_t *)address;
+    eeprom_update_byte(p, (uint8_t)(value >> 8));
+    eeprom_update_byte(p + 1, (uint8_t)value);
+}
+
+/* ---------------------------------------------------------------- pins */
+
+static volatile uint8_t *port_of(uint8_t pin) { return pin < 8u ? &PORTD : &PORTB; }
+static volatile uint8_t *ddr_of(uint8_t pin) { return pin < 8u ? &DDRD : &DDRB; }
+static uint8_t bit_of(uint8_t pin) { return (uint8_t)(1u << (pin & 7u)); }
+
+void hal_pin_mode(uint8_t pin, uint8_t mode)
+{
+    volatile uint8_t *port = port_of(pin), *ddr = ddr_of(pin);
+    uint8_t bit = bit_of(pin), s = hal_irq_save();
+    if (mode == HAL_OUT_HIGH || mode == HAL_IN_PULLUP)
+        *port |= bit;
+    else
+        *port &= (uint8_t)~bit;
+    if (mode >= HAL_OUT_LOW)
+        *ddr |= bit;
+    else
+        *ddr &= (uint8_t)~bit;
+    hal_irq_restore(s);
+}
+
+void hal_pin_write(uint8_t pin, uint8_t level)
+{
+    volatile uint8_t *port = port_of(pin);
+    uint8_t bit = bit_of(pin), s = hal_irq_save();
+    if (level)
+        *port |= bit;
+    else
+        *port &= (uint8_t)~bit;
+    hal_irq_restore(s);
+}
+
+uint16_t hal_pin_levels(void) { return (uint16_t)((PIND & 0xFCu) | (uint16_t)(PINB & 0x3Fu) << 8); }
+
+void hal_edge_watch(uint16_t mask)
+{
+    uint8_t s = hal_irq_save();
+    PCMSK2 = (uint8_t)(mask & 0xFCu);
+    PCMSK0 = (uint8_t)((mask >> 8) & 0x3Fu);
+    PCICR = (uint8_t)((PCMSK2 ? _BV(PCIE2) : 0) | (PCMSK0 ? _BV(PCIE0) : 0));
+    hal_irq_restore(s);
+}
+
+ISR(PCINT0_vect) { gpio_pin_change(hal_pin_levels()); }
+ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
+
+void hal_softpwm_high(uint8_t mask)
+{
+    uint8_t s = hal_irq_save();
+    PORTD |= mask;
+    hal_irq_restore(s);
+}
+
+void hal_softpwm_low(uint8_t mask)
+{
+    uint8_t s = hal_irq_save();
+    PORTD &= (uint8_t)~mask;
+    hal_irq_restore(s);
+}
+
+/* ---------------------------------------------------------------- ADC */
+
+#define ADC_PRESCALE (_BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0)) /* 128: 125 kHz */
+#define ADMUX_AVCC _BV(REFS0)
+#define ADMUX_TEMP (_BV(REFS1) | _BV(REFS0) | 8u)
+
+static uint16_t convert(void)
+{
+    ADCSRA = _BV(ADEN) | _BV(ADIF) | ADC_PRESCALE | _BV(ADSC);
+    while (ADCSRA & _BV(ADSC)) {
+    }
+    return ADC;
+}
+
+uint16_t hal_adc_convert(uint8_t channel)
+{
+    uint16_t v;
+    if (channel == HAL_ADC_TEMPERATURE) {
+        ADMUX = ADMUX_TEMP;
+        (void)convert(); /* let the reference and the multiplexer settle */
+        v = convert();
+        ADMUX = ADMUX_AVCC;
+        return v;
+    }
+    ADMUX = (uint8_t)(ADMUX_AVCC | (channel & 7u));
+    return convert();
+}
+
+void hal_adc_start(uint8_t channel)
+{
+    ADMUX = (uint8_t)(ADMUX_AVCC | (channel & 7u));
+    ADCSRA = _BV(ADEN) | _BV(ADIF) | _BV(ADIE) | ADC_PRESCALE | _BV(ADSC);
+}
+
+/* Interrupts stay enabled while the sample is completed so the UART
+ * receiver is never held up. */
+ISR(ADC_vect, ISR_NOBLOCK)
+{
+    uint16_t v = ADC;
+    ADCSRA = _BV(ADEN) | ADC_PRESCALE; /* ADIE off until the next start */
+    stream_adc_done(v);
+}
+
+/* ---------------------------------------------------------------- TWI */
+
+static uint8_t twi_fast;
+
+/* Waits for TWINT, at most 2 ms. */
+static uint8_t twi_wait(void)
+{
+    uint16_t start = hal_ticks();
+    while (!(TWCR & _BV(TWINT)))
+        if ((uint16_t)(hal_ticks() - start) > TWI_STEP_TICKS)
+            return 0;
+    return 1;
+}
+
+/* A byte and its acknowledge take 9 SCL periods; TWINT cannot legitimately
+ * come earlier.  Waiting that long before polling costs nothing on the
+ * hardware and keeps us from acting on a stale TWINT/TWSR in emulators
+ * (simavr 1.6 leaves TWINT readable as set while the byte is on the bus). */
+static uint8_t twi_byte_wait(void)
+{
+    if (twi_fast)
+        _delay_us(23);
+    else
+        _delay_us(91);
+    return twi_wait();
+}
+
+void hal_twi_init(uint8_t fast)
+{
+    PORTC |= _BV(PORTC4) | _BV(PORTC5); /* internal pull-ups on SDA/SCL */
+    TWSR = 0;
+    TWBR = fast ? 12u : 72u; /* (16 MHz / f - 16) / 2 */
+    twi_fast = fast;
+    TWCR = _BV(TWEN);
+}
+
+void hal_twi_reset(void)
+{
+    TWCR = 0;
+    TWCR = _BV(TWEN);
+}
+
+uint8_t hal_twi_start(void)
+{
+    uint8_t st;
+    TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN);
+    if (!twi_wait())
+        return HAL_TWI_TIMEOUT;
+    st = TWSR & 0xF8u;
+    return (st == 0x08u || st == 0x10u) ? HAL_TWI_OK : HAL_TWI_TIMEOUT;
+}
+
+uint8_t hal_twi_write(uint8_t byte)
+{
+    uint8_t st;
+    TWDR = byte;
+    TWCR = _BV(TWINT) | _BV(TWEN);
+    if (!twi_byte_wait())
+        return HAL_TWI_TIMEOUT;
+    st = TWSR & 0xF8u;
+    if (st == 0x18u || st == 0x28u || st == 0x40u)
+        return HAL_TWI_OK;
+    if (st == 0x20u || st == 0x30u || st == 0x48u)
+        return HAL_TWI_NACK;
+    return HAL_TWI_TIMEOUT; /* arbitration lost or bus error: reset the unit */
+}
+
+uint8_t hal_twi_read(bool ack, uint8_t *byte)
+{
+    uint8_t st;
+    TWCR = (uint8_t)(_BV(TWINT) | _BV(TWEN) | (ack ? _BV(TWEA) : 0));
+    if (!twi_byte_wait())
+        return HAL_TWI_TIMEOUT;
+    st = TWSR & 0xF8u;
+    *byte = TWDR;
+    return (st == 0x50u || st == 0x58u) ? HAL_TWI_OK : HAL_TWI_TIMEOUT;
+}
+
+void hal_twi_stop(void)
+{
+    uint16_t start = hal_ticks();
+    TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN);
+    while (TWCR & _BV(TWSTO))
+        if ((uint16_t)(hal_ticks() - start) > TWI_STEP_TICKS) {
+            hal_twi_reset();
+            return;
+        }
+}
+
+/* ---------------------------------------------------------------- Timer1 servo */
+/*
+ * Fast PWM with TOP = ICR1 (mode 14), clk/8: 0.5 us per count, 20 ms period,
+ * the output goes high at BOTTOM and low at the compare match.  OCR1x are
+ * double-buffered (updated at BOTTOM), so a new width starts with the next
+ * period.  Width 0 disconnects the output (the pin stays low); connecting
+ * and disconnecting is done in the compare-match interrupt, right after a
+ * pulse ended, so no pulse is ever cut short or started in the middle.
+ */
+#define SERVO_COUNTS_PER_US 2u
+#define SERVO_IDLE_OCR (AIO_PULSE_MIN_US * SERVO_COUNTS_PER_US - 1u)
+
+static volatile uint8_t servo_want;     /* COM1A1 / COM1B1 wanted */
+static volatile uint16_t servo_ocr[2];  /* OCR1A / OCR1B wanted */
+
+static uint8_t com_bit(uint8_t pin) { return pin == 9u ? _BV(COM1A1) : _BV(COM1B1); }
+static uint8_t ocie_bit(uint8_t pin) { return pin == 9u ? _BV(OCIE1A) : _BV(OCIE1B); }
+
+/* The new width and connection are applied by the compare-match interrupt
+ * of the pin's channel, just after the running pulse ended. */
+void hal_servo_set(uint8_t pin, uint16_t us)
+{
+    uint8_t s = hal_irq_save();
+    if (us) {
+        servo_ocr[pin - 9u] = (uint16_t)(us * SERVO_COUNTS_PER_US - 1u);
+        servo_want |= com_bit(pin);
+    } else {
+        servo_want &= (uint8_t)~com_bit(pin);
+    }
+    TIFR1 = ocie_bit(pin); /* OCF1x sit at the same bit positions */
+    TIMSK1 |= ocie_bit(pin);
+    hal_irq_restore(s);
+}
+
+void hal_servo_attach(uint8_t pin, uint16_t us)
+{
+    uint8_t s = hal_irq_save();
+    if (!(TCCR1B & (_BV(CS12) | _BV(CS11) | _BV(CS10)))) {
+        TCCR1A = 0; /* normal mode while setting up: OCR1x are written at once */
+        TCCR1B = 0;
+        OCR1A = SERVO_IDLE_OCR;
+        OCR1B = SERVO_IDLE_OCR;
+        ICR1 = AIO_SERVO_PERIOD_US * SERVO_COUNTS_PER_US - 1u;
+        TCNT1 = 0;
+        TCCR1A = _BV(WGM11);
+        TCCR1B = _BV(WGM13) | _BV(WGM12) | _BV(CS11);
+    }
+    hal_irq_restore(s);
+    hal_pin_mode(pin, HAL_OUT_LOW);
+    hal_servo_set(pin, us);
+}
+
+void hal_servo_detach(uint8_t pin)
+{
+    uint8_t s = hal_irq_save();
+    servo_want &= (uint8_t)~com_bit(pin);
+    TCCR1A &= (uint8_t)~com_bit(pin);
+    TIMSK1 &= (uint8_t)~ocie_bit(pin);
+    if (!(TCCR1A & (_BV(COM1A1) | _BV(COM1B1))) && !servo_want)
+        TCCR1B = 0; /* both detached: stop the timer */
+    hal_irq_restore(s);
+}
+
+/* Stops and restarts the timer clock: on silicon this costs at most one
+ * 0.5 us count once per change of width; simavr 1.6 only recomputes its
+ * compare timing in fast PWM mode when the clock select changes, so without
+ * it a new OCR1x would never take effect in the simulator. */
+static inline void servo_restart(void)
+{
+    TCCR1B = _BV(WGM13) | _BV(WGM12);
+    TCCR1B = _BV(WGM13) | _BV(WGM12) | _BV(CS11);
+}
+
+/* Just after a pulse ended (or where it would have): apply the wanted
+ * connection of the output. */
+ISR(TIMER1_COMPA_vect)
+{
+    OCR1A = servo_ocr[0];
+    TCCR1A = (uint8_t)((TCCR1A & ~_BV(COM1A1)) | (servo_want & _BV(COM1A1)));
+    servo_restart();
+    TIMSK1 &= (uint8_t)~_BV(OCIE1A);
+}
+
+ISR(TIMER1_COMPB_vect)
+{
+    OCR1B = servo_ocr[1];
+    TCCR1A = (uint8_t)((TCCR1A & ~_BV(COM1B1)) | (servo_want & _BV(COM1B1)));
+    servo_restart();
+    TIMSK1 &= (uint8_t)~_BV(OCIE1B);
+}
+
+/* ---------------------------------------------------------------- INT0/INT1 */
+
+/* A stale INTFn flag fires once right after enabling; the caller clears the
+ * count afterwards.  (No EIFR write: simavr 1.6 mishandles it and then keeps
+ * re-entering the INT0/INT1 vectors when both are enabled.) */
+void hal_counter_enable(uint8_t index, uint8_t rising)
+{
+    uint8_t shift = (uint8_t)(index * 2u), s = hal_irq_save();
+    EICRA = (uint8_t)((EICRA & ~(3u << shift)) | ((rising ? 3u : 2u) << shift));
+    EIMSK |= (uint8_t)(1u << index);
+    hal_irq_restore(s);
+}
+
+void hal_counter_disable(uint8_t index)
+{
+    uint8_t s = hal_irq_save();
+    EIMSK &= (uint8_t)~(1u << index);
+    hal_irq_restore(s);
+}
+
+ISR(INT0_vect) { counter_event(0); }
+ISR(INT1_vect) { counter_event(1); }

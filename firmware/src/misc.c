@@ -1,0 +1,72 @@
+/*
+ * misc.c - MISC class (CT 0x01).
+ */
+#include "misc.h"
+
+#include "analog.h"
+#include "failsafe.h"
+#include "hal.h"
+#include "stream.h"
+
+#ifndef BAUD
+#define BAUD 115200UL
+#endif
+
+#define FEATURES                                                                         \
+    (AIO_FEATURE_GPIO | AIO_FEATURE_ANALOG | AIO_FEATURE_I2C | AIO_FEATURE_SERVO_PWM |   \
+     AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
+     AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE)
+
+uint8_t misc_reset_pending;
+static uint16_t session;
+
+void misc_init(void)
+{
+    misc_reset_pending = 0;
+    session = 0;
+}
+
+uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
+{
+    uint8_t *p = rp->data;
+    uint16_t id;
+
+    switch (rq->dt) {
+    case AIO_DT_MISC_RESET:
+        misc_reset_pending = 1;
+        break;
+    case AIO_DT_MISC_READ_ID:
+        p = aio_put16(p, hal_eeprom_read_u16(AIO_EEPROM_ID_ADDRESS));
+        break;
+    case AIO_DT_MISC_READ_TEMPERATURE:
+        p = aio_put16(p, analog_convert(HAL_ADC_TEMPERATURE));
+        break;
+    case AIO_DT_MISC_READ_CAPABILITIES:
+        *p++ = AIO_PROTOCOL_VERSION;
+        *p++ = AIO_FIRMWARE_MAJOR;
+        *p++ = AIO_FIRMWARE_MINOR;
+        p = aio_put16(p, FEATURES);
+        p = aio_put32(p, (uint32_t)BAUD);
+        *p++ = AIO_RX_FIFO_SIZE;
+        break;
+    case AIO_DT_MISC_WRITE_ID:
+        id = aio_be16(rq->data);
+        hal_eeprom_write_u16(AIO_EEPROM_ID_ADDRESS, id);
+        if (hal_eeprom_read_u16(AIO_EEPROM_ID_ADDRESS) != id)
+            return AIO_ERR_EEPROM_FAILED;
+        p = aio_put16(p, id);
+        break;
+    case AIO_DT_MISC_READ_STATUS:
+        *p++ = (uint8_t)(failsafe_status() | (stream_running() ? AIO_STATUS_STREAMING : 0));
+        p = aio_put16(p, session);
+        break;
+    case AIO_DT_MISC_SET_SESSION:
+        session = aio_be16(rq->data);
+        p = aio_put16(p, session);
+        break;
+    default:
+        return AIO_ERR_UNKNOWN_DESCRIPTOR; /* not reached: the parser checked the tags */
+    }
+    rp->len = (uint8_t)(p - rp->data);
+    return 0;
+}

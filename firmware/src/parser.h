@@ -1,0 +1,52 @@
+/*
+ * parser.h - the main frame parser: a state machine fed one byte at a time.
+ *
+ * CT -> DT -> data (length from the generated request table, plus the
+ * variable part announced by a length byte) -> checksum.  Framing errors make
+ * it report one error and then discard bytes until the line has been quiet
+ * for AIO_INTER_BYTE_GAP_MS.  No hardware access: times are passed in as
+ * 100 us ticks.
+ */
+#ifndef PARSER_H
+#define PARSER_H
+
+#include <stdint.h>
+
+#include "aio.h"
+
+enum { PARSER_NONE = 0, PARSER_REQUEST, PARSER_ERROR };
+
+/* Ticks of quiet after which a started frame is incomplete, and after which
+ * discarding ends: more than the 10 ms gap. */
+#define PARSER_GAP_TICKS ((uint16_t)(AIO_INTER_BYTE_GAP_MS * 10u + 1u))
+
+typedef struct {
+    uint8_t state;
+    uint8_t fixed;       /* fixed data bytes of the current request */
+    int8_t len_pos;      /* index of its length byte, or -1 */
+    uint16_t need;       /* data bytes expected in total */
+    uint16_t got;        /* data bytes received */
+    uint8_t sum;         /* running XOR */
+    uint16_t last_tick;  /* when the last byte was received */
+    aio_request_t rq;    /* valid after PARSER_REQUEST */
+    uint8_t err_ct;      /* valid after PARSER_ERROR: CT|0x80, DT, code */
+    uint8_t err_dt;
+    uint8_t err_code;
+} parser_t;
+
+void parser_init(parser_t *p);
+/* One received byte, with the tick at which it arrived. */
+uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick);
+/* No byte available: checks the inter-byte gap and the end of discarding. */
+uint8_t parser_poll(parser_t *p, uint16_t now);
+/* Start discarding until quiet (after an RX overflow), counting from tick. */
+void parser_discard(parser_t *p, uint16_t tick);
+/* Whether the parser is between frames (no frame started, not discarding). */
+uint8_t parser_idle(const parser_t *p);
+
+/* Request framing from the generated table: 1 and fills fixed/len_pos if
+ * (ct, dt) is a request, else 0. */
+uint8_t parser_lookup(uint8_t ct, uint8_t dt, uint8_t *fixed, int8_t *len_pos);
+uint8_t parser_known_class(uint8_t ct);
+
+#endif /* PARSER_H */

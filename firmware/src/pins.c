@@ -1,0 +1,52 @@
+/*
+ * pins.c - one role per pin.
+ */
+#include "pins.h"
+
+#include "aio.h"
+#include "counter.h"
+#include "gpio.h"
+#include "hal.h"
+#include "pwm.h"
+
+uint8_t pins_role[PINS_COUNT];
+
+void pins_init(void)
+{
+    uint8_t pin;
+    for (pin = 0; pin < PINS_COUNT; pin++)
+        pins_role[pin] = ROLE_FREE;
+}
+
+uint8_t pins_claim_check(uint8_t pin, uint16_t table3_mask, uint8_t same_a, uint8_t same_b)
+{
+    uint8_t role;
+    if (!pins_capable(pin, table3_mask))
+        return AIO_ERR_PIN_NOT_CAPABLE;
+    role = pins_role[pin];
+    if (role != ROLE_FREE && role != same_a && role != same_b)
+        return AIO_ERR_PIN_BUSY;
+    return 0;
+}
+
+void pins_release(uint8_t pin)
+{
+    if (pin < PINS_FIRST || pin > PINS_LAST)
+        return;
+    switch (pins_role[pin]) {
+    case ROLE_PWM:
+        pwm_release(pin);
+        break;
+    case ROLE_COUNTER:
+        counter_release(pin);
+        break;
+    case ROLE_GPIO_IN:
+    case ROLE_GPIO_OUT:
+        gpio_release(pin);
+        break;
+    default:
+        break;
+    }
+    pins_role[pin] = ROLE_FREE;
+    hal_pin_mode(pin, HAL_IN);
+}

@@ -1,0 +1,222 @@
+/*
+ * stream.c - STREAM class (CT 0x07) and the STREAM_SAMPLE event.
+ *
+ * The timebase interrupt counts down the period; at the sampling instant it
+ * latches the timestamp, levels, edges and counters into the frame, then an
+ * ADC conversion chain (one interrupt per channel) fills in the analog
+ * values, and the last step queues the frame if it fits the transmit buffer
+ * (else the sample is dropped; its sequence number is used up either way).
+ * Blocking conversions of the main loop wait for a running chain; a sampling
+ * instant that finds the main loop converting starts its chain when the main
+ * loop releases the ADC.
+ */
+#include "stream.h"
+
+#include "counter.h"
+#include "gpio.h"
+#include "hal.h"
+#include "i2c.h"
+
+#ifndef BAUD
+#define BAUD 115200UL
+#endif
+
+#define HDR 11u /* 40 01 MASK FLAGS SEQ(2) T(4) LEN */
+
+static volatile uint8_t running;
+static uint8_t mask, flags;
+static uint16_t period_ticks;
+static uint16_t countdown;
+static uint16_t seq;                 /* sequence number of the next sample */
+static volatile uint8_t busy;        /* a sample is being assembled */
+static volatile uint8_t pending;     /* its ADC chain waits for the main loop */
+static volatile uint8_t main_owns;   /* the main loop converts */
+static uint8_t channel;              /* channel being converted */
+static uint8_t pos;                  /* next analog value position in frame */
+static uint8_t frame[AIO_FRAME_MAX];
+static uint8_t frame_len;
+
+void stream_init(void)
+{
+    running = busy = pending = main_owns = 0;
+    seq = 0;
+}
+
+uint8_t stream_running(void) { return running; }
+
+static uint8_t value_bytes(uint8_t m, uint8_t f)
+{
+    uint8_t n = 0;
+    for (; m; m >>= 1)
+        n = (uint8_t)(n + (m & 1u) * 2u);
+    if (f & AIO_STREAM_LEVELS)
+        n += 2;
+    if (f & AIO_STREAM_EDGES)
+        n += 4;
+    if (f & AIO_STREAM_COUNTERS)
+        n += 8;
+    return n;
+}
+
+uint8_t stream_admit(uint8_t len, uint16_t period_us, uint32_t baud)
+{
+    /* (12 + LEN) * 10 * 1e6 / baud <= 3/4 * PERIOD */
+    uint64_t need = (uint64_t)(AIO_STREAM_FRAME_OVERHEAD + len) * 10000000ull * AIO_STREAM_LINK_SHARE_DEN;
+    uint64_t have = (uint64_t)AIO_STREAM_LINK_SHARE_NUM * period_us * baud;
+    return need <= have;
+}
+
+static void finish(void)
+{
+    uint8_t i, cs = 0;
+    for (i = 0; i < frame_len - 1u; i++)
+        cs ^= frame[i];
+    frame[frame_len - 1u] = cs;
+    hal_tx_send(frame, frame_len); /* dropped if it does not fit */
+    busy = 0;
+}
+
+static void next_channel(void)
+{
+    while (channel < AIO_ANALOG_CHANNELS && !(mask >> channel & 1u))
+        channel++;
+    if (channel >= AIO_ANALOG_CHANNELS)
+        finish();
+    else
+        hal_adc_start(channel);
+}
+
+void stream_adc_done(uint16_t value)
+{
+    if (!busy || pending)
+        return; /* cancelled by STOP */
+    frame[pos++] = (uint8_t)(value >> 8);
+    frame[pos++] = (uint8_t)value;
+    channel++;
+    next_channel();
+}
+
+static void sample(void)
+{
+    uint8_t *p = frame;
+    uint8_t len = value_bytes(mask, flags);
+    uint16_t r, f;
+
+    *p++ = AIO_CT_EVENT;
+    *p++ = AIO_DT_EVENT_STREAM_SAMPLE;
+    *p++ = mask;
+    *p++ = flags;
+    p = aio_put16(p, seq);
+    seq++;
+    p = aio_put32(p, hal_micros());
+    *p++ = len;
+    pos = (uint8_t)(p - frame);
+    p += (uint8_t)(len - value_bytes(0, flags)); /* analog values come from the chain */
+    if (flags & AIO_STREAM_LEVELS)
+        p = aio_put16(p, hal_pin_levels() & AIO_PINS_DIGITAL_INPUT);
+    if (flags & AIO_STREAM_EDGES) {
+        gpio_take_stream_edges(&r, &f);
+        p = aio_put16(p, r);
+        p = aio_put16(p, f);
+    }
+    if (flags & AIO_STREAM_COUNTERS) {
+        p = aio_put32(p, counter_peek(0));
+        p = aio_put32(p, counter_peek(1));
+    }
+    frame_len = (uint8_t)(p - frame + 1u);
+    busy = 1;
+    channel = 0;
+    if (main_owns)
+        pending = 1;
+    else
+        next_channel();
+}
+
+void stream_tick(void)
+{
+    if (!running || --countdown)
+        return;
+    countdown = period_ticks;
+    if (busy)
+        seq++; /* the previous sample is still converting: drop this one */
+    else
+        sample();
+}
+
+void stream_adc_acquire(void)
+{
+    uint16_t start = hal_ticks();
+    uint8_t s;
+    for (;;) {
+        s = hal_irq_save();
+        if (!busy || pending || (uint16_t)(hal_ticks() - start) > 50u) {
+            if (busy && !pending)
+                busy = 0; /* a chain that never finished: drop its sample */
+            main_owns = 1;
+            hal_irq_restore(s);
+            return;
+        }
+        hal_irq_restore(s);
+        hal_wait();
+    }
+}
+
+void stream_adc_release(void)
+{
+    uint8_t s = hal_irq_save();
+    main_owns = 0;
+    if (pending) {
+        pending = 0;
+        if (busy)
+            next_channel();
+    }
+    hal_irq_restore(s);
+}
+
+static void stop(void)
+{
+    uint8_t s = hal_irq_save();
+    running = 0;
+    if (busy) {
+        busy = 0; /* cancel the sample being assembled: it was never sent */
+        pending = 0;
+        seq--;
+    }
+    hal_irq_restore(s);
+}
+
+uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
+{
+    uint8_t m, f, s;
+    uint16_t period, r;
+
+    if (rq->dt == AIO_DT_STREAM_STOP) {
+        stop();
+        aio_put16(rp->data, seq);
+        rp->len = 2;
+        return 0;
+    }
+    m = rq->data[0];
+    f = rq->data[1];
+    period = aio_be16(rq->data + 2);
+    if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
+        f & ~(AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS) || (m == 0 && f == 0) ||
+        period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
+        period % AIO_STREAM_PERIOD_STEP_US)
+        return AIO_ERR_VALUE_OUT_OF_RANGE;
+    if (i2c_enabled() && (m & AIO_PINS_I2C))
+        return AIO_ERR_PIN_BUSY;
+    if (!stream_admit(value_bytes(m, f), period, BAUD))
+        return AIO_ERR_LINK_CAPACITY;
+    stop();
+    gpio_take_stream_edges(&r, &r); /* start the edges afresh */
+    s = hal_irq_save();
+    mask = m;
+    flags = f;
+    period_ticks = (uint16_t)(period / 100u);
+    countdown = period_ticks;
+    seq = 0;
+    running = 1;
+    hal_irq_restore(s);
+    return aio_echo(rq, rp);
+}

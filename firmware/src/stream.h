@@ -1,0 +1,22 @@
+/* stream.h - STREAM class: periodic samples sent from interrupts (protocol.md 7.2). */
+#ifndef STREAM_H
+#define STREAM_H
+
+#include <stdint.h>
+
+#include "aio.h"
+
+void stream_init(void);
+uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp);
+uint8_t stream_running(void);
+/* Timebase interrupt, every 100 us: decides the sampling instants. */
+void stream_tick(void);
+/* ADC interrupt: a conversion started by hal_adc_start() finished. */
+void stream_adc_done(uint16_t value);
+/* Blocking conversions in the main loop take the ADC between these two. */
+void stream_adc_acquire(void);
+void stream_adc_release(void);
+/* Bytes per second a stream needs vs the link: nonzero if admitted. */
+uint8_t stream_admit(uint8_t value_bytes, uint16_t period_us, uint32_t baud);
+
+#endif

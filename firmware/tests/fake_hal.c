@@ -1,0 +1,268 @@
+/*
+ * fake_hal.c - hal.h for host tests: memory instead of registers, a clock
+ * the test advances, a 24C02-like I2C device at 0x50.
+ */
+#include "fake_hal.h"
+
+#include <string.h>
+
+#include "app.h"
+#include "gpio.h"
+#include "hal.h"
+#include "stream.h"
+
+uint32_t fake_ticks;
+uint8_t fake_tx[FAKE_TX_MAX];
+uint32_t fake_tx_len;
+uint32_t fake_tx_capacity;
+uint8_t fake_eeprom[1024];
+bool fake_eeprom_broken;
+bool fake_reset_done;
+uint8_t fake_pin_mode[14];
+uint8_t fake_pin_level[14];
+uint16_t fake_adc[9];
+int fake_adc_pending;
+uint16_t fake_servo_us[2];
+uint8_t fake_counter_enabled[2];
+uint8_t fake_counter_rising[2];
+uint8_t fake_i2c_mem[256];
+bool fake_i2c_stuck;
+uint8_t fake_i2c_resets;
+uint8_t fake_softpwm_port;
+uint16_t fake_edge_watch;
+
+#define RX_MAX (1u << 20)
+static uint8_t rx[RX_MAX];
+static uint32_t rx_head, rx_tail;
+static uint16_t rx_tick;
+static bool rx_over;
+static uint8_t irq_on = 1;
+
+/* I2C device model */
+static enum { I2C_IDLE, I2C_ADDRESSED_W, I2C_REG_SET, I2C_ADDRESSED_R } i2c_state;
+static bool i2c_after_start;
+static uint8_t i2c_ptr;
+
+void fake_reset(void)
+{
+    fake_ticks = 0;
+    fake_tx_len = 0;
+    fake_tx_capacity = 192;
+    memset(fake_eeprom, 0xFF, sizeof fake_eeprom);
+    fake_eeprom_broken = false;
+    fake_reset_done = false;
+    memset(fake_pin_mode, 0, sizeof fake_pin_mode);
+    memset(fake_pin_level, 0, sizeof fake_pin_level);
+    memset(fake_adc, 0, sizeof fake_adc);
+    fake_adc_pending = -1;
+    fake_servo_us[0] = fake_servo_us[1] = 0xFFFF;
+    memset(fake_counter_enabled, 0, 2);
+    memset(fake_i2c_mem, 0xFF, sizeof fake_i2c_mem);
+    fake_i2c_stuck = false;
+    fake_i2c_resets = 0;
+    fake_softpwm_port = 0;
+    fake_edge_watch = 0;
+    rx_head = rx_tail = 0;
+    rx_over = false;
+    rx_tick = 0;
+    i2c_state = I2C_IDLE;
+    irq_on = 1;
+}
+
+void fake_rx_push(const uint8_t *bytes, uint32_t n)
+{
+    uint32_t i;
+    for (i = 0; i < n; i++) {
+        if (rx_head - rx_tail >= 128u) { /* the board's FIFO size */
+            rx_over = true;
+            continue;
+        }
+        rx[rx_head++ % RX_MAX] = bytes[i];
+    }
+    rx_tick = (uint16_t)fake_ticks;
+}
+
+void fake_rx_overflow(void) { rx_over = true; }
+uint32_t fake_rx_pending(void) { return rx_head - rx_tail; }
+
+void fake_advance(uint32_t ticks)
+{
+    while (ticks--) {
+        fake_ticks++;
+        app_tick();
+    }
+}
+
+uint16_t hal_pin_levels(void)
+{
+    uint16_t v = 0;
+    uint8_t pin;
+    for (pin = 2; pin < 14; pin++) {
+        uint8_t level = fake_pin_level[pin];
+        if (pin < 8 && (fake_softpwm_port >> pin & 1u))
+            level = 1;
+        if (level)
+            v |= (uint16_t)(1u << pin);
+    }
+    return v;
+}
+
+void fake_drive(uint8_t pin, uint8_t level)
+{
+    fake_pin_level[pin] = level;
+    if (fake_edge_watch >> pin & 1u)
+        gpio_pin_change(hal_pin_levels());
+}
+
+void fake_adc_complete(void)
+{
+    int ch = fake_adc_pending;
+    if (ch < 0)
+        return;
+    fake_adc_pending = -1;
+    stream_adc_done(fake_adc[ch]);
+}
+
+uint8_t hal_irq_save(void)
+{
+    uint8_t s = irq_on;
+    irq_on = 0;
+    return s;
+}
+
+void hal_irq_restore(uint8_t state) { irq_on = state; }
+
+uint16_t hal_ticks(void) { return (uint16_t)fake_ticks; }
+uint16_t hal_millis(void) { return (uint16_t)(fake_ticks / 10u); }
+uint32_t hal_micros(void) { return fake_ticks * 100u; }
+
+int16_t hal_rx_get(void)
+{
+    if (rx_head == rx_tail)
+        return -1;
+    return rx[rx_tail++ % RX_MAX];
+}
+
+bool hal_rx_take_overflow(void)
+{
+    if (!rx_over)
+        return false;
+    rx_over = false;
+    rx_tail = rx_head;
+    return true;
+}
+
+uint16_t hal_rx_last_tick(void) { return rx_tick; }
+
+uint8_t hal_tx_free(void)
+{
+    return (uint8_t)(fake_tx_len >= fake_tx_capacity ? 0 : fake_tx_capacity - fake_tx_len);
+}
+
+bool hal_tx_send(const uint8_t *frame, uint8_t len)
+{
+    if (fake_tx_len + len > fake_tx_capacity || fake_tx_len + len > FAKE_TX_MAX)
+        return false;
+    memcpy(fake_tx + fake_tx_len, frame, len);
+    fake_tx_len += len;
+    return true;
+}
+
+bool hal_tx_idle(void) { return true; }
+
+void hal_wait(void)
+{
+    fake_advance(1);
+    fake_adc_complete();
+}
+
+void hal_system_reset(void) { fake_reset_done = true; }
+
+uint16_t hal_eeprom_read_u16(uint16_t a) { return (uint16_t)(fake_eeprom[a] << 8 | fake_eeprom[a + 1]); }
+
+void hal_eeprom_write_u16(uint16_t a, uint16_t v)
+{
+    if (fake_eeprom_broken)
+        return;
+    fake_eeprom[a] = (uint8_t)(v >> 8);
+    fake_eeprom[a + 1] = (uint8_t)v;
+}
+
+void hal_pin_mode(uint8_t pin, uint8_t mode)
+{
+    fake_pin_mode[pin] = mode;
+    if (mode == HAL_OUT_LOW || mode == HAL_OUT_HIGH)
+        fake_pin_level[pin] = mode == HAL_OUT_HIGH;
+}
+
+void hal_pin_write(uint8_t pin, uint8_t level) { fake_pin_level[pin] = level; }
+
+void hal_edge_watch(uint16_t mask) { fake_edge_watch = mask; }
+
+uint16_t hal_adc_convert(uint8_t channel) { return fake_adc[channel]; }
+
+void hal_adc_start(uint8_t channel) { fake_adc_pending = channel; }
+
+void hal_twi_init(uint8_t fast) { (void)fast; i2c_state = I2C_IDLE; }
+
+uint8_t hal_twi_start(void)
+{
+    if (fake_i2c_stuck)
+        return HAL_TWI_TIMEOUT;
+    i2c_after_start = true;
+    return HAL_TWI_OK;
+}
+
+uint8_t hal_twi_write(uint8_t byte)
+{
+    if (fake_i2c_stuck)
+        return HAL_TWI_TIMEOUT;
+    if (i2c_after_start) {
+        i2c_after_start = false;
+        if ((byte >> 1) != 0x50u) {
+            i2c_state = I2C_IDLE;
+            return HAL_TWI_NACK;
+        }
+        i2c_state = (byte & 1u) ? I2C_ADDRESSED_R : I2C_ADDRESSED_W;
+        return HAL_TWI_OK;
+    }
+    if (i2c_state == I2C_ADDRESSED_W) {
+        i2c_ptr = byte;
+        i2c_state = I2C_REG_SET;
+        return HAL_TWI_OK;
+    }
+    if (i2c_state == I2C_REG_SET) {
+        if (i2c_ptr == 0xF0u) /* a write-protected area refuses data */
+            return HAL_TWI_NACK;
+        fake_i2c_mem[i2c_ptr++] = byte;
+        return HAL_TWI_OK;
+    }
+    return HAL_TWI_NACK;
+}
+
+uint8_t hal_twi_read(bool ack, uint8_t *byte)
+{
+    (void)ack;
+    if (fake_i2c_stuck)
+        return HAL_TWI_TIMEOUT;
+    *byte = fake_i2c_mem[i2c_ptr++];
+    return HAL_TWI_OK;
+}
+
+void hal_twi_stop(void) { i2c_state = I2C_IDLE; }
+void hal_twi_reset(void) { fake_i2c_resets++; i2c_state = I2C_IDLE; }
+
+void hal_servo_attach(uint8_t pin, uint16_t us) { fake_servo_us[pin - 9] = us; }
+void hal_servo_set(uint8_t pin, uint16_t us) { fake_servo_us[pin - 9] = us; }
+void hal_servo_detach(uint8_t pin) { fake_servo_us[pin - 9] = 0xFFFF; }
+
+void hal_softpwm_high(uint8_t mask) { fake_softpwm_port |= mask; }
+void hal_softpwm_low(uint8_t mask) { fake_softpwm_port &= (uint8_t)~mask; }
+
+void hal_counter_enable(uint8_t index, uint8_t rising)
+{
+    fake_counter_enabled[index] = 1;
+    fake_counter_rising[index] = rising;
+}
+
+void hal_counter_disable(uint8_t index) { fake_counter_enabled[index] = 0; }

@@ -1,0 +1,685 @@
+/*
+ * test_main.c - host tests: parser + dispatcher + class modules with the fake HAL.
+ * Built with AddressSanitizer and UBSan by `make -C firmware test`.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "aio_protocol.h"
+#include "app.h"
+#include "counter.h"
+#include "fake_hal.h"
+#include "parser.h"
+
+static int failures, checks;
+
+#define B(...) ((const uint8_t[]){__VA_ARGS__}), sizeof((const uint8_t[]){__VA_ARGS__})
+#define CHECK(...) check(__FILE__, __LINE__, __VA_ARGS__)
+#define EXPECT(cond)                                                         \
+    do {                                                                     \
+        checks++;                                                            \
+        if (!(cond)) {                                                       \
+            failures++;                                                      \
+            printf("%s:%d: FAIL: %s\n", __FILE__, __LINE__, #cond);          \
+        }                                                                    \
+    } while (0)
+
+static uint8_t out[FAKE_TX_MAX];
+static uint32_t outn;
+
+static void board(void)
+{
+    fake_reset();
+    app_init();
+}
+
+static void run(void)
+{
+    int guard = 0;
+    while (app_step())
+        if (++guard > 1000000) {
+            printf("app_step never goes idle\n");
+            exit(1);
+        }
+}
+
+static void take(void)
+{
+    memcpy(out, fake_tx, fake_tx_len);
+    outn = fake_tx_len;
+    fake_tx_len = 0;
+}
+
+static uint8_t xor_of(const uint8_t *p, size_t n)
+{
+    uint8_t x = 0;
+    while (n--)
+        x ^= *p++;
+    return x;
+}
+
+static void send_frame(const uint8_t *req, size_t rn)
+{
+    uint8_t buf[300];
+    memcpy(buf, req, rn);
+    buf[rn] = xor_of(req, rn);
+    fake_rx_push(buf, (uint32_t)rn + 1u);
+}
+
+static void dump(const char *what, const uint8_t *p, size_t n)
+{
+    size_t i;
+    printf("  %s:", what);
+    for (i = 0; i < n; i++)
+        printf(" %02x", p[i]);
+    printf("\n");
+}
+
+/* Sends req (without CS), expects exactly exp (without CS) + CS back. */
+static void check(const char *file, int line, const uint8_t *req, size_t rn, const uint8_t *exp,
+                  size_t en)
+{
+    uint8_t want[64];
+    send_frame(req, rn);
+    run();
+    take();
+    memcpy(want, exp, en);
+    want[en] = xor_of(exp, en);
+    checks++;
+    if (outn != en + 1 || memcmp(out, want, en + 1)) {
+        failures++;
+        printf("%s:%d: FAIL\n", file, line);
+        dump("request", req, rn);
+        dump("expected", want, en + 1);
+        dump("got", out, outn);
+    }
+}
+
+/* ------------------------------------------------------------ MISC */
+static void test_misc(void)
+{
+    board();
+    fake_eeprom[0] = 0x01;
+    fake_eeprom[1] = 0x02;
+    /* Table I -> Table II, byte for byte */
+    fake_rx_push(B(0x01, 0x02, 0x03));
+    run();
+    take();
+    EXPECT(outn == 5 && !memcmp(out, "\x01\x02\x01\x02\x00", 5));
+
+    fake_adc[8] = 0x0137;
+    CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x03, 0xFF, 0x00, 0x01, 0xC2,
+                     0x00, 128));
+    CHECK(B(1, 6), B(1, 6, 0, 0, 0));
+    CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
+    CHECK(B(1, 6), B(1, 6, 0, 0xBE, 0xEF));
+    CHECK(B(1, 5, 0x12, 0x34), B(1, 5, 0x12, 0x34));
+    CHECK(B(1, 2), B(1, 2, 0x12, 0x34));
+    fake_eeprom_broken = true;
+    CHECK(B(1, 5, 0x55, 0x66), B(0x81, 5, AIO_ERR_EEPROM_FAILED));
+    CHECK(B(1, 2), B(1, 2, 0x12, 0x34));
+    /* erased EEPROM */
+    board();
+    CHECK(B(1, 2), B(1, 2, 0xFF, 0xFF));
+    /* RESET: reply first, then the watchdog reset; nothing parsed after it */
+    send_frame(B(1, 1));
+    send_frame(B(1, 2));
+    run();
+    take();
+    EXPECT(outn == 3 && out[0] == 1 && out[1] == 1 && out[2] == 0);
+    EXPECT(fake_reset_done);
+}
+
+/* ------------------------------------------------------------ GPIO */
+static void test_gpio(void)
+{
+    board();
+    CHECK(B(2, 1, 13, 0x03), B(2, 1, 13, 0x03)); /* output, high */
+    EXPECT(fake_pin_mode[13] == 3 && fake_pin_level[13] == 1);
+    CHECK(B(2, 2, 13), B(2, 2, 13, 1));
+    CHECK(B(2, 3, 13, 0), B(2, 3, 13, 0));
+    EXPECT(fake_pin_level[13] == 0);
+    CHECK(B(2, 2, 13), B(2, 2, 13, 0));
+    CHECK(B(2, 3, 13, 2), B(0x82, 3, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(2, 1, 7, 0x04), B(2, 1, 7, 0x04)); /* input with pull-up */
+    EXPECT(fake_pin_mode[7] == 1);
+    CHECK(B(2, 3, 7, 1), B(0x82, 3, AIO_ERR_PIN_NOT_CONFIGURED));
+    fake_drive(7, 1);
+    fake_drive(7, 0);
+    CHECK(B(2, 2, 7), B(2, 2, 7, AIO_GPIO_STATE_ROSE | AIO_GPIO_STATE_FELL));
+    CHECK(B(2, 2, 7), B(2, 2, 7, 0)); /* cleared by the read */
+    fake_drive(7, 1);
+    CHECK(B(2, 2, 7), B(2, 2, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE));
+    fake_drive(7, 0);
+    CHECK(B(2, 1, 7, 0x00), B(2, 1, 7, 0x00)); /* reconfiguring clears the edges */
+    CHECK(B(2, 2, 7), B(2, 2, 7, 0));
+    /* flags */
+    CHECK(B(2, 1, 5, 0x05), B(0x82, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* output + pull-up */
+    CHECK(B(2, 1, 5, 0x02), B(0x82, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* input + level */
+    CHECK(B(2, 1, 5, 0x08), B(0x82, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    /* pins */
+    CHECK(B(2, 1, 1, 1), B(0x82, 1, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 1, 14, 1), B(0x82, 1, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 2, 0xFF), B(0x82, 2, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 2, 8), B(0x82, 2, AIO_ERR_PIN_NOT_CONFIGURED));
+    CHECK(B(2, 4, 0), B(0x82, 4, AIO_ERR_PIN_NOT_CAPABLE));
+    /* one role per pin */
+    CHECK(B(5, 1, 3, 0x05, 0xDC), B(5, 1, 3, 0x05, 0xDC));
+    CHECK(B(2, 1, 3, 1), B(0x82, 1, AIO_ERR_PIN_BUSY));
+    CHECK(B(2, 2, 3), B(0x82, 2, AIO_ERR_PIN_NOT_CONFIGURED));
+    CHECK(B(2, 4, 3), B(2, 4, 3));
+    CHECK(B(2, 1, 3, 1), B(2, 1, 3, 1));
+    CHECK(B(2, 4, 3), B(2, 4, 3));
+    EXPECT(fake_pin_mode[3] == 0);
+    CHECK(B(2, 4, 3), B(2, 4, 3)); /* releasing a free pin */
+}
+
+/* ------------------------------------------------------------ ANALOG */
+static void test_analog(void)
+{
+    board();
+    fake_adc[0] = 0x3FF;
+    fake_adc[5] = 0x123;
+    CHECK(B(3, 2, 0), B(3, 2, 0, 0x03, 0xFF));
+    CHECK(B(3, 2, 5), B(3, 2, 5, 0x01, 0x23));
+    CHECK(B(3, 2, 6), B(0x83, 2, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(3, 3), B(3, 3, 3, 0xFF, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0x23));
+    CHECK(B(4, 1, 0), B(4, 1, 0));
+    CHECK(B(3, 2, 4), B(0x83, 2, AIO_ERR_PIN_BUSY));
+    CHECK(B(3, 2, 5), B(0x83, 2, AIO_ERR_PIN_BUSY));
+    CHECK(B(3, 2, 3), B(3, 2, 3, 0, 0));
+    CHECK(B(3, 3), B(3, 3, 3, 0xFF, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0x23));
+}
+
+/* ------------------------------------------------------------ I2C */
+static void test_i2c(void)
+{
+    board();
+    CHECK(B(4, 2, 0x50, 0, 1), B(0x84, 2, AIO_ERR_I2C_NOT_CONFIGURED));
+    CHECK(B(4, 3, 0x50, 0, 0), B(0x84, 3, AIO_ERR_I2C_NOT_CONFIGURED));
+    CHECK(B(4, 1, 2), B(0x84, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(4, 1, 1), B(4, 1, 1));
+    CHECK(B(4, 3, 0x50, 0x10, 4, 0xDE, 0xAD, 0xBE, 0xEF), B(4, 3, 0x50, 0x10, 4));
+    EXPECT(!memcmp(fake_i2c_mem + 0x10, "\xDE\xAD\xBE\xEF", 4));
+    CHECK(B(4, 2, 0x50, 0x11, 3), B(4, 2, 0x50, 0x11, 3, 0xAD, 0xBE, 0xEF));
+    CHECK(B(4, 3, 0x50, 0x20, 0), B(4, 3, 0x50, 0x20, 0));
+    CHECK(B(4, 2, 0x51, 0, 1), B(0x84, 2, AIO_ERR_I2C_NACK_ADDRESS));
+    CHECK(B(4, 3, 0x51, 0, 1, 9), B(0x84, 3, AIO_ERR_I2C_NACK_ADDRESS));
+    CHECK(B(4, 3, 0x50, 0xF0, 1, 9), B(0x84, 3, AIO_ERR_I2C_NACK_DATA));
+    CHECK(B(4, 2, 0x80, 0, 1), B(0x84, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(4, 2, 0x50, 0, 0), B(0x84, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(4, 2, 0x50, 0, 33), B(0x84, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    fake_i2c_stuck = true;
+    CHECK(B(4, 2, 0x50, 0, 1), B(0x84, 2, AIO_ERR_I2C_TIMEOUT));
+    EXPECT(fake_i2c_resets == 1);
+    fake_i2c_stuck = false;
+    /* 32 bytes each way */
+    {
+        uint8_t req[3 + 3 + 32], rep[5 + 32];
+        int i;
+        req[0] = 4; req[1] = 3; req[2] = 0x50; req[3] = 0x40; req[4] = 32;
+        for (i = 0; i < 32; i++)
+            req[5 + i] = (uint8_t)(i * 7);
+        CHECK(req, 37, B(4, 3, 0x50, 0x40, 32));
+        rep[0] = 4; rep[1] = 2; rep[2] = 0x50; rep[3] = 0x40; rep[4] = 32;
+        memcpy(rep + 5, req + 5, 32);
+        CHECK(B(4, 2, 0x50, 0x40, 32), rep, 37);
+    }
+    /* a length beyond 32 keeps the frame boundaries: 40 data bytes are skipped */
+    {
+        uint8_t req[5 + 40];
+        memset(req, 0x5A, sizeof req);
+        req[0] = 4; req[1] = 3; req[2] = 0x50; req[3] = 0; req[4] = 40;
+        CHECK(req, sizeof req, B(0x84, 3, AIO_ERR_VALUE_OUT_OF_RANGE));
+        CHECK(B(1, 2), B(1, 2, 0xFF, 0xFF));
+    }
+}
+
+/* ------------------------------------------------------------ PWM */
+static void test_pwm(void)
+{
+    int t;
+    board();
+    CHECK(B(5, 1, 9, 0x05, 0xDC), B(5, 1, 9, 0x05, 0xDC));
+    EXPECT(fake_servo_us[0] == 1500);
+    CHECK(B(5, 2, 9, 0x05, 0xDD), B(5, 2, 9, 0x05, 0xDD)); /* 1 us resolution */
+    EXPECT(fake_servo_us[0] == 1501);
+    CHECK(B(5, 2, 9, 0, 0), B(5, 2, 9, 0, 0));
+    EXPECT(fake_servo_us[0] == 0);
+    CHECK(B(5, 2, 10, 0x05, 0xDC), B(0x85, 2, AIO_ERR_PIN_NOT_CONFIGURED));
+    CHECK(B(5, 1, 10, 0, 0), B(5, 1, 10, 0, 0));
+    CHECK(B(5, 1, 8, 0x05, 0xDC), B(0x85, 1, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(5, 1, 9, 0x03, 0xE7), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
+    CHECK(B(5, 1, 9, 0x07, 0xD1), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 2001 */
+    CHECK(B(5, 1, 4, 0x05, 0xDD), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* soft: not *100 */
+    CHECK(B(2, 1, 4, 1), B(2, 1, 4, 1));
+    CHECK(B(5, 1, 4, 0x05, 0xDC), B(0x85, 1, AIO_ERR_PIN_BUSY));
+    CHECK(B(2, 4, 4), B(2, 4, 4));
+    CHECK(B(5, 1, 4, 0x05, 0xDC), B(5, 1, 4, 0x05, 0xDC)); /* 1500 us = 15 ticks */
+    /* software PWM: high for 15 ticks every 200 */
+    fake_advance(400 - (fake_ticks % 200) - 1);
+    {
+        int high = 0, starts = 0;
+        uint8_t prev = 0;
+        for (t = 0; t < 400; t++) {
+            fake_advance(1);
+            uint8_t now = fake_softpwm_port >> 4 & 1u;
+            high += now;
+            starts += now && !prev;
+            prev = now;
+        }
+        EXPECT(high == 30 && starts == 2);
+        if (high != 30 || starts != 2)
+            printf("  soft PWM: high %d starts %d\n", high, starts);
+    }
+    /* a new width takes effect at the next frame */
+    CHECK(B(5, 2, 4, 0x07, 0xD0), B(5, 2, 4, 0x07, 0xD0));
+    fake_advance(200);
+    {
+        int high = 0;
+        for (t = 0; t < 200; t++) {
+            fake_advance(1);
+            high += fake_softpwm_port >> 4 & 1u;
+        }
+        EXPECT(high == 20);
+    }
+    CHECK(B(2, 4, 4), B(2, 4, 4));
+    fake_advance(400);
+    EXPECT(!(fake_softpwm_port >> 4 & 1u));
+}
+
+/* ------------------------------------------------------------ COUNTER */
+static void test_counter(void)
+{
+    int i;
+    board();
+    CHECK(B(6, 2, 2), B(0x86, 2, AIO_ERR_PIN_NOT_CONFIGURED));
+    CHECK(B(6, 1, 4, 0), B(0x86, 1, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(6, 1, 2, 2), B(0x86, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(6, 1, 2, 1), B(6, 1, 2, 1));
+    EXPECT(fake_counter_enabled[0] && fake_counter_rising[0]);
+    for (i = 0; i < 1000; i++)
+        counter_event(0);
+    CHECK(B(6, 2, 2), B(6, 2, 2, 0, 0, 0x03, 0xE8));
+    CHECK(B(6, 3, 2), B(6, 3, 2, 0, 0, 0x03, 0xE8));
+    CHECK(B(6, 2, 2), B(6, 2, 2, 0, 0, 0, 0));
+    counter_counts[1] = 0xFFFFFFFFu;
+    CHECK(B(6, 1, 3, 0), B(6, 1, 3, 0)); /* config starts at 0 */
+    counter_counts[1] = 0xFFFFFFFFu;
+    counter_event(1); /* wraps */
+    CHECK(B(6, 2, 3), B(6, 2, 3, 0, 0, 0, 0));
+    CHECK(B(2, 1, 2, 1), B(0x82, 1, AIO_ERR_PIN_BUSY));
+    CHECK(B(2, 4, 2), B(2, 4, 2));
+    EXPECT(!fake_counter_enabled[0]);
+    CHECK(B(6, 2, 2), B(0x86, 2, AIO_ERR_PIN_NOT_CONFIGURED));
+}
+
+/* ------------------------------------------------------------ STREAM */
+static void test_stream(void)
+{
+    int i;
+    board();
+    CHECK(B(7, 1, 0, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* empty */
+    CHECK(B(7, 1, 0x40, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(7, 1, 1, 8, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(7, 1, 1, 0, 0x03, 0xE7), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
+    CHECK(B(7, 1, 1, 0, 0xEA, 0x61), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 60001 */
+    CHECK(B(7, 1, 1, 0, 0x04, 0x4D), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 1101 */
+    CHECK(B(7, 1, 1, 0, 0x06, 0x40), B(0x87, 1, AIO_ERR_LINK_CAPACITY));     /* 1600 */
+    CHECK(B(7, 1, 0x0F, 0, 0x08, 0xFC), B(0x87, 1, AIO_ERR_LINK_CAPACITY));  /* 4 ch 2300 */
+    CHECK(B(7, 1, 0x0F, 0, 0x09, 0x60), B(7, 1, 0x0F, 0, 0x09, 0x60));      /* 4 ch 2400 */
+    CHECK(B(1, 6), B(1, 6, AIO_STATUS_STREAMING, 0, 0));
+    /* 1 channel + levels + edges + counters, 3300 us (limit at 115200) */
+    CHECK(B(7, 1, 0x01, 0x07, 0x0C, 0xE4), B(7, 1, 0x01, 0x07, 0x0C, 0xE4));
+    CHECK(B(7, 1, 0x01, 0x07, 0x0C, 0x80), B(0x87, 1, AIO_ERR_LINK_CAPACITY)); /* 3200 */
+    CHECK(B(2, 1, 8, 0), B(2, 1, 8, 0));
+    CHECK(B(6, 1, 3, 1), B(6, 1, 3, 1));
+    fake_adc[0] = 0x2AB;
+    fake_drive(8, 1);
+    counter_event(1);
+    counter_event(1);
+    fake_advance(33);
+    EXPECT(fake_adc_pending == 0);
+    fake_adc_complete();
+    take();
+    {
+        uint8_t exp[] = {0x40, 0x01, 0x01, 0x07, 0, 0, 0, 0, 0, 0, 16,
+                         0x02, 0xAB,             /* A0 */
+                         0x01, 0x00,             /* levels: D8 */
+                         0x01, 0x00, 0x00, 0x00, /* rose D8, fell none */
+                         0, 0, 0, 0, 0, 0, 0, 2, /* counters */
+                         0};
+        uint32_t ts = fake_ticks * 100u;
+        exp[6] = (uint8_t)(ts >> 24); exp[7] = (uint8_t)(ts >> 16);
+        exp[8] = (uint8_t)(ts >> 8); exp[9] = (uint8_t)ts;
+        exp[sizeof exp - 1] = xor_of(exp, sizeof exp - 1);
+        EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
+        if (outn != sizeof exp || memcmp(out, exp, sizeof exp)) {
+            dump("expected", exp, sizeof exp);
+            dump("got", out, outn);
+        }
+    }
+    /* second sample: sequence 1, no new edges */
+    fake_advance(33);
+    fake_adc_complete();
+    take();
+    EXPECT(outn == 28 && out[4] == 0 && out[5] == 1 && out[15] == 0 && out[16] == 0);
+    /* a full transmit buffer drops the sample, but uses its number */
+    fake_tx_capacity = 10;
+    fake_advance(33);
+    fake_adc_complete();
+    EXPECT(fake_tx_len == 0);
+    fake_tx_capacity = 192;
+    fake_advance(33);
+    fake_adc_complete();
+    take();
+    EXPECT(outn == 28 && out[5] == 3);
+    /* ANALOG READ during a stream, while a chain is running */
+    fake_advance(33);
+    EXPECT(fake_adc_pending == 0);
+    fake_adc[1] = 0x111;
+    send_frame(B(3, 2, 1));
+    run();
+    take();
+    EXPECT(outn == 28 + 6 && out[0] == 0x40 && out[28] == 3 && out[31] == 0x01 && out[32] == 0x11);
+    /* STOP: next sequence number; nothing after the reply */
+    fake_advance(33); /* a sample is being converted */
+    CHECK(B(7, 2), B(7, 2, 0, 5));
+    fake_adc_complete();
+    fake_advance(1000);
+    fake_adc_complete();
+    EXPECT(fake_tx_len == 0);
+    CHECK(B(1, 6), B(1, 6, 0, 0, 0));
+    /* replace: counters only (no ADC), restart at 0 */
+    CHECK(B(7, 1, 0, 4, 0x27, 0x10), B(7, 1, 0, 4, 0x27, 0x10));
+    for (i = 0; i < 3; i++)
+        fake_advance(100);
+    take();
+    EXPECT(outn == 3 * 20 && out[5] == 0 && out[20 + 5] == 1 && out[40 + 5] == 2);
+    CHECK(B(7, 2), B(7, 2, 0, 3));
+    CHECK(B(4, 1, 0), B(4, 1, 0));
+    CHECK(B(7, 1, 0x10, 0, 0x27, 0x10), B(0x87, 1, AIO_ERR_PIN_BUSY));
+}
+
+/* ------------------------------------------------------------ FAILSAFE */
+static void test_failsafe(void)
+{
+    board();
+    CHECK(B(8, 1, 0, 19), B(0x88, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(8, 1, 0x27, 0x11), B(0x88, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(8, 2, 1, 1, 0, 0), B(0x88, 2, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(8, 2, 13, 3, 0, 0), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(8, 2, 13, 1, 0, 2), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(8, 2, 13, 2, 0x05, 0xDC), B(0x88, 2, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(8, 2, 9, 2, 0x01, 0xDC), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(2, 1, 13, 3), B(2, 1, 13, 3));
+    CHECK(B(5, 1, 9, 0x07, 0xD0), B(5, 1, 9, 0x07, 0xD0));
+    CHECK(B(8, 2, 13, 1, 0, 0), B(8, 2, 13, 1, 0, 0));
+    CHECK(B(8, 2, 9, 2, 0x05, 0xDC), B(8, 2, 9, 2, 0x05, 0xDC));
+    CHECK(B(8, 1, 0, 50), B(8, 1, 0, 50));
+    CHECK(B(1, 6), B(1, 6, AIO_STATUS_FAILSAFE_ARMED, 0, 0));
+    fake_advance(400); /* 40 ms: fed in time */
+    CHECK(B(1, 6), B(1, 6, AIO_STATUS_FAILSAFE_ARMED, 0, 0));
+    EXPECT(fake_pin_level[13] == 1 && fake_servo_us[0] == 2000);
+    fake_advance(520);
+    EXPECT(fake_pin_level[13] == 0 && fake_servo_us[0] == 1500);
+    take();
+    EXPECT(outn == 3 && out[0] == 0x40 && out[1] == 0x02 && out[2] == 0x42);
+    CHECK(B(1, 6), B(1, 6, AIO_STATUS_FAILSAFE_TRIPPED, 0, 0));
+    CHECK(B(2, 3, 13, 1), B(0x82, 3, AIO_ERR_FAILSAFE_TRIPPED));
+    CHECK(B(2, 1, 13, 3), B(0x82, 1, AIO_ERR_FAILSAFE_TRIPPED));
+    CHECK(B(2, 4, 13), B(0x82, 4, AIO_ERR_FAILSAFE_TRIPPED));
+    CHECK(B(5, 2, 9, 0x07, 0xD0), B(0x85, 2, AIO_ERR_FAILSAFE_TRIPPED));
+    CHECK(B(5, 1, 10, 0x07, 0xD0), B(0x85, 1, AIO_ERR_FAILSAFE_TRIPPED));
+    CHECK(B(2, 2, 13), B(2, 2, 13, 0)); /* reads keep working */
+    fake_advance(2000);
+    take();
+    EXPECT(outn == 0); /* fires once */
+    CHECK(B(8, 3), B(8, 3));
+    CHECK(B(1, 6), B(1, 6, 0, 0, 0));
+    CHECK(B(2, 3, 13, 1), B(2, 3, 13, 1));
+    /* ARM also clears the tripped state */
+    CHECK(B(8, 1, 0, 20), B(8, 1, 0, 20));
+    fake_advance(300);
+    take();
+    EXPECT(outn == 3 && fake_pin_level[13] == 0);
+    CHECK(B(8, 1, 0, 20), B(8, 1, 0, 20));
+    CHECK(B(1, 6), B(1, 6, AIO_STATUS_FAILSAFE_ARMED, 0, 0));
+    /* the tripped event waits for room in a full transmit buffer */
+    fake_tx_capacity = 0;
+    fake_advance(300);
+    EXPECT(fake_tx_len == 0);
+    fake_tx_capacity = 192;
+    run();
+    take();
+    EXPECT(outn == 3 && out[0] == 0x40);
+}
+
+/* ------------------------------------------------------------ framing */
+static void test_framing(void)
+{
+    board();
+    fake_eeprom[0] = 0x12;
+    fake_eeprom[1] = 0x34;
+    /* bad checksum: one error, then the rest of the burst is discarded */
+    fake_rx_push(B(1, 2, 0x04, 1, 2, 3));
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x81\x02\x01\x82", 4));
+    fake_advance(50);
+    send_frame(B(1, 2)); /* still within 10 ms of the garbage: discarded */
+    run();
+    take();
+    EXPECT(outn == 0);
+    fake_advance(101);
+    run();
+    CHECK(B(1, 2), B(1, 2, 0x12, 0x34));
+    /* unknown class, unknown descriptor */
+    fake_rx_push(B(0x09));
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x89\x00\x02\x8B", 4));
+    fake_advance(101);
+    run();
+    fake_rx_push(B(0xC1));
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\xC1\x00\x02\xC3", 4));
+    fake_advance(101);
+    run();
+    fake_rx_push(B(0x03, 0x01));
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x83\x01\x03\x81", 4));
+    fake_advance(101);
+    run();
+    /* incomplete frame: after more than 10 ms of silence */
+    fake_rx_push(B(0x02, 0x01, 13));
+    run();
+    fake_advance(100);
+    run();
+    take();
+    EXPECT(outn == 0);
+    fake_advance(1);
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x82\x01\x04\x87", 4));
+    CHECK(B(1, 2), B(1, 2, 0x12, 0x34)); /* ready at once */
+    fake_rx_push(B(0x01));
+    run();
+    fake_advance(101);
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x81\x00\x04\x85", 4));
+    /* bytes arriving 9.9 ms apart still make a frame */
+    fake_rx_push(B(0x01));
+    run();
+    fake_advance(99);
+    run();
+    fake_rx_push(B(0x02));
+    run();
+    fake_advance(99);
+    run();
+    fake_rx_push(B(0x03));
+    run();
+    take();
+    EXPECT(outn == 5 && out[2] == 0x12);
+    /* receive overflow */
+    fake_rx_overflow();
+    fake_rx_push(B(1, 2, 3));
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x80\x00\x05\x85", 4));
+    fake_advance(101);
+    run();
+    CHECK(B(1, 2), B(1, 2, 0x12, 0x34));
+    /* 129 bytes in one go overflow the 128-byte FIFO */
+    {
+        uint8_t burst[129];
+        int i;
+        for (i = 0; i < 43; i++)
+            memcpy(burst + 3 * i, "\x01\x02\x03", 3);
+        fake_rx_push(burst, 129);
+        run();
+        take();
+        EXPECT(outn == 4 && out[2] == AIO_ERR_RX_OVERFLOW);
+        fake_advance(101);
+        run();
+    }
+}
+
+static void test_pipelining(void)
+{
+    uint8_t burst[128];
+    uint32_t n = 0;
+    int i;
+    board();
+    fake_eeprom[0] = 0;
+    fake_eeprom[1] = 7;
+    fake_adc[2] = 0x200;
+    /* 5 + 4 + 3 + 4 + 5 + 3 ... interleaved, answered in order */
+    memcpy(burst + n, "\x02\x01\x0D\x01\x0F", 5); n += 5;    /* GPIO CONFIG 13 out */
+    memcpy(burst + n, "\x03\x02\x02\x03", 4); n += 4;        /* ANALOG READ 2 */
+    memcpy(burst + n, "\x01\x02\x03", 3); n += 3;            /* ID */
+    memcpy(burst + n, "\x02\x02\x0D\x0D", 4); n += 4;        /* GPIO READ 13 */
+    memcpy(burst + n, "\x02\x03\x05\x01\x05", 5); n += 5;    /* GPIO WRITE 5: not configured */
+    memcpy(burst + n, "\x01\x02\x03", 3); n += 3;            /* ID */
+    fake_rx_push(burst, n);
+    run();
+    take();
+    {
+        const uint8_t exp[] = {0x02, 0x01, 0x0D, 0x01, 0x0F,
+                               0x03, 0x02, 0x02, 0x02, 0x00, 0x01,
+                               0x01, 0x02, 0x00, 0x07, 0x04,
+                               0x02, 0x02, 0x0D, 0x00, 0x0D,
+                               0x82, 0x03, 0x07, 0x86,
+                               0x01, 0x02, 0x00, 0x07, 0x04};
+        EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
+    }
+    /* replies wait for room in the transmit buffer; none is dropped */
+    fake_tx_capacity = 12;
+    n = 0;
+    for (i = 0; i < 40; i++) {
+        memcpy(burst + n, "\x01\x02\x03", 3);
+        n += 3;
+    }
+    fake_rx_push(burst, n);
+    {
+        uint32_t total = 0;
+        int rounds = 0;
+        while (rounds++ < 100) {
+            run();
+            take();
+            for (i = 0; (uint32_t)i < outn; i += 5)
+                EXPECT(!memcmp(out + i, "\x01\x02\x00\x07\x04", 5));
+            total += outn;
+            if (!outn)
+                break;
+        }
+        EXPECT(total == 40 * 5);
+    }
+    fake_tx_capacity = 192;
+}
+
+/* 1,000,000 random bytes: no crash, no out-of-bounds access (ASan/UBSan),
+ * and after 10 ms of quiet the board answers an ID request. */
+static void test_random(void)
+{
+    uint32_t i, seed = 12345;
+    uint8_t chunk[64];
+    board();
+    fake_eeprom[0] = 0xAB;
+    fake_eeprom[1] = 0xCD;
+    for (i = 0; i < 1000000u;) {
+        uint32_t n, k;
+        seed = seed * 1103515245u + 12345u;
+        n = 1 + (seed >> 16) % 64u;
+        for (k = 0; k < n; k++) {
+            seed = seed * 1103515245u + 12345u;
+            chunk[k] = (uint8_t)(seed >> 16);
+        }
+        fake_rx_push(chunk, n);
+        i += n;
+        run();
+        seed = seed * 1103515245u + 12345u;
+        if ((seed >> 16) % 16u == 0)
+            fake_advance((seed >> 20) % 150u); /* sometimes a pause, sometimes > 10 ms */
+        fake_adc_complete();
+        fake_tx_len = 0; /* the host reads everything */
+        if (fake_reset_done) { /* a random RESET: the board restarts */
+            uint8_t id[2] = {fake_eeprom[0], fake_eeprom[1]};
+            board();
+            fake_eeprom[0] = id[0];
+            fake_eeprom[1] = id[1];
+        }
+    }
+    /* stop a random stream/failsafe noise from interleaving, then check */
+    fake_advance(101);
+    run();
+    fake_tx_len = 0;
+    send_frame(B(8, 3));
+    send_frame(B(7, 2));
+    run();
+    fake_tx_len = 0;
+    fake_eeprom[0] = 0xAB;
+    fake_eeprom[1] = 0xCD;
+    CHECK(B(1, 2), B(1, 2, 0xAB, 0xCD));
+}
+
+/* Every (CT, DT) the table knows parses; every other DT is unknown. */
+static void test_table(void)
+{
+    int ct, dt, known = 0;
+    uint8_t fixed;
+    int8_t lp;
+    for (ct = 0; ct < 256; ct++)
+        for (dt = 0; dt < 256; dt++)
+            if (parser_lookup((uint8_t)ct, (uint8_t)dt, &fixed, &lp)) {
+                known++;
+                EXPECT(parser_known_class((uint8_t)ct));
+                EXPECT(fixed + (lp >= 0 ? AIO_MAX_BLOB : 0) <= 46);
+            }
+#define AIO_X(CLASS, NAME, ct_, dt_, dl, lpos) +1
+    EXPECT(known == 0 AIO_REQUEST_TABLE(AIO_X));
+#undef AIO_X
+}
+
+int main(void)
+{
+    test_table();
+    test_misc();
+    test_gpio();
+    test_analog();
+    test_i2c();
+    test_pwm();
+    test_counter();
+    test_stream();
+    test_failsafe();
+    test_framing();
+    test_pipelining();
+    test_random();
+    printf("%d checks, %d failures\n", checks, failures);
+    return failures != 0;
+}
