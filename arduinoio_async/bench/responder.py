@@ -40,6 +40,9 @@ class InstantStream(anyio.abc.ByteStream):
         self._ready = anyio.Event()
 
     async def send(self, item: bytes) -> None:
+        self.send_nowait(item)
+
+    def send_nowait(self, item: bytes) -> None:
         reply = self._table.get(bytes(item))
         if reply is None:
             decoded = p.Decoder.from_host().feed(item)

@@ -31,6 +31,7 @@ frame in half.
 
 from __future__ import annotations
 
+import asyncio
 import collections
 import time
 from collections.abc import Callable
@@ -128,22 +129,66 @@ def board_error(reply: p.ErrorReply, request: p.Request[Any]) -> BoardError:
 
 
 class _Pending:
-    __slots__ = ("abandoned", "done", "error", "event", "reply", "request", "size")
+    """One request in flight.  On asyncio it waits on a bare future with a ``call_at``
+    timer (a cancel scope and an Event per request cost more than the rest of the
+    request together); on other backends on an anyio Event in a cancel scope."""
 
-    def __init__(self, request: p.Request[Any], size: int) -> None:
+    __slots__ = (
+        "_event",
+        "_future",
+        "_timer",
+        "abandoned",
+        "done",
+        "error",
+        "reply",
+        "request",
+        "size",
+    )
+
+    def __init__(
+        self, request: p.Request[Any], size: int, loop: asyncio.AbstractEventLoop | None
+    ) -> None:
         self.request = request
         self.size = size
-        self.event = anyio.Event()
         self.reply: p.Reply | None = None
         self.error: ArduinoIOError | None = None
         self.done = False
         self.abandoned = False
+        self._timer: asyncio.TimerHandle | None = None
+        self._future: asyncio.Future[None] | None = None
+        self._event: anyio.Event | None = None
+        if loop is not None:
+            self._future = loop.create_future()
+        else:
+            self._event = anyio.Event()
 
     def resolve(self, reply: p.Reply | None, error: ArduinoIOError | None) -> None:
+        if self.done:
+            return
         self.reply = reply
         self.error = error
         self.done = True
-        self.event.set()
+        if self._timer is not None:
+            self._timer.cancel()
+        if self._future is not None:
+            if not self._future.done():
+                self._future.set_result(None)
+        elif self._event is not None:
+            self._event.set()
+
+    async def wait(self, deadline: float, expire: Callable[[_Pending], None]) -> None:
+        """Until resolved; at ``deadline`` call ``expire`` (which resolves it)."""
+        if self.done:
+            return
+        if self._future is not None:
+            self._timer = self._future.get_loop().call_at(deadline, expire, self)
+            await self._future
+            return
+        assert self._event is not None
+        with anyio.move_on_after(deadline - anyio.current_time()):
+            await self._event.wait()
+        if not self.done:
+            expire(self)
 
 
 class Transport:
@@ -180,10 +225,18 @@ class Transport:
         self._subscribers: list[Callable[[p.Event], None]] = []
         self._state_listeners: list[Callable[[LinkState], None]] = []
         self._task_group: anyio.abc.TaskGroup | None = None
+        self._waiters = 0
+        #: Streams that can write without suspending get the fast path (no lock needed).
+        self._send_nowait: Callable[[bytes], None] | None = getattr(stream, "send_nowait", None)
+        self._loop: asyncio.AbstractEventLoop | None = None
 
     # ---- lifecycle ---------------------------------------------------------------------
 
     async def __aenter__(self) -> Transport:
+        try:  # running on anyio's asyncio backend?
+            self._loop = asyncio.get_running_loop()
+        except RuntimeError:
+            self._loop = None
         self._task_group = anyio.create_task_group()
         await self._task_group.__aenter__()
         self._task_group.start_soon(self._reader, name=f"arduinoio reader {self.name}")
@@ -235,27 +288,30 @@ class Transport:
         frame = request.encode()
         limit = self.timeout if timeout is None else timeout
         deadline = anyio.current_time() + limit
-        pending = await self._enqueue(request, frame, deadline, limit)
+        pending = self._send_now(request, frame)
+        if pending is None:
+            pending = await self._enqueue(request, frame, deadline, limit)
         try:
-            remaining = deadline - anyio.current_time()
-            if not pending.done:
-                with anyio.move_on_after(remaining):
-                    await pending.event.wait()
-            if not pending.done:
-                self.stats.timeouts += 1
-                error = BoardTimeoutError(
-                    f"{self.name}: no reply to {type(request).__name__} within {limit:g} s"
-                )
-                self._lose_sync(f"{type(request).__name__} timed out", blame=pending, error=error)
-                if not pending.done:
-                    pending.resolve(None, error)
+            await pending.wait(deadline, self._expire)
         finally:
             if not pending.done:
                 pending.abandoned = True
         if pending.error is not None:
             raise pending.error
-        assert pending.reply is not None
         return pending.reply  # type: ignore[return-value]
+
+    def _expire(self, pending: _Pending) -> None:
+        """A request's deadline passed without its reply: the link has lost sync."""
+        if pending.done:
+            return
+        self.stats.timeouts += 1
+        limit = self.timeout
+        error = BoardTimeoutError(
+            f"{self.name}: no reply to {type(pending.request).__name__} in time "
+            f"(default timeout {limit:g} s)"
+        )
+        self._lose_sync(f"{type(pending.request).__name__} timed out", blame=pending, error=error)
+        pending.resolve(None, error)
 
     def _must_wait(self, size: int) -> bool:
         return (
@@ -264,17 +320,46 @@ class Transport:
             or (bool(self._pending) and self._inflight_bytes + size > self.window_bytes)
         )
 
+    def _register(self, request: p.Request[Any], size: int) -> _Pending:
+        pending = _Pending(request, size, self._loop)
+        self._pending.append(pending)
+        self._inflight_bytes += size
+        self.stats.requests += 1
+        return pending
+
+    def _sent(self, request: p.Request[Any]) -> None:
+        if self.trace is not None:
+            self.trace(TraceRecord(time.perf_counter_ns(), "tx", request))
+
+    def _send_now(self, request: p.Request[Any], frame: bytes) -> _Pending | None:
+        """The fast path: register and write without a suspension point, or None."""
+        send_nowait = self._send_nowait
+        if send_nowait is None or self._send_lock.locked() or self._must_wait(len(frame)):
+            return None
+        pending = self._register(request, len(frame))
+        try:
+            send_nowait(frame)
+        except (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError) as exc:
+            self._mark_closed(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
+        self._sent(request)
+        return pending
+
     async def _enqueue(
         self, request: p.Request[Any], frame: bytes, deadline: float, limit: float
     ) -> _Pending:
+        """The slow path: wait for the link and the window, then send under the lock."""
         size = len(frame)
         while True:
             while self._must_wait(size):
                 if self._close_error is not None:
                     raise BoardDisconnectedError(str(self._close_error))
                 changed = self._changed
-                with anyio.move_on_after(deadline - anyio.current_time()):
-                    await changed.wait()
+                self._waiters += 1
+                try:
+                    with anyio.move_on_after(deadline - anyio.current_time()):
+                        await changed.wait()
+                finally:
+                    self._waiters -= 1
                 if anyio.current_time() >= deadline and not changed.is_set():
                     self.stats.timeouts += 1
                     raise BoardTimeoutError(
@@ -285,10 +370,7 @@ class Transport:
                 # Other requests may have taken the window while this one took the lock.
                 if self._must_wait(size):
                     continue
-                pending = _Pending(request, size)
-                self._pending.append(pending)
-                self._inflight_bytes += size
-                self.stats.requests += 1
+                pending = self._register(request, size)
                 with anyio.CancelScope(shield=True):
                     try:
                         await self.stream.send(frame)
@@ -296,8 +378,7 @@ class Transport:
                         self._mark_closed(
                             BoardDisconnectedError(f"{self.name}: write failed: {exc}")
                         )
-                if self.trace is not None:
-                    self.trace(TraceRecord(time.perf_counter_ns(), "tx", request))
+                self._sent(request)
                 return pending
 
     # ---- the reader task ---------------------------------------------------------------
@@ -308,13 +389,13 @@ class Transport:
                 if self._state is LinkState.RESYNCING:
                     await self._resync()
                     continue
+                # One cancel scope per stretch of good operation, not one per chunk:
+                # _lose_sync() cancels it to wake a reader blocked on a silent line.
                 with anyio.CancelScope() as scope:
                     self._receive_scope = scope
-                    data = await self.stream.receive()
+                    while self._state is LinkState.READY:
+                        self._handle(await self.stream.receive())
                 self._receive_scope = None
-                if scope.cancelled_caught:
-                    continue
-                self._handle(data)
         except (anyio.EndOfStream, anyio.BrokenResourceError, anyio.ClosedResourceError) as exc:
             self._mark_closed(BoardDisconnectedError(f"{self.name}: port lost ({exc or 'EOF'})"))
         except OSError as exc:
@@ -461,5 +542,6 @@ class Transport:
             callback(state)
 
     def _notify(self) -> None:
-        changed, self._changed = self._changed, anyio.Event()
-        changed.set()
+        if self._waiters:
+            changed, self._changed = self._changed, anyio.Event()
+            changed.set()

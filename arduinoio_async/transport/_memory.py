@@ -30,11 +30,15 @@ class MemoryByteStream(anyio.abc.ByteStream):
         data, self._rest = self._rest[:max_bytes], self._rest[max_bytes:]
         return data
 
-    async def send(self, item: bytes) -> None:
+    def send_nowait(self, item: bytes) -> None:
+        """Queue ``item`` for the peer without suspending (the buffer is unbounded)."""
         try:
             self._send.send_nowait(bytes(item))
         except (anyio.ClosedResourceError, anyio.BrokenResourceError):
             raise anyio.BrokenResourceError("memory link closed") from None
+
+    async def send(self, item: bytes) -> None:
+        self.send_nowait(item)
 
     async def send_eof(self) -> None:
         await self._send.aclose()

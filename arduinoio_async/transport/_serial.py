@@ -29,22 +29,41 @@ __all__ = ["SerialByteStream", "open_serial_stream"]
 
 
 class _EagerSerialTransport(serial_asyncio.SerialTransport):  # type: ignore[misc]
-    """SerialTransport that writes immediately when its buffer is empty."""
+    """SerialTransport that writes immediately when its buffer is empty, and reads and
+    writes the descriptor with plain ``os.read``/``os.write``: pyserial's own ``read`` and
+    ``write`` run a ``select()`` per call even on a non-blocking port, which costs more
+    than the rest of a request."""
+
+    def _read_ready(self) -> None:
+        try:
+            data = os.read(self._serial.fd, self._max_read_size)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError as exc:
+            self._close(exc=serial.SerialException(f"read failed: {exc}"))
+            return
+        if data:
+            self._protocol.data_received(data)
+        else:  # a pseudo-terminal whose other end went away, or an unplugged USB device
+            self._close(exc=serial.SerialException("device disconnected"))
 
     def write(self, data: bytes) -> None:
         if self._closing:
             return
         if not self._write_buffer:
             try:
-                written = self._serial.write(data)
+                written = os.write(self._serial.fd, data)
             except (BlockingIOError, InterruptedError):
                 written = 0
-            except serial.SerialException as exc:
-                self._fatal_error(exc, "Fatal write error on serial transport")
+            except OSError as exc:
+                self._fatal_error(
+                    serial.SerialException(f"write failed: {exc}"),
+                    "Fatal write error on serial transport",
+                )
                 return
             if written == len(data):
                 return
-            data = data[written or 0 :]
+            data = data[written:]
         super().write(data)
 
 
@@ -99,10 +118,14 @@ class SerialByteStream(anyio.abc.ByteStream):
             data = data[:max_bytes]
         return data
 
-    async def send(self, item: bytes) -> None:
+    def send_nowait(self, item: bytes) -> None:
+        """Write without suspending (eagerly, or queued in the transport)."""
         if self._protocol.closed or self._transport.is_closing():
             raise anyio.BrokenResourceError(f"serial port {self.port} is closed")
         self._transport.write(item)
+
+    async def send(self, item: bytes) -> None:
+        self.send_nowait(item)
 
     async def send_eof(self) -> None:
         raise NotImplementedError("serial ports have no end-of-file")
@@ -148,11 +171,8 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
 
 
 def _has_fileno(port: serial.SerialBase) -> bool:
-    try:
-        port.fileno()
-    except (AttributeError, serial.SerialException, OSError, NotImplementedError):
-        return False
-    return os.name == "posix"
+    """A POSIX serial port (device or pty) whose descriptor the event loop can watch."""
+    return os.name == "posix" and isinstance(getattr(port, "fd", None), int)
 
 
 async def open_serial_stream(
