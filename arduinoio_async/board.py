@@ -10,8 +10,9 @@ it on the fresh board and hand back the same ``Board`` and the same handles.
 from __future__ import annotations
 
 import random
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import anyio
@@ -19,6 +20,7 @@ import anyio.abc
 
 from . import protocol as p
 from .errors import (
+    ArduinoIOError,
     BoardDisconnectedError,
     LinkError,
     PinRoleError,
@@ -41,8 +43,10 @@ from .handles import (
 )
 from .protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
 from .protocol.pins import require as require_capable
+from .streaming import DEFAULT_BUFFER, SampleStream, stream_request
 from .transport import (
     DEFAULT_TIMEOUT,
+    LinkState,
     TraceHook,
     Transport,
     open_serial_stream,
@@ -54,6 +58,19 @@ __all__ = ["READY_TIMEOUT", "Board"]
 #: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
 #: opens and answers 1.6-2 s later.
 READY_TIMEOUT = 5.0
+#: Status poll interval of an idle link without failsafe (detects resets, costs ~1 frame).
+IDLE_HEARTBEAT = 0.25
+#: With the failsafe armed the host polls this many times per timeout while idle.
+HEARTBEATS_PER_TIMEOUT = 4
+
+
+@dataclass(frozen=True)
+class FailsafeConfig:
+    """An armed failsafe: the timeout and the safe state of each output pin."""
+
+    timeout_ms: int
+    safe_states: tuple[p.FailsafeSafeState, ...]
+
 
 R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=_PinHandle)
@@ -71,6 +88,11 @@ class Board:
         self._gpio: dict[DigitalPin, Gpio] = {}
         self._i2c: I2CBus | None = None
         self.session = 0
+        self.failsafe: FailsafeConfig | None = None
+        self.failsafe_tripped = False
+        self._failsafe_listeners: list[Callable[[Board], None]] = []
+        self._unsubscribe: Callable[[], None] | None = None
+        self._watch(link)
 
     def __repr__(self) -> str:
         return f"<Board 0x{self.board_id:04X} on {self.port or 'nothing'}>"
@@ -114,12 +136,14 @@ class Board:
         link = await cls.start_link(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=name
         )
-        async with link:
+        async with link, anyio.create_task_group() as tasks:
             board = await cls.from_link(link)
+            tasks.start_soon(board.keepalive, link, name=f"arduinoio keepalive {link.name}")
             try:
                 yield board
             finally:
                 board._link = None
+                tasks.cancel_scope.cancel()
 
     @classmethod
     async def from_link(cls, link: Transport) -> Board:
@@ -172,12 +196,31 @@ class Board:
         self.capabilities = await link.request(p.ReadCapabilities())
         await self._handshake(link)
         await self._restore_on(link)
+        await self._arm_on(link)
+        self._watch(link)
         self._link = link
 
     def detach(self, link: Transport | None = None) -> None:
         """Forget the link (if it is ``link``); calls fail with BoardDisconnectedError."""
         if link is None or self._link is link:
             self._link = None
+
+    def _watch(self, link: Transport) -> None:
+        """Listen for board-initiated frames (the failsafe's trip report) on ``link``."""
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+        self._unsubscribe = link.subscribe(self._on_event)
+
+    def _on_event(self, event: p.Event) -> None:
+        if isinstance(event, p.FailsafeTripped):
+            self._tripped()
+
+    def _tripped(self) -> None:
+        if self.failsafe_tripped:
+            return
+        self.failsafe_tripped = True
+        for callback in list(self._failsafe_listeners):
+            callback(self)
 
     # ---- plumbing ---------------------------------------------------------------------------
 
@@ -346,3 +389,135 @@ class Board:
                 if status.session != self.session:
                     break
         await self._handshake(link)
+
+    # ---- streaming (extension) ---------------------------------------------------------------
+
+    @asynccontextmanager
+    async def stream(
+        self,
+        *,
+        analog: Sequence[AnalogPin] = (),
+        levels: bool = False,
+        edges: bool = False,
+        counters: bool = False,
+        period_ms: float = 10.0,
+        buffer: int = DEFAULT_BUFFER,
+    ) -> AsyncIterator[SampleStream]:
+        """Samples taken by the board's timer every ``period_ms`` (1 ms and up).
+
+        ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
+        async for s in samples: ...``.  Commands keep working meanwhile.  A period the
+        link cannot carry is refused by the board with :class:`LinkCapacityError`; see
+        :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
+        """
+        request = stream_request(analog, levels, edges, counters, period_ms)
+        link = self.link
+        samples = SampleStream(link, request, buffer)
+        try:
+            await link.request(request)
+        except BaseException:
+            samples.detach()
+            raise
+        try:
+            yield samples
+        finally:
+            with anyio.CancelScope(shield=True):
+                try:
+                    stopped = await link.request(p.StreamStop())
+                except ArduinoIOError:
+                    samples.detach()
+                else:
+                    samples.finish(stopped.next_sequence)
+
+    # ---- failsafe (extension) ------------------------------------------------------------------
+
+    def on_failsafe(self, callback: Callable[[Board], None]) -> Callable[[], None]:
+        """Call ``callback(board)`` when the board reports that its failsafe fired."""
+        self._failsafe_listeners.append(callback)
+        return lambda: self._failsafe_listeners.remove(callback)
+
+    async def arm_failsafe(
+        self, timeout_ms: int, safe_states: Mapping[_PinHandle, bool | int]
+    ) -> None:
+        """Arm the board's link watchdog.
+
+        ``safe_states`` maps output handles to what they do when the host falls silent
+        for ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no
+        pulses) for servo and soft-PWM outputs.  The library's heartbeat keeps the
+        watchdog fed while this process runs; a killed process, a pulled cable or a
+        blocked event loop lets it fire.
+        """
+        if not p.FAILSAFE_MIN_TIMEOUT_MS <= timeout_ms <= p.FAILSAFE_MAX_TIMEOUT_MS:
+            raise ValueRangeError(
+                "failsafe timeout (ms)",
+                timeout_ms,
+                f"{p.FAILSAFE_MIN_TIMEOUT_MS}-{p.FAILSAFE_MAX_TIMEOUT_MS}",
+            )
+        requests = []
+        for handle, state in safe_states.items():
+            if isinstance(handle, PulseOutput):
+                pulse = handle.check_pulse(int(state))
+                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.PULSE, pulse))
+            elif isinstance(handle, DigitalOutput | Gpio):
+                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.LEVEL, int(bool(state))))
+            else:
+                raise PinRoleError(handle.pin.name, handle.ROLE, "failsafe output")
+        self.failsafe = FailsafeConfig(timeout_ms, tuple(requests))
+        await self._arm_on(self.link)
+
+    async def _arm_on(self, link: Transport) -> None:
+        if self.failsafe is None:
+            return
+        for request in self.failsafe.safe_states:
+            await link.request(request)
+        await link.request(p.FailsafeArm(self.failsafe.timeout_ms))
+        self.failsafe_tripped = False
+
+    async def disarm_failsafe(self) -> None:
+        await self.request(p.FailsafeDisarm())
+        self.failsafe = None
+        self.failsafe_tripped = False
+
+    async def rearm_failsafe(self, *, restore: bool = True) -> None:
+        """After a trip: arm again and (by default) put every output back as it was."""
+        link = self.link
+        await self._arm_on(link)
+        if restore:
+            await self._restore_on(link)
+
+    # ---- keepalive ---------------------------------------------------------------------
+
+    def heartbeat_interval(self) -> float:
+        if self.failsafe is None:
+            return IDLE_HEARTBEAT
+        return min(IDLE_HEARTBEAT, self.failsafe.timeout_ms / 1000 / HEARTBEATS_PER_TIMEOUT)
+
+    async def keepalive(
+        self,
+        link: Transport,
+        *,
+        on_reset: Callable[[], Awaitable[None]] | None = None,
+        on_trip: Callable[[], Awaitable[None]] | None = None,
+    ) -> None:
+        """Poll the board's status while the link is idle, until it closes.
+
+        Feeds the failsafe, notices a trip that no event reported, and (with
+        ``on_reset``) a board that has reset by itself.
+        """
+        while link.state is not LinkState.CLOSED:
+            interval = self.heartbeat_interval()
+            await anyio.sleep(max(0.0, link.last_send + interval - anyio.current_time()))
+            if anyio.current_time() - link.last_send < interval * 0.9:
+                continue  # other traffic fed the watchdog
+            try:
+                status = await link.request(p.ReadStatus())
+            except LinkError:
+                continue
+            if status.session != self.session:
+                if on_reset is not None:
+                    await on_reset()
+                continue
+            if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
+                self._tripped()
+            if self.failsafe_tripped and on_trip is not None:
+                await on_trip()

@@ -24,6 +24,7 @@ import glob
 import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Literal
 
 import anyio
@@ -36,7 +37,6 @@ from .errors import (
     ArduinoIOError,
     BoardNotFoundError,
     DuplicateBoardError,
-    LinkError,
 )
 from .transport import DEFAULT_TIMEOUT, LinkState, Transport, open_serial_stream
 from .transport._ready import wait_ready
@@ -64,7 +64,6 @@ USB_IDS: tuple[tuple[int, int | None], ...] = (
     (0x03EB, 0x2FEF),  # Atmel ATmega16U2 DFU / clones
 )
 
-HEARTBEAT = 0.25
 RESCAN_INTERVAL = 1.0
 
 
@@ -84,9 +83,9 @@ class ProbeResult:
 
 @dataclass(frozen=True, slots=True)
 class ManagerEvent:
-    """A change in the set of boards: connected, disconnected, reset (restored), duplicate."""
+    """A change: connected, disconnected, reset (restored), failsafe (re-armed), duplicate."""
 
-    kind: Literal["connected", "disconnected", "reset", "duplicate"]
+    kind: Literal["connected", "disconnected", "reset", "failsafe", "duplicate"]
     board_id: int
     port: str
     detail: str = ""
@@ -143,7 +142,6 @@ class BoardManager:
     baudrate: int = p.DEFAULT_BAUD
     timeout: float = DEFAULT_TIMEOUT
     probe_deadline: float = READY_TIMEOUT
-    heartbeat: float = HEARTBEAT
     rescan_interval: float = RESCAN_INTERVAL
     _boards: dict[int, Board] = field(default_factory=dict, init=False)
     _known: dict[str, _Known] = field(default_factory=dict, init=False)
@@ -333,16 +331,21 @@ class BoardManager:
                 task_status.started()
 
     async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
-        while not closed.is_set():
-            with anyio.move_on_after(self.heartbeat):
-                await closed.wait()
-                return
-            try:
-                status = await link.request(p.ReadStatus())
-            except LinkError:
-                if link.state is LinkState.CLOSED:
-                    return
-                continue
-            if status.session != board.session:
-                self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
-                await board.adopt(link)
+        """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip."""
+
+        async def restore_after_reset() -> None:
+            self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
+            await board.adopt(link)
+
+        async def rearm_after_trip() -> None:
+            self._emit(ManagerEvent("failsafe", board.board_id, link.name, "re-arming"))
+            await board.rearm_failsafe(restore=True)
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(
+                partial(
+                    board.keepalive, link, on_reset=restore_after_reset, on_trip=rearm_after_trip
+                )
+            )
+            await closed.wait()
+            tg.cancel_scope.cancel()

@@ -75,7 +75,11 @@ class PinState:
 
 @dataclass(frozen=True, slots=True)
 class PulseStats:
-    """Recent pulses captured on a pin; times are simulated microseconds."""
+    """Recent pulses captured on a pin; times are simulated microseconds.
+
+    ``high_us`` and ``period_us`` hold the last 32 values; ``highs`` and ``periods`` count
+    all values recorded since the last clear, so a poller can tell which entries are new.
+    """
 
     pin: int
     count: int
@@ -83,6 +87,8 @@ class PulseStats:
     level: int
     high_us: tuple[float, ...]
     period_us: tuple[float, ...]
+    highs: int = 0
+    periods: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -398,6 +404,8 @@ class VirtualUno:
             level=r["level"],
             high_us=tuple(r["high_us"]),
             period_us=tuple(r["period_us"]),
+            highs=int(r.get("highs", 0)),
+            periods=int(r.get("periods", 0)),
         )
 
     async def clear_pulse_stats(self, pin: PinName) -> None:

@@ -226,6 +226,8 @@ class Transport:
         self._state_listeners: list[Callable[[LinkState], None]] = []
         self._task_group: anyio.abc.TaskGroup | None = None
         self._waiters = 0
+        #: ``anyio.current_time()`` of the last request sent (heartbeats skip busy links).
+        self.last_send = 0.0
         #: Streams that can write without suspending get the fast path (no lock needed).
         self._send_nowait: Callable[[bytes], None] | None = getattr(stream, "send_nowait", None)
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -325,6 +327,7 @@ class Transport:
         self._pending.append(pending)
         self._inflight_bytes += size
         self.stats.requests += 1
+        self.last_send = anyio.current_time()
         return pending
 
     def _sent(self, request: p.Request[Any]) -> None:

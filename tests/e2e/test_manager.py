@@ -177,7 +177,7 @@ async def test_a_reset_by_command_is_detected_and_restored(
 ) -> None:
     uno = await virtual_uno_factory(board_id=4)
     events: list[ManagerEvent] = []
-    async with manager([uno.port], heartbeat=0.05) as boards:
+    async with manager([uno.port]) as boards:
         boards.subscribe(events.append)
         board = await boards.get(4)
         await board.gpio(D4).write(True)

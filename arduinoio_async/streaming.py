@@ -1,0 +1,182 @@
+"""Firmware-timed sample streams (protocol extension).
+
+The board samples from a timer interrupt and pushes one frame per sample; the transport
+hands those frames to :class:`SampleStream`, which keeps them in a bounded buffer for the
+consumer.  Nothing is lost silently:
+
+* a sequence number that jumps counts the missing samples in :attr:`SampleStream.gaps`
+  (the board skips a number when its transmit buffer had no room; the host loses frames
+  to line noise);
+* when the consumer falls behind and the buffer is full, the **oldest** sample is dropped
+  (a controller wants the newest data) and counted in :attr:`SampleStream.dropped`;
+* when the stream stops, the board's ``next_sequence`` reveals samples that were sent but
+  never arrived.
+"""
+
+from __future__ import annotations
+
+import collections
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import anyio
+
+from . import protocol as p
+from .errors import BoardDisconnectedError, ValueRangeError
+from .protocol.pins import AnalogPin, DigitalPin, Function, require
+from .transport import LinkState, Transport
+
+__all__ = ["DEFAULT_BUFFER", "Sample", "SampleStream", "stream_request"]
+
+DEFAULT_BUFFER = 1000
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """One sample: when, which, and the values of what the stream asked for."""
+
+    #: ``time.monotonic()`` when the frame was decoded on the host.
+    host_time: float
+    #: The board's microsecond timer at the sampling instant (wraps at 2**32).
+    board_time_us: int
+    sequence: int
+    analog: dict[AnalogPin, int]
+    #: Bit n = level of Dn (D2-D13), if the stream includes levels.
+    levels: int | None = None
+    #: Bit n = Dn rose / fell since the previous sample, if the stream includes edges.
+    rose: int | None = None
+    fell: int | None = None
+    #: Counts of D2 and D3, if the stream includes counters.
+    counters: tuple[int, int] | None = None
+
+    def level(self, pin: DigitalPin) -> bool:
+        if self.levels is None:
+            raise ValueError("this stream does not carry digital levels")
+        return bool(self.levels >> int(pin) & 1)
+
+    @classmethod
+    def from_frame(cls, frame: p.StreamSample, host_time: float) -> Sample:
+        data = frame.payload
+        pos = 0
+
+        def take(size: int) -> int:
+            nonlocal pos
+            value = int.from_bytes(data[pos : pos + size], "big")
+            pos += size
+            return value
+
+        analog = {pin: take(2) for pin in AnalogPin if frame.analog_mask >> int(pin) & 1}
+        levels = take(2) if frame.flags & p.StreamFlags.LEVELS else None
+        rose = fell = None
+        if frame.flags & p.StreamFlags.EDGES:
+            rose, fell = take(2), take(2)
+        counters = None
+        if frame.flags & p.StreamFlags.COUNTERS:
+            counters = (take(4), take(4))
+        return cls(
+            host_time, frame.timestamp_us, frame.sequence, analog, levels, rose, fell, counters
+        )
+
+
+def stream_request(
+    analog: Sequence[AnalogPin], levels: bool, edges: bool, counters: bool, period_ms: float
+) -> p.StreamStart:
+    """Validate a stream's parameters and build its START request."""
+    mask = 0
+    for pin in analog:
+        require(pin, Function.ANALOG_INPUT)
+        mask |= 1 << int(pin)
+    flags = p.StreamFlags.NONE
+    if levels:
+        flags |= p.StreamFlags.LEVELS
+    if edges:
+        flags |= p.StreamFlags.EDGES
+    if counters:
+        flags |= p.StreamFlags.COUNTERS
+    if not mask and not flags:
+        raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
+    period_us = round(period_ms * 1000)
+    if (
+        not p.STREAM_MIN_PERIOD_US <= period_us <= p.STREAM_MAX_PERIOD_US
+        or period_us % p.STREAM_PERIOD_STEP_US
+    ):
+        raise ValueRangeError(
+            "stream period (ms)",
+            period_ms,
+            f"{p.STREAM_MIN_PERIOD_US / 1000:g}-{p.STREAM_MAX_PERIOD_US / 1000:g} ms in steps "
+            f"of {p.STREAM_PERIOD_STEP_US / 1000:g} ms",
+        )
+    return p.StreamStart(mask, flags, period_us)
+
+
+class SampleStream:
+    """Async iterator over the samples of a running stream (see the module docstring)."""
+
+    def __init__(self, link: Transport, request: p.StreamStart, buffer: int) -> None:
+        self.request = request
+        self.buffer_size = buffer
+        self.received = 0
+        self.gaps = 0
+        self.dropped = 0
+        self._link = link
+        self._buffer: collections.deque[Sample] = collections.deque()
+        self._arrived = anyio.Event()
+        self._expected: int | None = None
+        self._unsubscribe = link.subscribe(self._on_event)
+        self._stop_state = link.on_state_change(self._on_state)
+        self._closed: BaseException | None = None
+
+    @property
+    def lost(self) -> int:
+        """Samples that never reached the consumer: sequence gaps plus buffer overflow."""
+        return self.gaps + self.dropped
+
+    def _on_event(self, event: p.Event) -> None:
+        if not isinstance(event, p.StreamSample):
+            return
+        sample = Sample.from_frame(event, time.monotonic())
+        self._count_gap(sample.sequence)
+        self.received += 1
+        if len(self._buffer) >= self.buffer_size:
+            self._buffer.popleft()
+            self.dropped += 1
+        self._buffer.append(sample)
+        self._arrived.set()
+
+    def _count_gap(self, sequence: int) -> None:
+        if self._expected is not None and sequence != self._expected:
+            self.gaps += (sequence - self._expected) & 0xFFFF
+        self._expected = (sequence + 1) & 0xFFFF
+
+    def _on_state(self, state: LinkState) -> None:
+        if state is LinkState.CLOSED:
+            self._closed = BoardDisconnectedError("the link closed while streaming")
+            self._arrived.set()
+
+    def __aiter__(self) -> SampleStream:
+        return self
+
+    async def __anext__(self) -> Sample:
+        while not self._buffer:
+            if self._closed is not None:
+                raise self._closed
+            self._arrived = anyio.Event()
+            await self._arrived.wait()
+        return self._buffer.popleft()
+
+    def pending(self) -> int:
+        """Samples buffered and not yet consumed."""
+        return len(self._buffer)
+
+    def finish(self, next_sequence: int) -> None:
+        """Account for samples sent before the stop but never received."""
+        if self._expected is not None:
+            self.gaps += (next_sequence - self._expected) & 0xFFFF
+        elif next_sequence:
+            self.gaps += next_sequence
+        self.detach()
+
+    def detach(self) -> None:
+        self._unsubscribe()
+        self._stop_state()
