@@ -136,14 +136,15 @@ class Board:
         link = await cls.start_link(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=name
         )
-        async with link, anyio.create_task_group() as tasks:
+        async with link:
             board = await cls.from_link(link)
-            tasks.start_soon(board.keepalive, link, name=f"arduinoio keepalive {link.name}")
+            # In the transport's own task group: a task group around the caller's body
+            # would wrap the caller's exceptions in ExceptionGroups.
+            link.start_background(board.keepalive, link, name=f"arduinoio keepalive {link.name}")
             try:
                 yield board
             finally:
                 board._link = None
-                tasks.cancel_scope.cancel()
 
     @classmethod
     async def from_link(cls, link: Transport) -> Board:

@@ -82,10 +82,10 @@ def main(argv: list[str] | None = None, *, console: Console | None = None) -> in
     try:
         results = anyio.run(_run, args, console)
     except SimulatorNotAvailable as exc:
-        Console(stderr=True).print(f"[red]error:[/] {exc}", highlight=False)
+        Console(stderr=True).print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 2
     except ArduinoIOError as exc:
-        Console(stderr=True).print(f"[red]error:[/] {exc}", highlight=False)
+        Console(stderr=True).print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 1
     for scenario in results:
         print_scenario(console, scenario)

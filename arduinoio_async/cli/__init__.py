@@ -54,10 +54,10 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
     try:
         result: int = anyio.run(args.handler, args, console)
     except ArduinoIOError as exc:
-        errors.print(f"[red]error:[/] {exc}", highlight=False)
+        errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 1
     except _board_commands.ToolMissing as exc:
-        errors.print(f"[red]error:[/] {exc}", highlight=False)
+        errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 2
     except KeyboardInterrupt:
         return 130

@@ -34,7 +34,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any, Literal, TypeVar
@@ -259,6 +259,14 @@ class Transport:
         self._mark_closed(BoardDisconnectedError(f"{self.name}: link closed"))
         with anyio.CancelScope(shield=True):
             await self.stream.aclose()
+
+    def start_background(
+        self, func: Callable[..., Coroutine[Any, Any, Any]], *args: Any, name: str | None = None
+    ) -> None:
+        """Run ``func(*args)`` alongside the reader; it is cancelled when the link closes."""
+        if self._task_group is None:
+            raise RuntimeError("the transport is not running (use it as a context manager)")
+        self._task_group.start_soon(func, *args, name=name)
 
     @property
     def state(self) -> LinkState:
