@@ -92,6 +92,7 @@ class Board:
         self.failsafe_tripped = False
         self._failsafe_listeners: list[Callable[[Board], None]] = []
         self._unsubscribe: Callable[[], None] | None = None
+        self._heartbeat_changed = anyio.Event()
         self._watch(link)
 
     def __repr__(self) -> str:
@@ -465,6 +466,7 @@ class Board:
                 raise PinRoleError(handle.pin.name, handle.ROLE, "failsafe output")
         self.failsafe = FailsafeConfig(timeout_ms, tuple(requests))
         await self._arm_on(self.link)
+        self._heartbeat_changed.set()
 
     async def _arm_on(self, link: Transport) -> None:
         if self.failsafe is None:
@@ -507,7 +509,11 @@ class Board:
         """
         while link.state is not LinkState.CLOSED:
             interval = self.heartbeat_interval()
-            await anyio.sleep(max(0.0, link.last_send + interval - anyio.current_time()))
+            wake = self._heartbeat_changed
+            with anyio.move_on_after(max(0.0, link.last_send + interval - anyio.current_time())):
+                await wake.wait()  # arming the failsafe shortens the interval at once
+            if wake.is_set():
+                self._heartbeat_changed = anyio.Event()
             if anyio.current_time() - link.last_send < interval * 0.9:
                 continue  # other traffic fed the watchdog
             try:
