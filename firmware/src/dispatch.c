@@ -46,27 +46,28 @@ static aio_handler_t handler(uint8_t ct)
 
 uint8_t dispatch(const aio_request_t *rq, uint8_t *frame)
 {
-    aio_reply_t rp;
+    /* The handler writes its reply data straight into the frame (no copy, no
+     * reply on the stack): frame[1] holds rp->len until the DT goes there. */
+    aio_reply_t *rp = (aio_reply_t *)(void *)(frame + 1);
     aio_handler_t h = handler(rq->ct);
-    uint8_t err, i, cs;
+    uint8_t err, i, len, cs;
 
     failsafe_feed();
-    rp.len = 0;
+    rp->len = 0;
     if (!h)
         err = AIO_ERR_UNKNOWN_CLASS; /* not reached: the parser checked the tags */
     else if (failsafe_tripped() && changes_output(rq))
         err = AIO_ERR_FAILSAFE_TRIPPED;
     else
-        err = h(rq, &rp);
+        err = h(rq, rp);
     if (err)
         return dispatch_error((uint8_t)(rq->ct | AIO_ERROR_FLAG), rq->dt, err, frame);
+    len = rp->len;
     frame[0] = rq->ct;
     frame[1] = rq->dt;
     cs = (uint8_t)(rq->ct ^ rq->dt);
-    for (i = 0; i < rp.len; i++) {
-        frame[2 + i] = rp.data[i];
-        cs ^= rp.data[i];
-    }
-    frame[2 + i] = cs;
-    return (uint8_t)(rp.len + 3u);
+    for (i = 0; i < len; i++)
+        cs ^= frame[2 + i];
+    frame[2 + len] = cs;
+    return (uint8_t)(len + 3u);
 }

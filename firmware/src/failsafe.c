@@ -30,12 +30,15 @@ void failsafe_init(void)
 
 void failsafe_feed(void)
 {
+    uint16_t now = hal_millis();
     uint8_t s = hal_irq_save();
-    last_feed = hal_millis();
+    last_feed = now;
     hal_irq_restore(s);
 }
 
 uint8_t failsafe_tripped(void) { return tripped; }
+
+uint8_t failsafe_armed(void) { return armed; }
 
 uint8_t failsafe_status(void)
 {

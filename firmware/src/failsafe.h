@@ -11,6 +11,8 @@ uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp);
 /* Every valid request feeds the watchdog. */
 void failsafe_feed(void);
 uint8_t failsafe_tripped(void);
+/* Whether failsafe_tick() has anything to watch. */
+uint8_t failsafe_armed(void);
 /* STATUS flags bits 0 and 1. */
 uint8_t failsafe_status(void);
 /* Timebase interrupt: checks the silence, trips. */

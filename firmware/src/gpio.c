@@ -44,7 +44,7 @@ void gpio_take_stream_edges(uint16_t *r, uint16_t *f)
 
 static void set_watch(uint8_t pin, uint8_t on)
 {
-    uint16_t bit = (uint16_t)(1u << pin);
+    uint16_t bit = pins_bit_of(pin);
     uint8_t s = hal_irq_save();
     if (on)
         watch |= bit;
@@ -70,7 +70,7 @@ uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp)
 
     if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
         return AIO_ERR_PIN_NOT_CAPABLE;
-    bit = (uint16_t)(1u << pin);
+    bit = pins_bit_of(pin);
     role = pins_role[pin];
 
     switch (rq->dt) {

@@ -16,6 +16,7 @@
 #include "gpio.h"
 #include "aio_protocol.h"
 #include "hal.h"
+#include "pins.h"
 #include "stream.h"
 
 #define TWI_STEP_TICKS 20u /* 2 ms */
@@ -66,7 +67,7 @@ void hal_eeprom_write_u16(uint16_t address, uint16_t value)
 
 static volatile uint8_t *port_of(uint8_t pin) { return pin < 8u ? &PORTD : &PORTB; }
 static volatile uint8_t *ddr_of(uint8_t pin) { return pin < 8u ? &DDRD : &DDRB; }
-static uint8_t bit_of(uint8_t pin) { return (uint8_t)(1u << (pin & 7u)); }
+static uint8_t bit_of(uint8_t pin) { return (uint8_t)pins_bit[pin & 7u]; }
 
 void hal_pin_mode(uint8_t pin, uint8_t mode)
 {
@@ -257,34 +258,60 @@ void hal_twi_stop(void)
 /* ---------------------------------------------------------------- Timer1 servo */
 /*
  * Fast PWM with TOP = ICR1 (mode 14), clk/8: 0.5 us per count, 20 ms period,
- * the output goes high at BOTTOM and low at the compare match.  OCR1x are
- * double-buffered (updated at BOTTOM), so a new width starts with the next
- * period.  Width 0 disconnects the output (the pin stays low); connecting
- * and disconnecting is done in the compare-match interrupt, right after a
- * pulse ended, so no pulse is ever cut short or started in the middle.
+ * the output goes high at BOTTOM and low at the compare match.
+ *
+ * Widths: hal_servo_set() writes OCR1x at once.  The hardware double-buffers
+ * OCR1x and loads them at BOTTOM, so a new width starts with the next period
+ * and a running pulse is neither cut short nor stretched; the other channel
+ * is never touched.
+ *
+ * Connecting and disconnecting an output (width 0 <-> width) is done in the
+ * channel's compare-match interrupt, right after its pulse ended (or where it
+ * would have), so no pulse is ever cut short or started in the middle.
+ *
+ * simavr 1.6 models mode 14 with its phase-correct PWM code, which reads
+ * OCR1x only when the timer is (re)configured, i.e. when the clock select
+ * changes, and which then starts a new period at that instant.  So after a
+ * width change the overflow interrupt runs once: just after BOTTOM (both
+ * pulses running, every compare match at least 1000 us away) it stops and
+ * restarts the clock, then writes TCNT1 back to the count it should have,
+ * which moves simavr's period back in phase (its TCNT1 write re-phases all
+ * events).  On silicon the clock is off for two CPU cycles and TCNT1 gets
+ * (within one count) the value it has anyway: at most 0.5 us once per change.
  */
 #define SERVO_COUNTS_PER_US 2u
 #define SERVO_IDLE_OCR (AIO_PULSE_MIN_US * SERVO_COUNTS_PER_US - 1u)
+#define SERVO_TCCR1B_STOP (_BV(WGM13) | _BV(WGM12))
+#define SERVO_TCCR1B_RUN (_BV(WGM13) | _BV(WGM12) | _BV(CS11))
+/* The re-phasing must happen before the earliest compare match (1000 us). */
+#define SERVO_REPHASE_LIMIT (AIO_PULSE_MIN_US * SERVO_COUNTS_PER_US - 200u)
 
-static volatile uint8_t servo_want;     /* COM1A1 / COM1B1 wanted */
-static volatile uint16_t servo_ocr[2];  /* OCR1A / OCR1B wanted */
+static volatile uint8_t servo_want; /* COM1A1 / COM1B1 wanted */
 
 static uint8_t com_bit(uint8_t pin) { return pin == 9u ? _BV(COM1A1) : _BV(COM1B1); }
 static uint8_t ocie_bit(uint8_t pin) { return pin == 9u ? _BV(OCIE1A) : _BV(OCIE1B); }
 
-/* The new width and connection are applied by the compare-match interrupt
- * of the pin's channel, just after the running pulse ended. */
+/* Interrupts off (16-bit registers share the TEMP byte). */
 void hal_servo_set(uint8_t pin, uint16_t us)
 {
     uint8_t s = hal_irq_save();
     if (us) {
-        servo_ocr[pin - 9u] = (uint16_t)(us * SERVO_COUNTS_PER_US - 1u);
+        uint16_t ocr = (uint16_t)(us * SERVO_COUNTS_PER_US - 1u);
+        if (pin == 9u)
+            OCR1A = ocr;
+        else
+            OCR1B = ocr;
         servo_want |= com_bit(pin);
+        TIFR1 = _BV(TOV1);
+        TIMSK1 |= _BV(TOIE1); /* re-phase once (simavr) */
     } else {
         servo_want &= (uint8_t)~com_bit(pin);
     }
-    TIFR1 = ocie_bit(pin); /* OCF1x sit at the same bit positions */
-    TIMSK1 |= ocie_bit(pin);
+    if ((TCCR1A ^ servo_want) & com_bit(pin)) {
+        /* connect or disconnect right after the running pulse */
+        TIFR1 = ocie_bit(pin); /* OCF1x sit at the same bit positions */
+        TIMSK1 |= ocie_bit(pin);
+    }
     hal_irq_restore(s);
 }
 
@@ -294,12 +321,13 @@ void hal_servo_attach(uint8_t pin, uint16_t us)
     if (!(TCCR1B & (_BV(CS12) | _BV(CS11) | _BV(CS10)))) {
         TCCR1A = 0; /* normal mode while setting up: OCR1x are written at once */
         TCCR1B = 0;
+        TIMSK1 = 0;
         OCR1A = SERVO_IDLE_OCR;
         OCR1B = SERVO_IDLE_OCR;
         ICR1 = AIO_SERVO_PERIOD_US * SERVO_COUNTS_PER_US - 1u;
         TCNT1 = 0;
         TCCR1A = _BV(WGM11);
-        TCCR1B = _BV(WGM13) | _BV(WGM12) | _BV(CS11);
+        TCCR1B = SERVO_TCCR1B_RUN;
     }
     hal_irq_restore(s);
     hal_pin_mode(pin, HAL_OUT_LOW);
@@ -312,36 +340,48 @@ void hal_servo_detach(uint8_t pin)
     servo_want &= (uint8_t)~com_bit(pin);
     TCCR1A &= (uint8_t)~com_bit(pin);
     TIMSK1 &= (uint8_t)~ocie_bit(pin);
-    if (!(TCCR1A & (_BV(COM1A1) | _BV(COM1B1))) && !servo_want)
+    if (!(TCCR1A & (_BV(COM1A1) | _BV(COM1B1))) && !servo_want) {
         TCCR1B = 0; /* both detached: stop the timer */
+        TIMSK1 = 0;
+    }
     hal_irq_restore(s);
 }
 
-/* Stops and restarts the timer clock: on silicon this costs at most one
- * 0.5 us count once per change of width; simavr 1.6 only recomputes its
- * compare timing in fast PWM mode when the clock select changes, so without
- * it a new OCR1x would never take effect in the simulator. */
-static inline void servo_restart(void)
+/* Just after BOTTOM: restart the clock and put TCNT1 back (see above).  The
+ * asm keeps a fixed 12 cycles between the TCNT1 read and the TCNT1 write;
+ * the count written back is the one read plus 2 (12 cycles = 1.5 counts),
+ * within half a count of the true one. */
+ISR(TIMER1_OVF_vect)
 {
-    TCCR1B = _BV(WGM13) | _BV(WGM12);
-    TCCR1B = _BV(WGM13) | _BV(WGM12) | _BV(CS11);
+    uint16_t n;
+    if (TCNT1 >= SERVO_REPHASE_LIMIT)
+        return; /* held up too long: try again at the next BOTTOM */
+    __asm__ volatile("lds %A0, %[tl]\n\t"
+                     "lds %B0, %[th]\n\t"
+                     "sts %[tb], %[stop]\n\t"
+                     "sts %[tb], %[run]\n\t"
+                     "adiw %0, 2\n\t"
+                     "sts %[th], %B0\n\t"
+                     "sts %[tl], %A0\n\t"
+                     : "=&w"(n)
+                     : [tl] "n"(_SFR_MEM_ADDR(TCNT1L)), [th] "n"(_SFR_MEM_ADDR(TCNT1H)),
+                       [tb] "n"(_SFR_MEM_ADDR(TCCR1B)), [stop] "r"((uint8_t)SERVO_TCCR1B_STOP),
+                       [run] "r"((uint8_t)SERVO_TCCR1B_RUN)
+                     : "memory");
+    TIMSK1 &= (uint8_t)~_BV(TOIE1);
 }
 
 /* Just after a pulse ended (or where it would have): apply the wanted
  * connection of the output. */
 ISR(TIMER1_COMPA_vect)
 {
-    OCR1A = servo_ocr[0];
     TCCR1A = (uint8_t)((TCCR1A & ~_BV(COM1A1)) | (servo_want & _BV(COM1A1)));
-    servo_restart();
     TIMSK1 &= (uint8_t)~_BV(OCIE1A);
 }
 
 ISR(TIMER1_COMPB_vect)
 {
-    OCR1B = servo_ocr[1];
     TCCR1A = (uint8_t)((TCCR1A & ~_BV(COM1B1)) | (servo_want & _BV(COM1B1)));
-    servo_restart();
     TIMSK1 &= (uint8_t)~_BV(OCIE1B);
 }
 

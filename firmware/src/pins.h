@@ -14,9 +14,14 @@ enum { ROLE_FREE = 0, ROLE_GPIO_IN, ROLE_GPIO_OUT, ROLE_PWM, ROLE_COUNTER };
 
 extern uint8_t pins_role[PINS_COUNT];
 
+/* 1 << n: the AVR has no barrel shifter, a variable shift is a loop. */
+extern const uint16_t pins_bit[16];
+
+static inline uint16_t pins_bit_of(uint8_t pin) { return pins_bit[pin & 15u]; }
+
 static inline uint8_t pins_capable(uint8_t pin, uint16_t table3_mask)
 {
-    return pin < 16u && (table3_mask >> pin & 1u);
+    return pin < 16u && (table3_mask & pins_bit[pin]);
 }
 
 /* 0, PIN_NOT_CAPABLE or PIN_BUSY for taking `pin` into a role of the group

@@ -56,7 +56,7 @@ void pwm_release(uint8_t pin)
         soft_next[pin - SOFT_FIRST] = 0;
         soft_active[pin - SOFT_FIRST] = 0;
         hal_irq_restore(s);
-        hal_softpwm_low((uint8_t)(1u << pin));
+        hal_softpwm_low((uint8_t)pins_bit_of(pin));
     } else {
         hal_servo_detach(pin);
     }
@@ -64,16 +64,16 @@ void pwm_release(uint8_t pin)
 
 void pwm_tick(void)
 {
-    uint8_t i, mask = 0, t;
+    uint8_t i, mask = 0, bit = 1u << SOFT_FIRST, t;
 
     if (++frame_tick >= PWM_FRAME_TICKS)
         frame_tick = 0;
     t = frame_tick;
     if (t == 0) {
-        for (i = 0; i < SOFT_COUNT; i++) {
+        for (i = 0; i < SOFT_COUNT; i++, bit = (uint8_t)(bit << 1)) {
             soft_active[i] = soft_next[i];
             if (soft_active[i])
-                mask |= (uint8_t)(1u << (i + SOFT_FIRST));
+                mask |= bit;
         }
         if (mask)
             hal_softpwm_high(mask);
@@ -81,9 +81,9 @@ void pwm_tick(void)
     }
     if (t > AIO_PULSE_MAX_US / AIO_SOFT_PWM_STEP_US)
         return;
-    for (i = 0; i < SOFT_COUNT; i++)
+    for (i = 0; i < SOFT_COUNT; i++, bit = (uint8_t)(bit << 1))
         if (soft_active[i] == t)
-            mask |= (uint8_t)(1u << (i + SOFT_FIRST));
+            mask |= bit;
     if (mask)
         hal_softpwm_low(mask);
 }

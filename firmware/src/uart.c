@@ -47,8 +47,11 @@ static volatile uint8_t tx_started;
 
 void uart_init(void)
 {
-    UBRR0 = UBRR_VALUE;
+    /* U2X0 before UBRR0: the order does not matter on silicon, but simavr 1.6
+     * computes its byte time only when UBRR0 is written, from the U2X0 it
+     * sees then (U2X0 set afterwards would leave it at half the baud rate). */
     UCSR0A = _BV(U2X0);
+    UBRR0 = UBRR_VALUE;
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
     UCSR0B = _BV(RXCIE0) | _BV(RXEN0) | _BV(TXEN0);
 }
@@ -57,26 +60,27 @@ ISR(USART_RX_vect)
 {
     uint8_t st = UCSR0A;
     uint8_t b = UDR0;
+    uint8_t head = rx_head;
     rx_tick = clock_ticks_isr();
     if (st & _BV(DOR0))
         rx_overflow = 1;
-    if ((uint8_t)(rx_head - rx_tail) >= RX_SIZE) {
+    if ((uint8_t)(head - rx_tail) >= RX_SIZE) {
         rx_overflow = 1;
         return;
     }
-    rx_buf[rx_head % RX_SIZE] = b;
-    rx_head++;
+    rx_buf[head % RX_SIZE] = b;
+    rx_head = (uint8_t)(head + 1u);
 }
 
 uint8_t uart_rx_available(void) { return rx_head != rx_tail || rx_overflow; }
 
 int16_t hal_rx_get(void)
 {
-    uint8_t b;
-    if (rx_head == rx_tail)
+    uint8_t tail = rx_tail, b;
+    if (rx_head == tail)
         return -1;
-    b = rx_buf[rx_tail % RX_SIZE];
-    rx_tail++;
+    b = rx_buf[tail % RX_SIZE];
+    rx_tail = (uint8_t)(tail + 1u);
     return b;
 }
 
@@ -126,8 +130,20 @@ bool hal_tx_send(const uint8_t *frame, uint8_t len)
         SREG = s;
         return false;
     }
+    if (tx_used == 0 && (UCSR0A & _BV(UDRE0))) {
+        /* Transmitter idle and nothing queued or reserved: the first byte goes
+         * straight into UDR0, no round trip through the UDRE interrupt. */
+        UCSR0A = _BV(U2X0) | _BV(TXC0); /* clear TXC0 */
+        UDR0 = *frame++;
+        tx_started = 1;
+        if (--len == 0) {
+            SREG = s;
+            return true;
+        }
+    }
     start = tx_resv;
-    tx_resv = (uint8_t)((uint16_t)(start + len) % TX_SIZE);
+    i = (uint8_t)(TX_SIZE - start); /* room before the wrap */
+    tx_resv = len < i ? (uint8_t)(start + len) : (uint8_t)(len - i);
     tx_used = (uint8_t)(tx_used + len);
     tx_open++;
     SREG = s;

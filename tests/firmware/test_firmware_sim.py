@@ -318,12 +318,105 @@ async def test_firmware_cycles_per_command(virtual_uno_factory: VirtualUnoFactor
     }
     results: dict[str, int] = {}
     for name, (request, size) in measured.items():
-        await uno.firmware_cycles(clear=True)
-        assert len(link.xfer(request, size)) == size, name
-        cycles = await uno.firmware_cycles()
-        assert cycles.last is not None
-        results[name] = cycles.last
+        samples = []
+        for _ in range(3):  # the smallest of three: the 100 us tick may land in one
+            await uno.firmware_cycles(clear=True)
+            assert len(link.xfer(request, size)) == size, name
+            cycles = await uno.firmware_cycles()
+            assert cycles.last is not None
+            samples.append(cycles.last)
+        results[name] = min(samples)
     for name, count in results.items():
         print(f"firmware cycles {name}: {count} ({count / 16:.1f} us)")
     assert max(results.values()) < 16 * 10_000  # every reply starts within 10 ms
+    # the plain commands are a few hundred cycles from the last byte to the first reply byte
+    for name in ("read id", "status", "gpio write", "gpio read", "capabilities"):
+        assert results[name] < 1000, (name, results[name])
+    link.close()
+
+
+class PulseLog:
+    """Every pulse on one pin since the log started, from polls of the fixture's capture."""
+
+    def __init__(self, uno: VirtualUno, pin: int) -> None:
+        self.uno = uno
+        self.pin = pin
+        self.high_us: list[float] = []
+        self.period_us: list[float] = []
+
+    async def start(self) -> None:
+        await self.uno.clear_pulse_stats(self.pin)
+
+    async def poll(self) -> None:
+        stats = await self.uno.pulse_stats(self.pin)
+        new_high = stats.highs - len(self.high_us)
+        new_period = stats.periods - len(self.period_us)
+        # the capture keeps 32 values: poll often enough that none was overwritten
+        assert 0 <= new_high <= len(stats.high_us), (self.pin, stats)
+        assert 0 <= new_period <= len(stats.period_us), (self.pin, stats)
+        self.high_us += stats.high_us[len(stats.high_us) - new_high :]
+        self.period_us += stats.period_us[len(stats.period_us) - new_period :]
+
+
+def assert_pulse_train(log: PulseLog, widths: list[int]) -> None:
+    """Each pulse has one of the commanded widths (+/- 1 us), in the commanded order (a
+    width may be skipped when it was replaced within one period), and every period is
+    20 ms +/- 2 us (so no pulse is missing, doubled or shifted)."""
+    assert log.high_us, log.pin
+    index = 0
+    for n, high in enumerate(log.high_us):
+        if abs(high - widths[index]) <= 1:
+            continue
+        later = [i for i in range(index + 1, len(widths)) if abs(high - widths[i]) <= 1]
+        assert later, f"D{log.pin} pulse {n}: {high} us, expected one of {widths[index:]}"
+        index = later[0]
+    bad = [(n, t) for n, t in enumerate(log.period_us) if abs(t - 20000) > 2]
+    assert not bad, f"D{log.pin} periods off: {bad}"
+
+
+async def test_servo_width_changes_never_disturb_pulses(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """Width changes on D9/D10, attaching D10 and soft PWM pins: no pulse on D9/D10 is ever
+    longer or shorter than the old or new width, and the 20 ms period never moves."""
+    uno, link = await start(virtual_uno_factory)
+    rng = random.Random(99)
+
+    def pwm(dt: int, pin: int, us: int) -> None:
+        request = frame(5, dt, pin, us >> 8, us & 0xFF)
+        assert link.xfer(request, 6) == request, (dt, pin, us)
+
+    widths: dict[int, list[int]] = {9: [1500], 10: [1000]}
+    pwm(1, 9, 1500)
+    await anyio.sleep(0.06)
+    d9 = PulseLog(uno, 9)
+    await d9.start()
+    await anyio.sleep(0.03)
+    pwm(1, 10, 1000)  # attaching the other channel must not disturb D9
+    await anyio.sleep(0.05)
+    d10 = PulseLog(uno, 10)
+    await d10.start()
+    soft_attached: set[int] = set()
+    for step in range(36):
+        pin = 9 if step % 2 == 0 else 10
+        width = rng.randrange(1000, 2001)
+        pwm(2, pin, width)
+        widths[pin].append(width)
+        if step % 3 == 0:  # attach, change or release a software PWM pin
+            soft = rng.randrange(2, 8)
+            if soft in soft_attached and rng.random() < 0.5:
+                assert link.xfer(frame(2, 4, soft), 4) == frame(2, 4, soft)
+                soft_attached.discard(soft)
+            else:
+                pwm(1, soft, rng.randrange(10, 21) * 100)
+                soft_attached.add(soft)
+        await anyio.sleep(rng.uniform(0.003, 0.045))
+        await d9.poll()
+        await d10.poll()
+    await anyio.sleep(0.05)
+    await d9.poll()
+    await d10.poll()
+    assert len(d9.period_us) >= 40 and len(d10.period_us) >= 35
+    assert_pulse_train(d9, widths[9])
+    assert_pulse_train(d10, widths[10])
     link.close()
