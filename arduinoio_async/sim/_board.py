@@ -89,6 +89,10 @@ class PulseStats:
     period_us: tuple[float, ...]
     highs: int = 0
     periods: int = 0
+    #: Simulated time of the rise that started each entry of ``high_us``.
+    rise_us: tuple[float, ...] = ()
+    #: Simulated time of the pin's last level change (None: it never changed).
+    last_edge_us: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -407,6 +411,8 @@ class VirtualUno:
             period_us=tuple(r["period_us"]),
             highs=int(r.get("highs", 0)),
             periods=int(r.get("periods", 0)),
+            rise_us=tuple(r.get("rise_us", ())),
+            last_edge_us=r.get("last_edge_us"),
         )
 
     async def clear_pulse_stats(self, pin: PinName) -> None:

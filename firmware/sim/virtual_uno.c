@@ -149,6 +149,7 @@ static uint64_t next_inject_ok; /* earliest cycle for next injection (wire spaci
 static int uart_xoff;
 static uint64_t tick_at;        /* 16U2 next tick event, 0 = none */
 static unsigned long bytes_to_host, bytes_from_host, bytes_discarded;
+static uint64_t last_host_byte_t;   /* cycle the last host byte entered the UART */
 static unsigned long faults_dropped, faults_inserted, faults_flipped;
 
 /* firmware time measurement */
@@ -194,6 +195,8 @@ static struct pulsegen gen[2];
 struct capture {
 	uint64_t rise_t, prev_rise_t; int level, have_rise;
 	double high_us[NEDGE], period_us[NEDGE];
+	double rise_us[NEDGE];   /* simulated time of the rise that started high_us[i] */
+	uint64_t edge_t; int have_edge;   /* last level change */
 	unsigned nh, np, hi_next, pe_next;
 	unsigned long rises, falls;
 	unsigned long highs, periods; /* high times / periods recorded since the last clear */
@@ -387,6 +390,8 @@ static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
 	if (level == c->level)
 		return;
 	c->level = level;
+	c->edge_t = t;
+	c->have_edge = 1;
 	if (level) {
 		if (c->have_rise) {
 			c->period_us[c->pe_next] = (double)(t - c->rise_t) / CYC_PER_US;
@@ -400,6 +405,7 @@ static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
 	} else {
 		if (c->have_rise) {
 			c->high_us[c->hi_next] = (double)(t - c->rise_t) / CYC_PER_US;
+			c->rise_us[c->hi_next] = (double)c->rise_t / CYC_PER_US;
 			c->hi_next = (c->hi_next + 1) % NEDGE;
 			if (c->nh < NEDGE) c->nh++;
 			c->highs++;
@@ -537,6 +543,7 @@ static void run_events(void)
 				ring_pop(&host_rx);
 				avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT), b);
 				bytes_from_host++;
+				last_host_byte_t = now;
 				next_inject_ok = now + byte_cycles;
 				progress = 1;
 			}
@@ -1077,13 +1084,15 @@ static void handle_command(struct jobj *o, struct sbuf *r)
 			  "\"bytes_to_host\": %lu, \"bytes_from_host\": %lu, \"bytes_discarded\": %lu, "
 			  "\"faults\": {\"drop\": %g, \"insert\": %g, \"flip\": %g, \"dropped\": %lu, "
 			  "\"inserted\": %lu, \"flipped\": %lu}, \"pulses_active\": %s, "
-			  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u}",
+			  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u, "
+			  "\"last_host_byte_us\": %.3f}",
 		       opt_baud, fixture_names[opt_fixture], opt_16u2 ? "16u2" : "none",
 		       opt_fast ? "true" : "false", opt_reset_on_open ? "true" : "false",
 		       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded,
 		       fault_drop, fault_insert, fault_flip, faults_dropped, faults_inserted,
 		       faults_flipped, (gen[0].active || gen[1].active) ? "true" : "false",
-		       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc);
+		       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc,
+		       (double)last_host_byte_t / CYC_PER_US);
 		return;
 	}
 	if (!strcmp(cmd, "set_analog")) {
@@ -1177,7 +1186,16 @@ static void handle_command(struct jobj *o, struct sbuf *r)
 			unsigned idx = (c->hi_next + NEDGE - c->nh + i) % NEDGE;
 			sb_add(r, "%s%.3f", i ? ", " : "", c->high_us[idx]);
 		}
-		sb_add(r, "], \"period_us\": [");
+		sb_add(r, "], \"rise_us\": [");
+		for (unsigned i = 0; i < c->nh; i++) {
+			unsigned idx = (c->hi_next + NEDGE - c->nh + i) % NEDGE;
+			sb_add(r, "%s%.3f", i ? ", " : "", c->rise_us[idx]);
+		}
+		if (c->have_edge)
+			sb_add(r, "], \"last_edge_us\": %.3f", (double)c->edge_t / CYC_PER_US);
+		else
+			sb_add(r, "], \"last_edge_us\": null");
+		sb_add(r, ", \"period_us\": [");
 		for (unsigned i = 0; i < c->np; i++) {
 			unsigned idx = (c->pe_next + NEDGE - c->np + i) % NEDGE;
 			sb_add(r, "%s%.3f", i ? ", " : "", c->period_us[idx]);

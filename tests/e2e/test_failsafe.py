@@ -52,6 +52,22 @@ async def assert_safe(uno: VirtualUno) -> None:
     await wait_pulse_width(uno, "D2", 0, within=1)
 
 
+async def check_reaction_time(uno: VirtualUno) -> float:
+    """The fixture's view: outputs safe within timeout + 5 ms of the host's last byte.
+
+    Returns the measured reaction (ms) of the digital output, for the record.
+    """
+    silent_from = float((await uno.status())["last_host_byte_us"])
+    limit = silent_from + (TIMEOUT_MS + 5) * 1000
+    led = await uno.pulse_stats("D4")
+    assert led.last_edge_us is not None and silent_from < led.last_edge_us <= limit
+    for pin, safe in (("D9", 1000), ("D2", 0)):
+        stats = await uno.pulse_stats(pin)
+        later = [h for h, rise in zip(stats.high_us, stats.rise_us, strict=True) if rise > limit]
+        assert all(abs(h - safe) <= 1 for h in later), (pin, stats)
+    return (led.last_edge_us - silent_from) / 1000
+
+
 async def test_a_blocked_event_loop_trips_the_failsafe(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
@@ -62,6 +78,8 @@ async def test_a_blocked_event_loop_trips_the_failsafe(
         await arm(board)
         assert (await uno.pin("D4")).level == 1
         time.sleep(0.3)  # noqa: ASYNC251 - the host's event loop is stuck: no heartbeat
+        reaction = await check_reaction_time(uno)
+        print(f"\nfailsafe reaction, blocked event loop: {reaction:.2f} ms (timeout {TIMEOUT_MS})")
         await assert_safe(uno)
         with pytest.raises(FailsafeTrippedError):
             await board.request(p.GpioWrite(4, True))
@@ -105,6 +123,9 @@ async def test_a_killed_client_process_trips_the_failsafe(
         client.kill()
         client.wait()
     await assert_safe(uno)
+    await anyio.sleep(0.05)  # a servo period after the trip
+    reaction = await check_reaction_time(uno)
+    print(f"\nfailsafe reaction, killed process: {reaction:.2f} ms (timeout {TIMEOUT_MS})")
 
 
 async def test_a_healthy_idle_client_never_trips(virtual_uno_factory: VirtualUnoFactory) -> None:
