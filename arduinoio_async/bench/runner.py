@@ -101,13 +101,18 @@ SCENARIOS: dict[str, dict[str, Any]] = {
 
 
 def link_model(baud: int, bridge: bool, *, simulated: bool) -> LinkModel:
-    """The model of the link a scenario runs on (the simulator's UART counts 11 bits)."""
-    avr_baud = 117_647 if baud == 115_200 else baud  # UBRR 16 with U2X at 16 MHz
+    """The model of the link a scenario runs on.
+
+    The AVR's 115200 is really 117,647 baud (UBRR 16 with U2X).  simavr's UART moves 11
+    bit times per byte in both directions (it counts a parity bit); a real UART 10.
+    """
+    avr_baud = 117_647 if baud == 115_200 else baud
+    bits = 11 if simulated else 10
     return LinkModel(
-        baud_to_board=baud if simulated else avr_baud,
+        baud_to_board=avr_baud,
         baud_to_host=avr_baud,
-        bits_to_board=10,
-        bits_to_host=11 if simulated else 10,
+        bits_to_board=bits,
+        bits_to_host=bits,
         bridge_16u2=bridge,
     )
 
