@@ -27,7 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
     target.add_argument("--id", type=lambda t: int(t, 0), help="real board found by ID")
     parser.add_argument("--baud", type=int, default=115200, help="baud rate of a real board")
     parser.add_argument("-n", "--count", type=int, default=300, help="requests per command")
-    parser.add_argument("--warmup", type=int, default=20)
+    parser.add_argument(
+        "--warmup", type=int, default=200, help="requests before measuring (sim and caches settle)"
+    )
     parser.add_argument("--paper", action="store_true", help="115200 baud + 16U2 bridge model")
     parser.add_argument("--pipelined", action="store_true", help="16U2 model, many in flight")
     parser.add_argument("--fast", action="store_true", help="1,000,000 baud, no bridge")

@@ -148,7 +148,11 @@ async def _sequential(
     samples: list[float] = []
     for index in range(warmup + n):
         if gap_ms:
-            await anyio.sleep(rnd.uniform(0, gap_ms) / 1e3)
+            # time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity
+            # (epoll), which would quantise the phase against the bridge's 4.096 ms tick.
+            # Nothing else runs on the loop between sequential requests.
+            time.sleep(rnd.uniform(0, gap_ms) / 1e3)  # noqa: ASYNC251
+            await anyio.lowlevel.checkpoint()
         start = time.perf_counter_ns()
         await call()
         if index >= warmup:
@@ -204,8 +208,10 @@ async def run_scenario(
             cycles: float | None = None
             rate: float | None = None
             if scenario["pipelined"]:
-                window = max(1, p.RX_FIFO_SIZE // command.request_bytes)
-                samples, rate = await _pipelined(board, command, n, min(window, 32))
+                workers = min(max(1, p.RX_FIFO_SIZE // command.request_bytes), 32)
+                await _pipelined(board, command, warmup, workers)
+                # A rate needs a run long enough to average over ticks and scheduling.
+                samples, rate = await _pipelined(board, command, max(n, 2000), workers)
             else:
                 if uno is not None:
                     await uno.firmware_cycles(clear=True)
