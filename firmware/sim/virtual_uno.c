@@ -47,6 +47,7 @@
 
 #include "avr_adc.h"
 #include "avr_eeprom.h"
+#include "avr_extint.h"
 #include "avr_ioport.h"
 #include "avr_twi.h"
 #include "avr_uart.h"
@@ -66,6 +67,7 @@
 #define TICK_16U2_CYCLES 65536ULL       /* 16U2 Timer0 overflow: clk/256 * 256 = 4.096 ms */
 #define USB_FRAME_CYCLES 16000ULL       /* USB full-speed 1 ms frame */
 #define FLUSH_16U2_BYTES 96             /* arduino-usbserial: release when this many wait */
+#define OUT_HOLD_NS 5000ULL             /* max wall time a board->host byte waits for a batched write */
 #define MAX_CLIENTS 16
 #define RING 8192
 #define NSAMPLES 256
@@ -144,6 +146,8 @@ static struct ring bridge_buf;  /* 16U2: bytes waiting for tick / 96 bytes (t un
 static struct ring usb_out;     /* 16U2: released bytes waiting for USB frame (t = frame) */
 static uint8_t out_buf[RING];   /* bytes ready for the pty master */
 static size_t out_len;
+static uint64_t out_first_ns;   /* wall time the oldest unwritten byte entered out_buf */
+static unsigned long pty_writes; /* write() calls to the pty master (batching statistics) */
 static uint64_t byte_cycles;    /* 10 bit times at --baud */
 static uint64_t next_inject_ok; /* earliest cycle for next injection (wire spacing) */
 static int uart_xoff;
@@ -464,8 +468,21 @@ static uint64_t next_boundary(uint64_t t, uint64_t period)
 	return (t / period + 1) * period;
 }
 
+#define UCSR0B_ADDR 0xC1
+#define UDRIE0_BIT 0x20
+
+/* Board->host bytes collect in out_buf and go to the pty in one write() when
+ * the wire falls idle or a 16U2 frame is released (run_events), when the
+ * firmware goes to sleep (sleep_for) or the harness is about to wait
+ * (wait_fds), or from the main loop once the oldest has waited OUT_HOLD_NS
+ * of wall time (simulation running behind).  A byte is handed over no
+ * earlier than before (when simulated time reaches its modelled arrival) and
+ * at most a few microseconds later; one write() per byte cost ~5 us of
+ * syscall and kernel pty work each. */
 static void to_host(uint8_t b)
 {
+	if (!out_len)
+		out_first_ns = now_ns();
 	if (out_len < sizeof(out_buf))
 		out_buf[out_len++] = b;
 }
@@ -480,11 +497,14 @@ static void flush_out(void)
 		return;
 	}
 	ssize_t n = write(master_fd, out_buf, out_len);
+	pty_writes++;
 	if (n > 0) {
 		bytes_to_host += (unsigned long)n;
 		memmove(out_buf, out_buf + n, out_len - (size_t)n);
 		out_len -= (size_t)n;
 	}
+	if (out_len) /* pty full (host not reading): retry on POLLOUT or after OUT_HOLD_NS */
+		out_first_ns = now_ns();
 }
 
 static void release_16u2(uint64_t now)
@@ -584,7 +604,38 @@ static void run_events(void)
 		}
 	}
 	recompute_next_event();
-	flush_out();
+	/* The end of a burst goes out at once (nothing more on the wire and the
+	 * firmware's UDRE interrupt off, i.e. it has nothing more queued), as does
+	 * a 16U2 release (a whole USB frame's worth at once): batching must not
+	 * delay the last byte of a reply. */
+	if (out_len && (opt_16u2 || (ring_empty(&wire_tx) && !(avr->data[UCSR0B_ADDR] & UDRIE0_BIT))))
+		flush_out();
+}
+
+/* ------------------------------------------------------------------ INT0/INT1 */
+/* simavr 1.6 emulates the low-level INT0/INT1 trigger ("strict" mode, on by
+ * default) with a cycle timer that fires on EVERY cycle while the pin is low,
+ * once a pin notification saw it low with ISC = 00 (the reset value) - even
+ * when the interrupt is not enabled in EIMSK.  An unconnected D2/D3 is low
+ * here, so that timer ran for good: every instruction paid for an
+ * avr_ioctl() and a sleeping firmware advanced one cycle per wake-up (about
+ * 70 % of a core at 8,000 requests/s, and simulated time fell behind).  Turn
+ * the strict mode on only while the firmware really uses the level trigger
+ * (EIMSK bit set, ISCn1:0 = 00); checked after every slice and reset. */
+#define EIMSK_ADDR 0x3D
+#define EICRA_ADDR 0x69
+static int extint_strict[2] = {-1, -1};
+
+static void update_extint_strict(void)
+{
+	uint8_t eimsk = avr->data[EIMSK_ADDR], eicra = avr->data[EICRA_ADDR];
+	for (int n = 0; n < 2; n++) {
+		int want = ((eimsk >> n) & 1) && ((eicra >> (2 * n)) & 3) == 0;
+		if (want != extint_strict[n]) {
+			extint_strict[n] = want;
+			avr_extint_set_strict_lvl_trig(avr, (uint8_t)n, (uint8_t)want);
+		}
+	}
 }
 
 /* ------------------------------------------------------------------ UART hooks */
@@ -683,6 +734,7 @@ static void build_pollfds(void)
 /* Wait up to timeout_ns for any descriptor; returns >0 if one is ready. */
 static int wait_fds(uint64_t timeout_ns)
 {
+	flush_out(); /* never wait with board->host bytes held back */
 	build_pollfds();
 	if (master_fd >= 0 && !slave_open && timeout_ns > 5000000ULL)
 		timeout_ns = 5000000ULL; /* look for the host opening the port every 5 ms */
@@ -695,6 +747,7 @@ static int wait_fds(uint64_t timeout_ns)
 /* Called when the firmware sleeps; returns how many cycles to advance. */
 static uint64_t sleep_for(uint64_t how_long)
 {
+	flush_out(); /* a sleeping firmware sends nothing more for now */
 	uint64_t target = avr->cycle + 1 + how_long;
 	if (next_event < target)
 		target = next_event > avr->cycle ? next_event : avr->cycle + 1;
@@ -771,6 +824,8 @@ static void after_reset(void)
 {
 	reset_seen = 0;
 	halted = 0;
+	extint_strict[0] = extint_strict[1] = -1; /* re-apply after every reset */
+	update_extint_strict();
 	fw_pending = 0;
 	uart_xoff = 0;
 	ring_clear(&host_rx);
@@ -1029,6 +1084,7 @@ static void sb_bytes(struct sbuf *b, const uint8_t *d, int n)
 static void do_unplug(void)
 {
 	if (!plugged) return;
+	flush_out(); /* bytes that already reached the host side go out first */
 	plugged = 0;
 	holding_reset = 0;
 	if (master_fd >= 0) close(master_fd);
@@ -1081,14 +1137,14 @@ static void handle_command(struct jobj *o, struct sbuf *r)
 		if (opt_id >= 0) sb_add(r, "%d", opt_id); else sb_add(r, "null");
 		sb_add(r, ", \"baud\": %u, \"fixture\": \"%s\", \"usb_bridge\": \"%s\", \"fast\": %s, "
 			  "\"reset_on_open\": %s, \"resets\": %lu, \"opens\": %lu, "
-			  "\"bytes_to_host\": %lu, \"bytes_from_host\": %lu, \"bytes_discarded\": %lu, "
+			  "\"bytes_to_host\": %lu, \"bytes_from_host\": %lu, \"bytes_discarded\": %lu, \"pty_writes\": %lu, "
 			  "\"faults\": {\"drop\": %g, \"insert\": %g, \"flip\": %g, \"dropped\": %lu, "
 			  "\"inserted\": %lu, \"flipped\": %lu}, \"pulses_active\": %s, "
 			  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u, "
 			  "\"last_host_byte_us\": %.3f}",
 		       opt_baud, fixture_names[opt_fixture], opt_16u2 ? "16u2" : "none",
 		       opt_fast ? "true" : "false", opt_reset_on_open ? "true" : "false",
-		       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded,
+		       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded, pty_writes,
 		       fault_drop, fault_insert, fault_flip, faults_dropped, faults_inserted,
 		       faults_flipped, (gen[0].active || gen[1].active) ? "true" : "false",
 		       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc,
@@ -1574,11 +1630,14 @@ int main(int argc, char **argv)
 			}
 		}
 		if (quit_flag) break;
+		update_extint_strict();
 		uint64_t t = now_ns();
 		if (io_ready) {
 			poll_io(0);
 			t = now_ns();
 		}
+		if (out_len && t - out_first_ns >= OUT_HOLD_NS)
+			flush_out();
 		if (opt_fast) {
 			if (t - last_io_ns > 200000ULL) poll_io(0);
 			continue;

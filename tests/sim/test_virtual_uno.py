@@ -11,11 +11,13 @@ import os
 import statistics
 import subprocess
 import sys
+import time
 
 import anyio
 import pytest
 import serial
 
+from arduinoio_async import protocol as proto
 from arduinoio_async.sim import SimulatorError, SimulatorNotAvailable, VirtualUno
 from arduinoio_async.sim.cli import main as cli_main
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -73,6 +75,52 @@ async def test_pacing_tracks_wall_clock(virtual_uno_factory: VirtualUnoFactory) 
     print(f"\npacing: {dsim:.0f} us simulated in {dwall:.0f} us wall, lag {b['lag_us']:.1f} us")
     assert abs(dsim - dwall) < 5000
     assert abs(b["lag_us"]) < 5000
+
+
+async def test_pacing_keeps_up_with_pipelined_project_firmware(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """Back-to-back pipelined requests at 1 Mbaud: simulated time keeps up with the wall
+    clock (no rebase) and reply bytes reach the pty in batched writes.
+
+    Uses the project firmware: an unconnected D2/D3 is low, which used to keep simavr's
+    INT0/INT1 low-level poll (a cycle timer firing every cycle) running for good.
+    """
+    uno = await virtual_uno_factory(baud=1000000, board_id=1)
+    port = serial.Serial(uno.port, timeout=2)
+    try:
+        port.write(proto.GpioConfig(2, proto.GpioFlags.OUTPUT).encode())
+        assert len(port.read(5)) == 5
+        req = proto.GpioWrite(2, True).encode()
+        a = await uno.status()
+        n, window = 3000, 12
+        t0 = time.perf_counter()
+        port.write(req * window)
+        sent, got = window, 0
+        while got < n:
+            r = port.read(5 * max(1, min(window, n - got) // 2))
+            assert r, f"timeout after {got} replies"
+            k = len(r) // 5
+            got += k
+            if sent < n:
+                m = min(k, n - sent)
+                port.write(req * m)
+                sent += m
+        elapsed = time.perf_counter() - t0
+        b = await uno.status()
+    finally:
+        port.close()
+    writes = b["pty_writes"] - a["pty_writes"]
+    nbytes = b["bytes_to_host"] - a["bytes_to_host"]
+    print(
+        f"\npipelined GPIO WRITE, window {window}: {n / elapsed:.0f} cmd/s, "
+        f"lag {b['lag_us']:.0f} us, rebases {b['rebases'] - a['rebases']}, "
+        f"{nbytes / max(writes, 1):.1f} bytes per pty write"
+    )
+    assert b["rebases"] == a["rebases"]
+    assert abs(b["lag_us"]) < 5000
+    assert nbytes == 5 * n
+    assert writes < nbytes
 
 
 async def test_loopback_fixture(virtual_uno_factory: VirtualUnoFactory) -> None:
