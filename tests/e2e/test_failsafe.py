@@ -18,6 +18,8 @@ from arduinoio_async.manager import BoardManager, ManagerEvent
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from .pulses import fresh_pulses
+
 pytestmark = pytest.mark.sim
 
 TIMEOUT_MS = 100
@@ -123,7 +125,7 @@ async def test_a_killed_client_process_trips_the_failsafe(
         client.kill()
         client.wait()
     await assert_safe(uno)
-    await anyio.sleep(0.05)  # a servo period after the trip
+    await fresh_pulses(uno, "D9", 2)  # servo periods after the trip
     reaction = await check_reaction_time(uno)
     print(f"\nfailsafe reaction, killed process: {reaction:.2f} ms (timeout {TIMEOUT_MS})")
 

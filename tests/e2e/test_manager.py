@@ -23,6 +23,8 @@ from arduinoio_async import protocol as p
 from arduinoio_async.manager import BoardManager, ManagerEvent
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from .pulses import fresh_pulses
+
 pytestmark = pytest.mark.sim
 
 
@@ -161,9 +163,7 @@ async def test_unplug_fails_at_once_and_replug_restores_the_same_handles(
             again = await boards.wait_connected(9)
         assert again is board and board.port == new_port
         assert (await uno.pin("D9")).ddr == 1
-        await uno.clear_pulse_stats("D9")
-        await anyio.sleep(0.07)
-        stats = await uno.pulse_stats("D9")
+        stats = await fresh_pulses(uno, "D9", 2)
         assert stats.high_us and all(abs(h - 1800) <= 1 for h in stats.high_us[1:]), stats
         last = (await uno.pin("D4")).level
         await led.write(not last)  # the same handle works again

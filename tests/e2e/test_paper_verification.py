@@ -31,6 +31,8 @@ from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from .pulses import fresh_pulses
+
 pytestmark = pytest.mark.sim
 
 T = TypeVar("T")
@@ -149,10 +151,7 @@ async def test_servo_pulses_are_measured_by_the_fixture(
         servo = await board.servo(D9, pulse_us=1500)
         other = await board.servo(D10, pulse_us=1000)
         soft = await board.soft_pwm(D2, pulse_us=1700)
-        for pin in ("D9", "D10", "D2"):
-            await uno.clear_pulse_stats(pin)
-        await anyio.sleep(0.09)  # let the fixture capture a few 20 ms periods
-        d9, d10, d2 = [await uno.pulse_stats(pin) for pin in ("D9", "D10", "D2")]
+        d9, d10, d2 = [await fresh_pulses(uno, pin, 3) for pin in ("D9", "D10", "D2")]
         assert len(d9.high_us) >= 3
         assert all(abs(h - 1500) <= 1 for h in d9.high_us), d9
         assert all(abs(t - 20000) <= 20 for t in d9.period_us), d9
@@ -161,11 +160,10 @@ async def test_servo_pulses_are_measured_by_the_fixture(
         assert all(abs(t - 20000) <= 200 for t in d2.period_us), d2
         await servo.set_pulse(1234)
         await soft.stop()
-        await uno.clear_pulse_stats("D9")
+        d9 = await fresh_pulses(uno, "D9", 2)
+        assert all(abs(h - 1234) <= 1 for h in d9.high_us[1:]), d9
         await uno.clear_pulse_stats("D2")
-        await anyio.sleep(0.07)
-        d9 = await uno.pulse_stats("D9")
-        assert d9.high_us and all(abs(h - 1234) <= 1 for h in d9.high_us[1:]), d9
+        await fresh_pulses(uno, "D9", 2)  # two servo periods in which D2 must stay low
         assert not (await uno.pulse_stats("D2")).high_us
         assert other.pulse_us == 1000
 
