@@ -74,6 +74,7 @@ class FailsafeConfig:
 
 R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=_PinHandle)
+PO = TypeVar("PO", bound=PulseOutput)
 
 
 class Board:
@@ -318,8 +319,8 @@ class Board:
         return (await self.request(p.AnalogReadAll())).values
 
     async def _pulse_output(
-        self, pin: DigitalPin, function: Function, cls: type[PulseOutput], pulse_us: int
-    ) -> Any:
+        self, pin: DigitalPin, function: Function, cls: type[PO], pulse_us: int
+    ) -> PO:
         handle = self._new_handle(pin, function, cls)
         pulse_us = cls.check_pulse(pulse_us)
         await self._configure(handle.pin, handle, p.PwmConfig(handle.pin, pulse_us))
@@ -328,13 +329,11 @@ class Board:
 
     async def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> Servo:
         """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
-        handle: Servo = await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us)
-        return handle
+        return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us)
 
     async def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> SoftPwm:
         """Software servo PWM on D2-D7 (100 us resolution)."""
-        handle: SoftPwm = await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us)
-        return handle
+        return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us)
 
     async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
         """An event counter on D2/D3 counting rising or falling edges, from zero."""

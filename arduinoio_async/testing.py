@@ -93,7 +93,8 @@ class FakeBoard:
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
         self._pins = {n: _Pin() for n in range(2, 14)}
-        self._i2c_speed: p.I2CSpeed | None = None
+        #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
+        self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
         self._decoder = p.Decoder.from_host()
         self._task_group: anyio.abc.TaskGroup | None = None
@@ -152,6 +153,10 @@ class FakeBoard:
 
     def role(self, pin: int) -> str:
         return self._pins[pin].role
+
+    async def push(self, frame: p.Frame) -> None:
+        """Send a board-initiated frame (a stream sample, a failsafe event) to the host."""
+        await self._board_stream.send(frame.encode())
 
     # ---- serving ---------------------------------------------------------------------------
 
@@ -226,7 +231,7 @@ class FakeBoard:
     def _reset(self, request: p.Reset) -> p.Frame:
         self._pins = {n: _Pin() for n in range(2, 14)}
         self.pulses.clear()
-        self._i2c_speed = None
+        self.i2c_speed = None
         self.session = 0
         return p.ResetReply()
 
@@ -295,16 +300,16 @@ class FakeBoard:
     def _analog_read(self, request: p.AnalogRead) -> p.Frame:
         if request.channel >= p.ANALOG_CHANNELS:
             return self._error(request, E.PIN_NOT_CAPABLE)
-        if self._i2c_speed is not None and request.channel in (4, 5):
+        if self.i2c_speed is not None and request.channel in (4, 5):
             return self._error(request, E.PIN_BUSY)
         return p.AnalogReadReply(request.channel, self.analog[request.channel])
 
     def _i2c_config(self, request: p.I2CConfig) -> p.Frame:
-        self._i2c_speed = request.speed
+        self.i2c_speed = request.speed
         return p.I2CConfigReply(request.speed)
 
     def _i2c_device(self, request: p.I2CRead | p.I2CWrite) -> bytearray | p.ErrorReply:
-        if self._i2c_speed is None:
+        if self.i2c_speed is None:
             return self._error(request, E.I2C_NOT_CONFIGURED)
         if request.address > 0x7F:
             return self._error(request, E.VALUE_OUT_OF_RANGE)

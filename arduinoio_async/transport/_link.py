@@ -274,7 +274,13 @@ class Transport:
 
     @property
     def in_flight(self) -> int:
+        """Requests sent and not yet answered."""
         return len(self._pending)
+
+    @property
+    def in_flight_bytes(self) -> int:
+        """Request bytes sent and not yet answered (bounded by ``window_bytes``)."""
+        return self._inflight_bytes
 
     def subscribe(self, callback: Callable[[p.Event], None]) -> Callable[[], None]:
         """Call ``callback`` (in the reader task) for each board-initiated frame."""

@@ -32,7 +32,7 @@ def make_fake(faults: Faults | None = None) -> FakeBoard:
     fake.analog = [100 * ch + 7 for ch in range(6)]
     fake.i2c_devices[0x50][:] = bytes(range(256))
     fake.temperature_raw = 293
-    fake._i2c_speed = p.I2CSpeed.KHZ_100
+    fake.i2c_speed = p.I2CSpeed.KHZ_100
     return fake
 
 
@@ -117,7 +117,7 @@ async def test_the_window_bounds_request_bytes_in_flight() -> None:
 
         def watch(record: TraceRecord) -> None:
             nonlocal peak
-            peak = max(peak, link._inflight_bytes)
+            peak = max(peak, link.in_flight_bytes)
 
         link.trace = watch
         async with anyio.create_task_group() as tg:
@@ -221,7 +221,7 @@ async def test_stream_events_go_to_subscribers_not_to_callers() -> None:
         seen: list[p.Event] = []
         link.subscribe(seen.append)
         sample = p.StreamSample(1, p.StreamFlags.NONE, 5, 1000, b"\x01\x02")
-        await fake._board_stream.send(sample.encode())
+        await fake.push(sample)
         assert await link.request(p.ReadId()) == p.ReadIdReply(0x0102)
         assert seen == [sample]
 
