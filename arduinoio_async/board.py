@@ -22,6 +22,7 @@ from . import protocol as p
 from .errors import (
     ArduinoIOError,
     BoardDisconnectedError,
+    FailsafeTrippedError,
     LinkError,
     PinRoleError,
     ProtocolError,
@@ -240,7 +241,11 @@ class Board:
 
     async def request(self, request: p.Request[R], *, timeout: float | None = None) -> R:
         """Send a raw protocol request and return its verified reply."""
-        return await self.link.request(request, timeout=timeout)
+        try:
+            return await self.link.request(request, timeout=timeout)
+        except FailsafeTrippedError:
+            self._tripped()  # the refusal may be the first news of the trip
+            raise
 
     def _check_free(self, pin: DigitalPin, handle: _PinHandle) -> None:
         current = self._roles.get(pin)
