@@ -52,7 +52,7 @@ static inline uint8_t *aio_put32(uint8_t *p, uint32_t v)
 }
 
 /* Reply that echoes the request's data unchanged. */
-static inline uint8_t aio_echo(const aio_request_t *rq, aio_reply_t *rp)
+static inline __attribute__((always_inline)) uint8_t aio_echo(const aio_request_t *rq, aio_reply_t *rp)
 {
     uint8_t i;
     for (i = 0; i < rq->len && i < AIO_REPLY_DATA_MAX; i++)

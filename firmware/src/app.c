@@ -80,7 +80,21 @@ uint8_t app_step(void)
     }
     c = hal_rx_get();
     if (c >= 0) {
-        event = parser_feed(&parser, (uint8_t)c, hal_rx_last_tick());
+        /* A burst: feed the bytes straight from the FIFO until a frame ends
+         * or the FIFO is empty (at most a FIFO's worth, so the watchdog and
+         * the checks above still come round).  The parser's quiet-period
+         * reference is the arrival of the newest byte, as if each byte had
+         * been fed with its own tick. */
+        uint8_t n = AIO_RX_FIFO_SIZE;
+        do {
+            event = parser_feed(&parser, (uint8_t)c, 0);
+            if (event != PARSER_NONE)
+                break;
+            if (!--n)
+                break;
+            c = hal_rx_get();
+        } while (c >= 0);
+        parser.last_tick = hal_rx_last_tick();
         if (event != PARSER_NONE)
             handle(event);
         return 1;

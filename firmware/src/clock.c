@@ -16,7 +16,7 @@
 
 #define TICK_COUNTS 200u /* timer counts per tick */
 
-static volatile uint32_t ticks;
+volatile uint32_t clock_ticks;
 static volatile uint16_t millis;
 static uint8_t ms_div;
 static volatile uint8_t in_slow;
@@ -67,7 +67,7 @@ __asm__(".section .text.clock_slow_call,\"ax\",@progbits\n"
 
 ISR(TIMER2_COMPA_vect)
 {
-    ticks++;
+    clock_ticks++;
     if (++ms_div >= 10u) {
         ms_div = 0;
         millis++;
@@ -81,7 +81,7 @@ ISR(TIMER2_COMPA_vect)
  * cost the receive interrupt four loads and four more saved registers. */
 uint16_t clock_ticks_isr(void)
 {
-    const volatile uint8_t *p = (const volatile uint8_t *)&ticks;
+    const volatile uint8_t *p = (const volatile uint8_t *)&clock_ticks;
     return (uint16_t)(p[0] | (uint16_t)p[1] << 8);
 }
 
@@ -90,7 +90,7 @@ uint16_t hal_ticks(void)
     uint8_t s = SREG;
     uint16_t t;
     cli();
-    t = (uint16_t)ticks;
+    t = (uint16_t)clock_ticks;
     SREG = s;
     return t;
 }
@@ -110,7 +110,7 @@ uint32_t hal_micros(void)
     uint8_t s = SREG, c;
     uint32_t t;
     cli();
-    t = ticks;
+    t = clock_ticks;
     c = TCNT2;
     if ((TIFR2 & _BV(OCF2A)) && c < TICK_COUNTS / 2u)
         t++; /* the tick has passed but its interrupt has not run yet */

@@ -8,4 +8,7 @@ void clock_init(void);
 /* hal_ticks() for callers that already run with interrupts disabled. */
 uint16_t clock_ticks_isr(void);
 
+/* The tick count itself (the receive interrupt copies its low half in assembly). */
+extern volatile uint32_t clock_ticks;
+
 #endif

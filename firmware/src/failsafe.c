@@ -30,10 +30,14 @@ void failsafe_init(void)
 
 void failsafe_feed(void)
 {
-    uint16_t now = hal_millis();
-    uint8_t s = hal_irq_save();
-    last_feed = now;
-    hal_irq_restore(s);
+    /* Only the failsafe check reads last_feed: nothing to do while it is not
+     * armed (ARM sets last_feed itself). */
+    if (armed) {
+        uint16_t now = hal_millis();
+        uint8_t s = hal_irq_save();
+        last_feed = now;
+        hal_irq_restore(s);
+    }
 }
 
 uint8_t failsafe_tripped(void) { return tripped; }

@@ -1,37 +1,63 @@
 /*
  * parser.c - the main frame parser (see parser.h).
+ *
+ * Per byte this is one switch on the state and a few 8-bit operations: the
+ * request framing comes from a small table indexed by CT and DT built from
+ * the generated AIO_REQUEST_TABLE (no compare chains per byte), the data
+ * bytes are counted down in `left`.
  */
 #include "parser.h"
 
 enum { ST_IDLE = 0, ST_DT, ST_DATA, ST_CS, ST_DISCARD };
 
-uint8_t parser_lookup(uint8_t ct, uint8_t dt, uint8_t *fixed, int8_t *len_pos)
+/* frame[ct][dt]: 0 = no such request, else FR_KNOWN | data_len | (len_pos + 1) << 4.
+ * Column 0 (no request has DT 0) marks a known class.  A CT or DT outside the
+ * table is a compile error in the initializer. */
+#define FR_KNOWN 0x80u
+#define FR_ROWS 9u
+#define FR_COLS 8u
+#define FR_ENC(data_len, lpos) ((uint8_t)(FR_KNOWN | (data_len) | (uint8_t)((lpos) + 1) << 4))
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Woverride-init"
+static const uint8_t frame_table[FR_ROWS][FR_COLS] = {
+#define AIO_X(CLASS, NAME, ct_, dt_, data_len, lpos) \
+    [ct_][0] = FR_KNOWN, [ct_][dt_] = FR_ENC(data_len, lpos),
+    AIO_REQUEST_TABLE(AIO_X)
+#undef AIO_X
+};
+#pragma GCC diagnostic pop
+
+/* The encoding holds data_len 0..15 and len_pos -1..6. */
+static inline void frame_table_check(void)
 {
 #define AIO_X(CLASS, NAME, ct_, dt_, data_len, lpos) \
-    case ((uint16_t)(ct_) << 8 | (dt_)):             \
-        *fixed = (data_len);                          \
-        *len_pos = (lpos);                            \
-        return 1;
-    switch ((uint16_t)ct << 8 | dt) {
-        AIO_REQUEST_TABLE(AIO_X)
-    default:
-        return 0;
-    }
+    _Static_assert((data_len) < 16 && (lpos) >= -1 && (lpos) < 7 && (dt_) != 0, "frame table encoding");
+    AIO_REQUEST_TABLE(AIO_X)
 #undef AIO_X
 }
 
-uint8_t parser_known_class(uint8_t ct)
+uint8_t parser_lookup(uint8_t ct, uint8_t dt, uint8_t *fixed, int8_t *len_pos)
 {
-#define AIO_X(CLASS, NAME, ct_, dt_, data_len, lpos) || ct == (ct_)
-    return 0 AIO_REQUEST_TABLE(AIO_X);
-#undef AIO_X
+    uint8_t e;
+    (void)frame_table_check;
+    if (ct >= FR_ROWS || dt >= FR_COLS || dt == 0)
+        return 0;
+    e = frame_table[ct][dt];
+    if (!e)
+        return 0;
+    *fixed = e & 0x0Fu;
+    *len_pos = (int8_t)(((e >> 4) & 0x07u) - 1);
+    return 1;
 }
+
+uint8_t parser_known_class(uint8_t ct) { return ct < FR_ROWS && frame_table[ct][0]; }
 
 void parser_init(parser_t *p)
 {
     p->state = ST_IDLE;
-    p->got = 0;
-    p->need = 0;
+    p->idx = 0;
+    p->left = 0;
     p->sum = 0;
     p->last_tick = 0;
 }
@@ -55,8 +81,21 @@ uint8_t parser_idle(const parser_t *p) { return p->state == ST_IDLE; }
 
 uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
 {
+    uint8_t i;
     p->last_tick = tick;
     switch (p->state) {
+    case ST_DATA:
+        i = p->idx;
+        if (i < AIO_REQUEST_DATA_MAX) {
+            p->rq.data[i] = byte;
+            if ((int8_t)i == p->len_pos) /* len_pos < AIO_REQUEST_DATA_MAX */
+                p->left = (uint16_t)(p->left + byte);
+            p->idx = (uint8_t)(i + 1u);
+        }
+        p->sum ^= byte;
+        if (--p->left == 0)
+            p->state = ST_CS;
+        return PARSER_NONE;
     case ST_IDLE:
         if (!parser_known_class(byte))
             return fail(p, byte, 0, AIO_ERR_UNKNOWN_CLASS);
@@ -64,29 +103,23 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
         p->sum = byte;
         p->state = ST_DT;
         return PARSER_NONE;
-    case ST_DT:
-        if (!parser_lookup(p->rq.ct, byte, &p->fixed, &p->len_pos))
+    case ST_DT: {
+        uint8_t e = (byte < FR_COLS && byte != 0) ? frame_table[p->rq.ct][byte] : 0;
+        if (!e)
             return fail(p, p->rq.ct, byte, AIO_ERR_UNKNOWN_DESCRIPTOR);
         p->rq.dt = byte;
         p->sum ^= byte;
-        p->need = p->fixed;
-        p->got = 0;
-        p->state = p->need ? ST_DATA : ST_CS;
+        p->fixed = e & 0x0Fu;
+        p->len_pos = (int8_t)(((e >> 4) & 0x07u) - 1);
+        p->left = p->fixed;
+        p->idx = 0;
+        p->state = p->fixed ? ST_DATA : ST_CS;
         return PARSER_NONE;
-    case ST_DATA:
-        if (p->got < AIO_REQUEST_DATA_MAX)
-            p->rq.data[p->got] = byte;
-        if (p->len_pos >= 0 && p->got == (uint16_t)p->len_pos)
-            p->need = (uint16_t)(p->fixed + byte);
-        p->got++;
-        p->sum ^= byte;
-        if (p->got >= p->need)
-            p->state = ST_CS;
-        return PARSER_NONE;
+    }
     case ST_CS:
         if ((uint8_t)(p->sum ^ byte) != 0)
             return fail(p, p->rq.ct, p->rq.dt, AIO_ERR_BAD_CHECKSUM);
-        p->rq.len = (uint8_t)(p->got < AIO_REQUEST_DATA_MAX ? p->got : AIO_REQUEST_DATA_MAX);
+        p->rq.len = p->idx;
         p->state = ST_IDLE;
         return PARSER_REQUEST;
     default: /* ST_DISCARD: every byte restarts the quiet period */

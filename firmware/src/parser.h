@@ -24,8 +24,8 @@ typedef struct {
     uint8_t state;
     uint8_t fixed;       /* fixed data bytes of the current request */
     int8_t len_pos;      /* index of its length byte, or -1 */
-    uint16_t need;       /* data bytes expected in total */
-    uint16_t got;        /* data bytes received */
+    uint8_t idx;         /* data bytes received, saturating at AIO_REQUEST_DATA_MAX */
+    uint16_t left;       /* data bytes still expected */
     uint8_t sum;         /* running XOR */
     uint16_t last_tick;  /* when the last byte was received */
     aio_request_t rq;    /* valid after PARSER_REQUEST */

@@ -17,9 +17,9 @@ extern uint8_t pins_role[PINS_COUNT];
 /* 1 << n: the AVR has no barrel shifter, a variable shift is a loop. */
 extern const uint16_t pins_bit[16];
 
-static inline uint16_t pins_bit_of(uint8_t pin) { return pins_bit[pin & 15u]; }
+static inline __attribute__((always_inline)) uint16_t pins_bit_of(uint8_t pin) { return pins_bit[pin & 15u]; }
 
-static inline uint8_t pins_capable(uint8_t pin, uint16_t table3_mask)
+static inline __attribute__((always_inline)) uint8_t pins_capable(uint8_t pin, uint16_t table3_mask)
 {
     return pin < 16u && (table3_mask & pins_bit[pin]);
 }

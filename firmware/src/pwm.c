@@ -18,6 +18,7 @@
 static volatile uint8_t soft_next[SOFT_COUNT]; /* width in ticks for the next frame */
 static uint8_t soft_active[SOFT_COUNT];         /* width in ticks in this frame (ISR only) */
 static uint8_t frame_tick;                      /* ISR only */
+static uint8_t soft_any;                        /* pins high in this frame (ISR only) */
 
 void pwm_init(void)
 {
@@ -25,6 +26,7 @@ void pwm_init(void)
     for (i = 0; i < SOFT_COUNT; i++)
         soft_next[i] = soft_active[i] = 0;
     frame_tick = 0;
+    soft_any = 0;
 }
 
 static uint8_t is_soft(uint8_t pin) { return pins_capable(pin, AIO_PINS_SOFT_PWM); }
@@ -75,12 +77,13 @@ void pwm_tick(void)
             if (soft_active[i])
                 mask |= bit;
         }
+        soft_any = mask;
         if (mask)
             hal_softpwm_high(mask);
         return;
     }
-    if (t > AIO_PULSE_MAX_US / AIO_SOFT_PWM_STEP_US)
-        return;
+    if (!soft_any || t > AIO_PULSE_MAX_US / AIO_SOFT_PWM_STEP_US)
+        return; /* no soft PWM pulse in this frame: nothing to end */
     for (i = 0; i < SOFT_COUNT; i++, bit = (uint8_t)(bit << 1))
         if (soft_active[i] == t)
             mask |= bit;
