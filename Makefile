@@ -52,7 +52,7 @@ test: setup firmware sim lint
 	$(BIN)/pytest
 
 bench: setup firmware sim
-	$(BIN)/arduinoio bench --all --json benchmarks/results/latest.json
+	$(BIN)/arduinoio bench --all --json benchmarks/results/latest.json --plot benchmarks/results/latest.png
 
 clean:
 	rm -rf firmware/build firmware/sim/build
