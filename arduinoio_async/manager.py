@@ -151,7 +151,6 @@ class BoardManager:
     _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
     _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
     _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
-    _last_error: dict[int, str] = field(default_factory=dict, init=False)
     #: Board ID -> the port whose supervisor owns it (set the moment a probe finds it).
     _claims: dict[int, str] = field(default_factory=dict, init=False)
 
@@ -297,6 +296,7 @@ class BoardManager:
         """Run one board's link: attach and restore, heartbeat, detach when it is lost."""
         board = self._boards.get(board_id)
         started = False
+        detail = ""
         closed = anyio.Event()
         link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
         try:
@@ -313,7 +313,7 @@ class BoardManager:
         except ArduinoIOError as exc:
             # The port failed mid-handshake or went away: it is forgotten below, so the
             # next scan probes it afresh.
-            self._last_error[board_id] = f"{link.name}: {exc}"
+            detail = str(exc)
         finally:
             if board is not None:
                 board.detach(link)
@@ -326,7 +326,7 @@ class BoardManager:
                 bid: ports for bid, ports in self._duplicates.items() if len(ports) > 1
             }
             if board is not None:
-                self._emit(ManagerEvent("disconnected", board_id, link.name))
+                self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
             if not started:
                 task_status.started()
 

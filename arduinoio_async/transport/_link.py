@@ -221,7 +221,8 @@ class Transport:
         self._changed = anyio.Event()
         self._send_lock = anyio.Lock()
         self._receive_scope: anyio.CancelScope | None = None
-        self._lost_sync_reason: str | None = None
+        #: Why the link last lost sync (for diagnostics), or None.
+        self.last_loss: str | None = None
         self._subscribers: list[Callable[[p.Event], None]] = []
         self._state_listeners: list[Callable[[LinkState], None]] = []
         self._task_group: anyio.abc.TaskGroup | None = None
@@ -478,7 +479,7 @@ class Transport:
         """Fail everything in flight and make the reader resynchronise."""
         if self._state is not LinkState.READY:
             return
-        self._lost_sync_reason = reason
+        self.last_loss = reason
         self._fail_pending(
             lambda pending: (
                 error
