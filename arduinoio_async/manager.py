@@ -142,7 +142,9 @@ class BoardManager:
     baudrate: int = p.DEFAULT_BAUD
     timeout: float = DEFAULT_TIMEOUT
     probe_deadline: float = READY_TIMEOUT
-    rescan_interval: float = RESCAN_INTERVAL
+    #: Seconds between background scans for new or returning boards; None scans only
+    #: on entry and on explicit ``scan()`` calls (one-shot tools).
+    rescan_interval: float | None = RESCAN_INTERVAL
     _boards: dict[int, Board] = field(default_factory=dict, init=False)
     _known: dict[str, _Known] = field(default_factory=dict, init=False)
     _duplicates: dict[int, set[str]] = field(default_factory=dict, init=False)
@@ -158,7 +160,10 @@ class BoardManager:
         self._task_group = anyio.create_task_group()
         await self._task_group.__aenter__()
         await self.scan()
-        self._task_group.start_soon(self._rescan_forever, name="arduinoio manager scan")
+        if self.rescan_interval is not None:
+            self._task_group.start_soon(
+                self._rescan_forever, self.rescan_interval, name="arduinoio manager scan"
+            )
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
@@ -195,7 +200,9 @@ class BoardManager:
         Raises :class:`DuplicateBoardError` when two ports answer with the ID, and
         :class:`BoardNotFoundError` (naming every port tried and its answer) on timeout.
         """
-        limit = self.probe_deadline + self.rescan_interval if timeout is None else timeout
+        if timeout is None:
+            timeout = self.probe_deadline + (self.rescan_interval or 0.0)
+        limit = timeout
         with anyio.move_on_after(limit):
             return await self.wait_connected(board_id)
         self._raise_duplicate(board_id)
@@ -243,9 +250,9 @@ class BoardManager:
         for callback in list(self._listeners):
             callback(event)
 
-    async def _rescan_forever(self) -> None:
+    async def _rescan_forever(self, interval: float) -> None:
         while True:
-            await anyio.sleep(self.rescan_interval)
+            await anyio.sleep(interval)
             await self.scan()
 
     async def _probe_and_attach(self, port: str, results: dict[str, ProbeResult]) -> None:

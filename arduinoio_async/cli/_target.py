@@ -44,7 +44,7 @@ def manager_for(args: argparse.Namespace) -> BoardManager:
         patterns=args.ports,
         baudrate=args.baud,
         probe_deadline=args.probe_timeout,
-        rescan_interval=3600,
+        rescan_interval=None,
     )
 
 

@@ -7,9 +7,9 @@ faults, unplug/replug) through the harness's control socket.  See
 """
 
 from ._board import (
+    CircuitPin,
     FirmwareCycles,
     Fixture,
-    PinState,
     PulseStats,
     SimulatorError,
     SimulatorNotAvailable,
@@ -22,9 +22,9 @@ from ._board import (
 )
 
 __all__ = [
+    "CircuitPin",
     "FirmwareCycles",
     "Fixture",
-    "PinState",
     "PulseStats",
     "SimulatorError",
     "SimulatorNotAvailable",

@@ -26,9 +26,9 @@ from anyio.streams.buffered import BufferedByteReceiveStream
 from ..errors import ArduinoIOError
 
 __all__ = [
+    "CircuitPin",
     "FirmwareCycles",
     "Fixture",
-    "PinState",
     "PulseStats",
     "SimulatorError",
     "SimulatorNotAvailable",
@@ -63,7 +63,7 @@ class SimulatorError(ArduinoIOError):
 
 
 @dataclass(frozen=True, slots=True)
-class PinState:
+class CircuitPin:
     """A pin as the simulated circuit sees it (DDR/PORT bits and the resulting level)."""
 
     pin: int
@@ -382,10 +382,10 @@ class VirtualUno:
         """Drive an input pin from outside (0/1), or release it with ``None``."""
         await self.command("drive", pin=_pin_arg(pin), level=None if level is None else int(level))
 
-    async def pin(self, pin: PinName) -> PinState:
+    async def pin(self, pin: PinName) -> CircuitPin:
         """DDR, PORT and the level the circuit sees on ``pin`` (0..19 or "D9"/"A0")."""
         r = await self.command("pin", pin=_pin_arg(pin))
-        return PinState(
+        return CircuitPin(
             pin=r["pin"], ddr=r["ddr"], port=r["port"], level=r["level"], mv=r.get("mv")
         )
 
