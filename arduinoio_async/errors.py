@@ -137,6 +137,20 @@ class BoardDisconnectedError(LinkError, ConnectionError):
     """The port was closed or lost; pending and new requests fail at once."""
 
 
+class PortBusyError(BoardDisconnectedError):
+    """The port is held open by another process (opened exclusively); nothing was sent.
+
+    Discovery skips such ports instead of stealing another program's replies.
+    """
+
+    def __init__(self, port: str, detail: str = "") -> None:
+        self.port = port
+        self.detail = detail
+        super().__init__(
+            f"port {port} is in use by another process" + (f" ({detail})" if detail else "")
+        )
+
+
 class LinkResyncError(LinkError):
     """The request was in flight when the link lost sync and had to be resynchronised."""
 

@@ -23,7 +23,7 @@ import anyio.abc
 import serial
 import serial_asyncio
 
-from ..errors import BoardDisconnectedError
+from ..errors import BoardDisconnectedError, PortBusyError
 
 __all__ = ["SerialByteStream", "open_serial_stream"]
 
@@ -180,14 +180,20 @@ async def open_serial_stream(
 ) -> anyio.abc.ByteStream:
     """Open ``url`` (a device path or any pyserial URL) as a byte stream.
 
-    Raises :class:`BoardDisconnectedError` when the port cannot be opened, with the reason.
+    The port is opened exclusively (pyserial's ``exclusive=True``: an advisory ``flock`` on
+    POSIX), so a second program -- ``arduinoio list`` while a robot runs -- cannot steal the
+    first one's replies.  Raises :class:`PortBusyError` when another process holds the port
+    and :class:`BoardDisconnectedError` when it cannot be opened for any other reason.
     """
+    serial_options.setdefault("exclusive", True)
     try:
         port = serial.serial_for_url(
             url, baudrate=baudrate, timeout=0, write_timeout=0, do_not_open=True, **serial_options
         )
         await anyio.to_thread.run_sync(port.open)
     except (serial.SerialException, OSError, ValueError) as exc:
+        if "exclusively lock" in str(exc):  # pyserial's wording for a failed flock
+            raise PortBusyError(url) from exc
         raise BoardDisconnectedError(f"cannot open {url}: {exc}") from exc
     if not _has_fileno(port):
         return _ThreadedSerialStream(port)

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import os
+
 import anyio
 import anyio.abc
+import pytest
 
 from arduinoio_async import D2
 from arduinoio_async.board import Board
+from arduinoio_async.errors import PortBusyError
 from arduinoio_async.testing import FakeBoard
+from arduinoio_async.transport._serial import open_serial_stream
 
 
 async def test_a_board_behind_socket_url() -> None:
@@ -34,3 +39,22 @@ async def test_a_board_behind_socket_url() -> None:
             await board.gpio(D2).write(True)
             assert fake.levels[2] is True
         tg.cancel_scope.cancel()
+
+
+async def test_a_port_held_by_another_program_is_refused_not_shared() -> None:
+    """Two programs on one port would steal each other's replies: the second is refused."""
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    try:
+        first = await open_serial_stream(path)
+        try:
+            with pytest.raises(PortBusyError) as caught:
+                await open_serial_stream(path)
+            assert caught.value.port == path
+        finally:
+            await first.aclose()
+        second = await open_serial_stream(path)  # free again once the first one closed
+        await second.aclose()
+    finally:
+        os.close(master)
+        os.close(slave)
