@@ -88,9 +88,10 @@ async def test_explicit_handles_do_what_they_say() -> None:
         soft = await board.soft_pwm(D2, pulse_us=1200)
         await soft.set_pulse(1800)
         assert fake.pulses[2] == 1800
-        counter = await board.counter(D3)
+        counter = await board.counter(D3)  # counts rising edges only, as the firmware does
         fake.drive(3, True)
         fake.drive(3, False)
+        fake.drive(3, True)
         assert await counter.read() == 2
         assert await counter.reset() == 2
         assert await counter.read() == 0

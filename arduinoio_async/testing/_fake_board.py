@@ -1,21 +1,13 @@
-"""An in-memory board for testing robot code (and this library) without hardware.
+"""The fake board: the real protocol core on a memory link, and a model of the board.
 
-:class:`FakeBoard` answers requests with the real protocol core -- it decodes with
-``Decoder.from_host()`` and encodes real reply frames -- over a :func:`memory_link`, and
-models the board's state closely enough for unit tests: pin roles of Table III, levels,
-latched edges, analog values, an I2C memory device, counters, servo pulses, the board ID,
-status and session.  :class:`Faults` makes it an unreliable peer: replies split into
-pieces, garbage, dropped, inserted and flipped bytes, lost and late replies, all from a
-seeded random generator so a failing case can be replayed.
-
-    async with FakeBoard(board_id=0x0001) as fake:
-        async with Board.connect(fake.host_stream) as board:
-            await board.gpio(D2).write(True)
-            assert fake.levels[2]
+It decodes with ``Decoder.from_host()`` and encodes real reply frames, so a test never
+keeps a second copy of the protocol; the model follows the firmware's checks in the
+firmware's order (refusals included), and the timer-driven parts live in :mod:`._timed`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import random
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,38 +16,22 @@ from typing import Any
 import anyio
 import anyio.abc
 
-from . import protocol as p
-from .protocol.pins import Function, pin_mask
-from .transport import MemoryByteStream, memory_link
+from .. import protocol as p
+from ..protocol.pins import Function, pin_mask
+from ..transport import MemoryByteStream, memory_link
+from ._faults import Faults, corrupt
+from ._timed import FailsafeModel, StreamModel
 
-__all__ = ["FakeBoard", "Faults"]
+__all__ = ["FakeBoard"]
 
 E = p.ErrorCode
-
-
-@dataclass
-class Faults:
-    """What the fake board does wrong; probabilities are per reply or per byte."""
-
-    seed: int = 0
-    #: Send each reply in random pieces (down to single bytes).
-    split: bool = False
-    #: Probability that random garbage bytes precede a reply.
-    garbage: float = 0.0
-    #: Per-byte probabilities on the board-to-host direction.
-    drop_byte: float = 0.0
-    insert_byte: float = 0.0
-    flip_byte: float = 0.0
-    #: Probability that a request gets no reply at all.
-    lose_reply: float = 0.0
-    #: Each reply waits a random time in this range (seconds) before it is sent.
-    delay: tuple[float, float] = (0.0, 0.0)
 
 
 _DIGITAL = pin_mask(Function.DIGITAL_OUTPUT)
 _SOFT_PWM = pin_mask(Function.SOFT_PWM)
 _SERVO = pin_mask(Function.SERVO_PWM)
 _COUNTER = pin_mask(Function.COUNTER)
+_INPUT = pin_mask(Function.DIGITAL_INPUT)
 
 
 def _has(mask: int, pin: int) -> bool:
@@ -68,6 +44,7 @@ class _Pin:
     pull_up: bool = False
     rose: bool = False
     fell: bool = False
+    edge: p.Edge = p.Edge.RISING  # what a counter on this pin counts
 
 
 @dataclass
@@ -81,6 +58,7 @@ class FakeBoard:
     levels: list[bool] = field(default_factory=lambda: [False] * 14)
     analog: list[int] = field(default_factory=lambda: [0] * 6)
     temperature_raw: int = 300
+    #: Edges counted on D2 and D3 (only the edge each counter was configured for).
     counters: dict[int, int] = field(default_factory=lambda: {2: 0, 3: 0})
     pulses: dict[int, int] = field(default_factory=dict)
     #: 7-bit I2C address -> 256 registers.
@@ -98,13 +76,17 @@ class FakeBoard:
         self._random = random.Random(self.faults.seed)
         self._decoder = p.Decoder.from_host()
         self._task_group: anyio.abc.TaskGroup | None = None
+        self._send_lock = anyio.Lock()  # whole frames only, as the firmware's TX ring
+        self._booted = 0.0
+        self.stream = StreamModel()
+        self.failsafe = FailsafeModel()
         self._handlers: dict[type[Any], Callable[[Any], p.Frame]] = {
             p.Reset: self._reset,
             p.ReadId: lambda r: p.ReadIdReply(self.board_id),
             p.ReadTemperature: lambda r: p.ReadTemperatureReply(self.temperature_raw),
             p.ReadCapabilities: self._capabilities,
             p.WriteId: self._write_id,
-            p.ReadStatus: lambda r: p.ReadStatusReply(p.StatusFlags.NONE, self.session),
+            p.ReadStatus: self._status,
             p.SetSession: self._set_session,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
@@ -120,12 +102,19 @@ class FakeBoard:
             p.CounterConfig: self._counter_config,
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
+            p.StreamStart: self._stream_start,
+            p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
+            p.FailsafeArm: self._failsafe_arm,
+            p.FailsafeSafeState: self._failsafe_safe_state,
+            p.FailsafeDisarm: self._failsafe_disarm,
         }
 
     async def __aenter__(self) -> FakeBoard:
         self._task_group = anyio.create_task_group()
         await self._task_group.__aenter__()
+        self._booted = anyio.current_time()
         self._task_group.start_soon(self._serve, self._board_stream)
+        self._task_group.start_soon(self._watchdog)
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
@@ -137,6 +126,7 @@ class FakeBoard:
 
     async def unplug(self) -> None:
         """Close the board's end, as a pulled cable: the host sees the port fail."""
+        self.stream.stop()
         await self._board_stream.aclose()
 
     # ---- test controls -------------------------------------------------------------------
@@ -148,15 +138,30 @@ class FakeBoard:
             state.rose |= level
             state.fell |= not level
             self.levels[pin] = level
+            if level:
+                self.stream.rose |= 1 << pin
+            else:
+                self.stream.fell |= 1 << pin
             if pin in self.counters and state.role == "counter":
-                self.counters[pin] += 1
+                self.counters[pin] += level == (state.edge is p.Edge.RISING)
 
     def role(self, pin: int) -> str:
         return self._pins[pin].role
 
     async def push(self, frame: p.Frame) -> None:
         """Send a board-initiated frame (a stream sample, a failsafe event) to the host."""
-        await self._board_stream.send(frame.encode())
+        async with self._send_lock:
+            await self._board_stream.send(frame.encode())
+
+    async def expire_failsafe(self) -> None:
+        """Fire the armed failsafe now, as if the host had fallen silent for its timeout.
+
+        For unit tests of what robot code does after a trip; without it the watchdog fires
+        by itself once no request arrived for the armed timeout.
+        """
+        if not self.failsafe.armed:
+            raise RuntimeError("the fake board's failsafe is not armed")
+        await self._trip()
 
     # ---- serving ---------------------------------------------------------------------------
 
@@ -183,6 +188,7 @@ class FakeBoard:
                     discarding = True
                     break
                 self.requests_seen += 1
+                self.failsafe.feed()  # every valid request feeds the watchdog, as on the board
                 reply = self._answer(item)
                 if self.faults.lose_reply and self._random.random() < self.faults.lose_reply:
                     continue
@@ -193,6 +199,8 @@ class FakeBoard:
         handler = self._handlers.get(type(request))
         if handler is None:
             return p.ErrorReply(layout.class_tag, layout.descriptor, E.UNKNOWN_DESCRIPTOR)
+        if self.failsafe.tripped and _changes_output(request):
+            return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
 
     async def _send(self, stream: MemoryByteStream, frame: bytes) -> None:
@@ -200,27 +208,18 @@ class FakeBoard:
         low, high = faults.delay
         if high > 0:
             await anyio.sleep(rnd.uniform(low, high))
-        out = bytearray()
-        if faults.garbage and rnd.random() < faults.garbage:
-            out += bytes(rnd.randrange(256) for _ in range(rnd.randint(1, 6)))
-        for byte in frame:
-            if faults.drop_byte and rnd.random() < faults.drop_byte:
-                continue
-            if faults.flip_byte and rnd.random() < faults.flip_byte:
-                byte ^= 1 << rnd.randrange(8)
-            out.append(byte)
-            if faults.insert_byte and rnd.random() < faults.insert_byte:
-                out.append(rnd.randrange(256))
+        out = bytearray(corrupt(frame, faults, rnd))
         if bytes(out) != frame:
             self.corrupted_replies += 1
-        if not faults.split:
-            await stream.send(bytes(out))
-            return
-        while out:
-            cut = rnd.randint(1, len(out))
-            await stream.send(bytes(out[:cut]))
-            del out[:cut]
-            await anyio.lowlevel.checkpoint()
+        async with self._send_lock:
+            if not faults.split:
+                await stream.send(bytes(out))
+                return
+            while out:
+                cut = rnd.randint(1, len(out))
+                await stream.send(bytes(out[:cut]))
+                del out[:cut]
+                await anyio.lowlevel.checkpoint()
 
     # ---- command models ----------------------------------------------------------------------
 
@@ -233,7 +232,18 @@ class FakeBoard:
         self.pulses.clear()
         self.i2c_speed = None
         self.session = 0
+        self.stream.stop()
+        self.stream.sequence = 0
+        self.failsafe.disarm()
+        self.failsafe.safe.clear()
+        self._booted = anyio.current_time()
         return p.ResetReply()
+
+    def _status(self, request: p.ReadStatus) -> p.Frame:
+        flags = self.failsafe.status()
+        if self.stream.running:
+            flags |= p.StatusFlags.STREAMING
+        return p.ReadStatusReply(flags, self.session)
 
     def _capabilities(self, request: p.ReadCapabilities) -> p.Frame:
         features = 0
@@ -344,9 +354,9 @@ class FakeBoard:
                 return self._error(request, E.PIN_BUSY)
         elif state.role != "pwm":
             return self._error(request, E.PIN_NOT_CONFIGURED)
-        valid = pulse == 0 or p.PULSE_MIN_US <= pulse <= p.PULSE_MAX_US
-        if not valid or (soft and pulse % p.SOFT_PWM_STEP_US):
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        error = _check_pulse(pin, pulse)
+        if error is not None:
+            return self._error(request, error)
         state.role = "pwm"
         self.pulses[pin] = pulse
         if isinstance(request, p.PwmConfig):
@@ -359,7 +369,10 @@ class FakeBoard:
         state = self._pins[request.pin]
         if state.role not in ("free", "counter"):
             return self._error(request, E.PIN_BUSY)
+        if int(request.edge) not in (p.Edge.FALLING, p.Edge.RISING):
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
         state.role = "counter"
+        state.edge = p.Edge(request.edge)
         self.counters[request.pin] = 0
         return p.CounterConfigReply(request.pin, request.edge)
 
@@ -373,3 +386,100 @@ class FakeBoard:
             self.counters[request.pin] = 0
             return p.CounterResetReply(request.pin, count)
         return p.CounterReadReply(request.pin, count)
+
+    # ---- extensions: stream and failsafe ----------------------------------------------------
+
+    def _stream_start(self, request: p.StreamStart) -> p.Frame:
+        error = self.stream.check(request, self.baud, self.i2c_speed is not None)
+        if error is not None:
+            return self._error(request, error)
+        self.stream.stop()
+        self.stream.rose = self.stream.fell = 0  # the edges start afresh
+        self.stream.request, self.stream.sequence, self.stream.running = request, 0, True
+        self.stream.scope = anyio.CancelScope()
+        if self._task_group is not None:
+            self._task_group.start_soon(self._sample_forever, request, self.stream.scope)
+        return p.StreamStartReply(request.analog_mask, request.flags, request.period_us)
+
+    async def _sample_forever(self, request: p.StreamStart, scope: anyio.CancelScope) -> None:
+        """One sample every period on the loop's clock; a late sample is skipped, not sent
+        in a burst, so its sequence number is missing on the host as on a real board."""
+        period = request.period_us / 1_000_000
+        with scope:
+            next_at = anyio.current_time() + period
+            while True:
+                await anyio.sleep(max(0.0, next_at - anyio.current_time()))
+                late = int((anyio.current_time() - next_at) / period)
+                self.stream.sequence = (self.stream.sequence + late) & 0xFFFF
+                next_at += (late + 1) * period
+                sample = self._sample(request)
+                self.stream.sequence = (self.stream.sequence + 1) & 0xFFFF
+                try:
+                    await self._send(self._board_stream, sample.encode())
+                except (anyio.BrokenResourceError, anyio.ClosedResourceError):
+                    return
+
+    def _sample(self, request: p.StreamStart) -> p.StreamSample:
+        levels = sum(1 << n for n, high in enumerate(self.levels) if high and _has(_INPUT, n))
+        board_us = int((anyio.current_time() - self._booted) * 1_000_000)
+        return self.stream.sample(request, self.analog, levels, self.counters, board_us)
+
+    def _failsafe_arm(self, request: p.FailsafeArm) -> p.Frame:
+        error = self.failsafe.arm(request)
+        return self._error(request, error) if error else p.FailsafeArmReply(request.timeout_ms)
+
+    def _failsafe_safe_state(self, request: p.FailsafeSafeState) -> p.Frame:
+        pin = request.pin
+        error = self.failsafe.set_safe_state(
+            request,
+            digital=_has(_DIGITAL, pin),
+            pulse_capable=_has(_SOFT_PWM | _SERVO, pin),
+            check_pulse=_check_pulse,
+        )
+        if error is not None:
+            return self._error(request, error)
+        return p.FailsafeSafeStateReply(pin, request.kind, request.value)
+
+    def _failsafe_disarm(self, request: p.FailsafeDisarm) -> p.Frame:
+        self.failsafe.disarm()
+        return p.FailsafeDisarmReply()
+
+    async def _watchdog(self) -> None:
+        failsafe = self.failsafe
+        while True:
+            left = failsafe.seconds_left()
+            if left is not None and left <= 0:
+                await self._trip()
+                continue
+            with anyio.move_on_after(left if left is not None else float("inf")):
+                await failsafe.changed.wait()
+            if failsafe.changed.is_set():
+                failsafe.changed = anyio.Event()
+
+    async def _trip(self) -> None:
+        """Apply the safe states to the pins that still have the matching role, then report."""
+        for pin, (kind, value) in self.failsafe.safe.items():
+            role = self._pins[pin].role if pin in self._pins else "free"
+            if kind is p.SafeKind.LEVEL and role == "output":
+                self.levels[pin] = bool(value)
+            elif kind is p.SafeKind.PULSE and role == "pwm":
+                self.pulses[pin] = value
+        self.failsafe.armed, self.failsafe.tripped = False, True
+        with contextlib.suppress(anyio.BrokenResourceError, anyio.ClosedResourceError):
+            await self._send(self._board_stream, p.FailsafeTripped().encode())
+
+
+def _changes_output(request: p.Frame) -> bool:
+    """Requests the firmware refuses while its failsafe is tripped (``dispatch.c``)."""
+    tag = request.LAYOUT.class_tag
+    if tag == p.ClassTag.GPIO:
+        return not isinstance(request, p.GpioRead)
+    return tag == p.ClassTag.PWM
+
+
+def _check_pulse(pin: int, pulse: int) -> p.ErrorCode | None:
+    """The firmware's pulse-width rule: 0 (off) or the servo range, soft PWM in steps."""
+    valid = pulse == 0 or p.PULSE_MIN_US <= pulse <= p.PULSE_MAX_US
+    if not valid or (_has(_SOFT_PWM, pin) and pulse % p.SOFT_PWM_STEP_US):
+        return E.VALUE_OUT_OF_RANGE
+    return None

@@ -1,0 +1,154 @@
+"""The fake board's timer-driven features: the sample stream and the link failsafe.
+
+Both follow the firmware (``firmware/src/stream.c``, ``failsafe.c``) rule for rule, so a
+robot program unit-tested against :class:`~arduinoio_async.testing.FakeBoard` meets the
+same refusals, sequence numbers and safe states as on a real board.  Time is the event
+loop's clock: a sample that could not be taken on time (a blocked loop) is skipped with
+its sequence number, as the firmware skips a sample whose predecessor is still converting,
+so the host sees a gap instead of a burst.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import anyio
+
+from .. import protocol as p
+
+__all__ = ["FailsafeModel", "StreamModel"]
+
+E = p.ErrorCode
+
+
+@dataclass
+class StreamModel:
+    """A running stream's parameters and its next sequence number."""
+
+    running: bool = False
+    request: p.StreamStart | None = None
+    sequence: int = 0
+    #: Edges latched for the stream since its previous sample (bit n = Dn).
+    rose: int = 0
+    fell: int = 0
+    #: Cancels the sampling task of the running stream.
+    scope: anyio.CancelScope | None = None
+
+    def check(self, request: p.StreamStart, baud: int, i2c_on: bool) -> p.ErrorCode | None:
+        """The firmware's checks of a START request, in its order."""
+        mask, flags, period = request.analog_mask, int(request.flags), request.period_us
+        all_flags = int(p.StreamFlags.LEVELS | p.StreamFlags.EDGES | p.StreamFlags.COUNTERS)
+        if (
+            mask & ~((1 << p.ANALOG_CHANNELS) - 1)
+            or flags & ~all_flags
+            or (mask == 0 and flags == 0)
+            or not p.STREAM_MIN_PERIOD_US <= period <= p.STREAM_MAX_PERIOD_US
+            or period % p.STREAM_PERIOD_STEP_US
+        ):
+            return E.VALUE_OUT_OF_RANGE
+        if i2c_on and mask & 0x30:  # A4/A5 carry SDA/SCL while the bridge is on
+            return E.PIN_BUSY
+        size = p.sample_payload_size(mask, request.flags)
+        if not p.stream_fits_link(p.STREAM_FRAME_OVERHEAD + size, period, baud):
+            return E.LINK_CAPACITY
+        return None
+
+    def sample(
+        self,
+        request: p.StreamStart,
+        analog: Sequence[int],
+        levels: int,
+        counters: Mapping[int, int],
+        board_us: int,
+    ) -> p.StreamSample:
+        """The next sample frame, its values in the documented order (see StreamSample);
+        taking it clears the stream's latched edges, as the firmware's sample does."""
+        mask = request.analog_mask
+        values = [analog[ch] for ch in range(p.ANALOG_CHANNELS) if mask >> ch & 1]
+        payload = struct.pack(f">{len(values)}H", *values)
+        if request.flags & p.StreamFlags.LEVELS:
+            payload += struct.pack(">H", levels)
+        if request.flags & p.StreamFlags.EDGES:
+            payload += struct.pack(">HH", self.rose, self.fell)
+            self.rose = self.fell = 0
+        if request.flags & p.StreamFlags.COUNTERS:
+            payload += struct.pack(">II", counters[2], counters[3])
+        return p.StreamSample(mask, request.flags, self.sequence, board_us & 0xFFFFFFFF, payload)
+
+    def stop(self) -> int:
+        """Stop sampling; returns the sequence number the next sample would have had."""
+        self.running = False
+        if self.scope is not None:
+            self.scope.cancel()
+            self.scope = None
+        return self.sequence
+
+
+@dataclass
+class FailsafeModel:
+    """The link watchdog: armed by the host, fed by every request, fired by silence."""
+
+    armed: bool = False
+    tripped: bool = False
+    timeout_ms: int = 0
+    last_feed: float = 0.0
+    #: pin -> (kind, value) applied when the watchdog fires.
+    safe: dict[int, tuple[p.SafeKind, int]] = field(default_factory=dict)
+    #: Set when arming changes the deadline, so the watchdog task re-reads it.
+    changed: anyio.Event = field(default_factory=anyio.Event)
+
+    def feed(self) -> None:
+        if self.armed:
+            self.last_feed = anyio.current_time()
+
+    def status(self) -> p.StatusFlags:
+        flags = p.StatusFlags.NONE
+        if self.armed:
+            flags |= p.StatusFlags.FAILSAFE_ARMED
+        if self.tripped:
+            flags |= p.StatusFlags.FAILSAFE_TRIPPED
+        return flags
+
+    def arm(self, request: p.FailsafeArm) -> p.ErrorCode | None:
+        if not p.FAILSAFE_MIN_TIMEOUT_MS <= request.timeout_ms <= p.FAILSAFE_MAX_TIMEOUT_MS:
+            return E.VALUE_OUT_OF_RANGE
+        self.timeout_ms = request.timeout_ms
+        self.last_feed = anyio.current_time()
+        self.tripped = False
+        self.armed = True
+        self.changed.set()
+        return None
+
+    def set_safe_state(
+        self,
+        request: p.FailsafeSafeState,
+        digital: bool,
+        pulse_capable: bool,
+        check_pulse: Callable[[int, int], p.ErrorCode | None],
+    ) -> p.ErrorCode | None:
+        """The firmware's checks of a SAFE_STATE request, in its order."""
+        if not digital:
+            return E.PIN_NOT_CAPABLE
+        kind = int(request.kind)
+        if kind > p.SafeKind.PULSE or (kind == p.SafeKind.LEVEL and request.value > 1):
+            return E.VALUE_OUT_OF_RANGE
+        if kind == p.SafeKind.PULSE:
+            if not pulse_capable:
+                return E.PIN_NOT_CAPABLE
+            error = check_pulse(request.pin, request.value)
+            if error is not None:
+                return error
+        self.safe[request.pin] = (p.SafeKind(kind), request.value)
+        return None
+
+    def disarm(self) -> None:
+        self.armed = self.tripped = False
+        self.changed.set()
+
+    def seconds_left(self) -> float | None:
+        """Time until the watchdog fires if nothing feeds it; None while it is not armed."""
+        if not self.armed:
+            return None
+        return self.last_feed + self.timeout_ms / 1000 - anyio.current_time()
