@@ -76,6 +76,8 @@ async def test_explicit_handles_do_what_they_say() -> None:
         await out.write(False)
         assert await out.read() is False
         inp = await board.digital_input(D5, pull_up=True)
+        assert (await inp.read()).level is True  # nothing attached: the pull-up wins
+        fake.drive(5, False)
         fake.drive(5, True)
         assert (await inp.read()).rose
         fake.analog[0] = 512

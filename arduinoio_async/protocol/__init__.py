@@ -47,7 +47,7 @@ from ._constants import (
     StatusFlags,
     StreamFlags,
 )
-from ._decoder import Decoded, Decoder, Garbage
+from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum
 from ._messages import (
     EVENT_TYPES,
@@ -197,6 +197,7 @@ __all__ = [
     "I2CSpeed",
     "I2CWrite",
     "I2CWriteReply",
+    "InvalidValues",
     "PinRelease",
     "PinReleaseReply",
     "PwmConfig",

@@ -14,7 +14,10 @@ spurious frame is possible; callers that see :class:`Garbage` should resynchroni
 transport does: it fails what is in flight and confirms the board with an ID request).
 
 The same class decodes both directions: ``Decoder.from_board()`` (replies, error replies,
-events) for the host, ``Decoder.from_host()`` (requests) for boards and test peers.
+events) for the host, ``Decoder.from_host()`` (requests) for boards and test peers.  A
+board frames by tags, length and checksum alone and refuses bad field values afterwards
+(``VALUE_OUT_OF_RANGE``), so a board model asks ``from_host(keep_invalid=True)`` and gets
+such a frame whole, as :class:`InvalidValues`, instead of one byte of garbage.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from ._constants import ERROR_FLAG, ErrorCode
 from ._layout import Frame, Layout
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply
 
-__all__ = ["Decoded", "Decoder", "Garbage"]
+__all__ = ["Decoded", "Decoder", "Garbage", "InvalidValues"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,6 +37,20 @@ class Garbage:
     """Bytes that did not form a valid frame, in the order they arrived."""
 
     data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class InvalidValues(Garbage):
+    """A whole frame by tags, length and checksum whose field values its types forbid
+    (an I2C speed of 2, say); only a ``keep_invalid`` decoder reports these."""
+
+    @property
+    def class_tag(self) -> int:
+        return self.data[0]
+
+    @property
+    def descriptor(self) -> int:
+        return self.data[1]
 
 
 Decoded = Frame | Garbage
@@ -46,11 +63,21 @@ def _layouts(*tables: Mapping[tuple[int, int], type[Frame]]) -> dict[int, Layout
 class Decoder:
     """Turns arbitrary chunks of a byte stream into frames and garbage."""
 
-    __slots__ = ("_accept_errors", "_buffer", "_first_bytes", "_layouts", "_pending_garbage")
+    __slots__ = (
+        "_accept_errors",
+        "_buffer",
+        "_first_bytes",
+        "_keep_invalid",
+        "_layouts",
+        "_pending_garbage",
+    )
 
-    def __init__(self, layouts: dict[int, Layout], *, accept_errors: bool) -> None:
+    def __init__(
+        self, layouts: dict[int, Layout], *, accept_errors: bool, keep_invalid: bool = False
+    ) -> None:
         self._layouts = layouts
         self._accept_errors = accept_errors
+        self._keep_invalid = keep_invalid
         self._buffer = bytearray()
         self._pending_garbage = bytearray()
         self._first_bytes = frozenset(key >> 8 for key in layouts)
@@ -61,9 +88,9 @@ class Decoder:
         return cls(_layouts(REPLY_TYPES, EVENT_TYPES), accept_errors=True)
 
     @classmethod
-    def from_host(cls) -> Decoder:
-        """Decoder for what a host sends: requests."""
-        return cls(_layouts(REQUEST_TYPES), accept_errors=False)
+    def from_host(cls, *, keep_invalid: bool = False) -> Decoder:
+        """Decoder for what a host sends: requests (see :class:`InvalidValues`)."""
+        return cls(_layouts(REQUEST_TYPES), accept_errors=False, keep_invalid=keep_invalid)
 
     @property
     def buffered(self) -> int:
@@ -126,7 +153,7 @@ class Decoder:
         size = layout.base_size + buffer[pos + layout.length_offset]
         return size if size <= layout.max_size else -1
 
-    def _decode(self, buffer: bytearray, pos: int, size: int) -> Frame | None:
+    def _decode(self, buffer: bytearray, pos: int, size: int) -> Frame | InvalidValues | None:
         check = 0
         for byte in buffer[pos : pos + size]:
             check ^= byte
@@ -139,4 +166,4 @@ class Decoder:
                 return ErrorReply(first & ~ERROR_FLAG, raw[1], ErrorCode(raw[2]))
             return self._layouts[(first << 8) | raw[1]].decode(raw)
         except ValueError:
-            return None
+            return InvalidValues(raw) if self._keep_invalid else None

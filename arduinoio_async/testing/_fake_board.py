@@ -74,8 +74,9 @@ class FakeBoard:
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
-        self._decoder = p.Decoder.from_host()
+        self._decoder = p.Decoder.from_host(keep_invalid=True)
         self._task_group: anyio.abc.TaskGroup | None = None
+        self._driven: set[int] = set()  # pins drive() set: a pull-up no longer decides them
         self._send_lock = anyio.Lock()  # whole frames only, as the firmware's TX ring
         self._booted = 0.0
         self.stream = StreamModel()
@@ -133,6 +134,7 @@ class FakeBoard:
 
     def drive(self, pin: int, level: bool) -> None:
         """Drive an input pin from outside, latching edges like the pin-change interrupt."""
+        self._driven.add(pin)
         if level != self.levels[pin]:
             state = self._pins[pin]
             state.rose |= level
@@ -182,6 +184,12 @@ class FakeBoard:
                 self._decoder.reset()
             data = await stream.receive()
             for item in self._decoder.feed(data):
+                if isinstance(item, p.InvalidValues):  # a frame, but values out of range
+                    self.requests_seen += 1
+                    self.failsafe.feed()
+                    refusal = p.ErrorReply(item.class_tag, item.descriptor, E.VALUE_OUT_OF_RANGE)
+                    await self._send(stream, refusal.encode())
+                    continue
                 if isinstance(item, p.Garbage):
                     error = p.ErrorReply(item.data[0] & 0x7F, 0, E.UNKNOWN_CLASS)
                     await self._send(stream, error.encode())
@@ -278,6 +286,8 @@ class FakeBoard:
         pin.rose = pin.fell = False
         if output:
             self.levels[request.pin] = bool(flags & p.GpioFlags.INITIAL_HIGH)
+        elif pin.pull_up and request.pin not in self._driven:
+            self.levels[request.pin] = True  # nothing attached: the pull-up wins
         return p.GpioConfigReply(request.pin, request.flags)
 
     def _gpio_read(self, request: p.GpioRead) -> p.Frame:

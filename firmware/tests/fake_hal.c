@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "app.h"
+#include "counter.h"
 #include "gpio.h"
 #include "hal.h"
 #include "stream.h"
@@ -20,6 +21,7 @@ bool fake_eeprom_broken;
 bool fake_reset_done;
 uint8_t fake_pin_mode[14];
 uint8_t fake_pin_level[14];
+static uint8_t fake_driven[14]; /* set by fake_drive: a pull-up no longer decides the level */
 uint16_t fake_adc[9];
 int fake_adc_pending;
 uint16_t fake_servo_us[2];
@@ -53,6 +55,7 @@ void fake_reset(void)
     fake_reset_done = false;
     memset(fake_pin_mode, 0, sizeof fake_pin_mode);
     memset(fake_pin_level, 0, sizeof fake_pin_level);
+    memset(fake_driven, 0, sizeof fake_driven);
     memset(fake_adc, 0, sizeof fake_adc);
     fake_adc_pending = -1;
     fake_servo_us[0] = fake_servo_us[1] = 0xFFFF;
@@ -109,9 +112,15 @@ uint16_t hal_pin_levels(void)
 
 void fake_drive(uint8_t pin, uint8_t level)
 {
+    uint8_t changed = fake_pin_level[pin] != level;
     fake_pin_level[pin] = level;
+    fake_driven[pin] = 1;
     if (fake_edge_watch >> pin & 1u)
         gpio_pin_change(hal_pin_levels());
+    /* INT0/INT1 on D2/D3: the configured edge only, as the external interrupts do */
+    if (changed && (pin == 2 || pin == 3) && fake_counter_enabled[pin - 2] &&
+        level == fake_counter_rising[pin - 2])
+        counter_event((uint8_t)(pin - 2));
 }
 
 void fake_adc_complete(void)
@@ -193,6 +202,8 @@ void hal_pin_mode(uint8_t pin, uint8_t mode)
     fake_pin_mode[pin] = mode;
     if (mode == HAL_OUT_LOW || mode == HAL_OUT_HIGH)
         fake_pin_level[pin] = mode == HAL_OUT_HIGH;
+    else if (mode == HAL_IN_PULLUP && !fake_driven[pin])
+        fake_pin_level[pin] = 1; /* nothing attached: the pull-up wins */
 }
 
 void hal_pin_write(uint8_t pin, uint8_t level) { fake_pin_level[pin] = level; }

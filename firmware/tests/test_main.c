@@ -11,6 +11,7 @@
 #include "counter.h"
 #include "fake_hal.h"
 #include "parser.h"
+#include "vectors.h"
 
 static int failures, checks;
 
@@ -146,6 +147,7 @@ static void test_gpio(void)
     CHECK(B(2, 1, 7, 0x04), B(2, 1, 7, 0x04)); /* input with pull-up */
     EXPECT(fake_pin_mode[7] == 1);
     CHECK(B(2, 3, 7, 1), B(0x82, 3, AIO_ERR_PIN_NOT_CONFIGURED));
+    fake_drive(7, 0); /* the pull-up had it high */
     fake_drive(7, 1);
     fake_drive(7, 0);
     CHECK(B(2, 2, 7), B(2, 2, 7, AIO_GPIO_STATE_ROSE | AIO_GPIO_STATE_FELL));
@@ -648,6 +650,40 @@ static void test_random(void)
     CHECK(B(1, 2), B(1, 2, 0xAB, 0xCD));
 }
 
+/* ------------------------------------------------------------ shared vectors */
+/* The .vec files of tests/vectors: the same request -> reply vectors the virtual Uno and FakeBoard run. */
+static void test_vectors(void)
+{
+    size_t f, i, j;
+    for (f = 0; f < sizeof aio_vector_files / sizeof aio_vector_files[0]; f++) {
+        const aio_vector_file_t *vf = &aio_vector_files[f];
+        board();
+        fake_eeprom[0] = (uint8_t)(vf->board_id >> 8);
+        fake_eeprom[1] = (uint8_t)vf->board_id;
+        for (i = 0; i < vf->count; i++) {
+            const aio_vector_step_t *st = &vf->steps[i];
+            int ok;
+            if (st->drive_pin >= 0) {
+                fake_drive((uint8_t)st->drive_pin, st->drive_level);
+                continue;
+            }
+            fake_rx_push(st->request, st->request_len);
+            run();
+            take();
+            ok = outn == st->reply_len;
+            for (j = 0; ok && j < outn; j++)
+                ok = st->reply[j] < 0 || out[j] == st->reply[j];
+            checks++;
+            if (!ok) {
+                failures++;
+                printf("tests/vectors/%s.vec:%u: FAIL\n", vf->name, st->line);
+                dump("request", st->request, st->request_len);
+                dump("got", out, outn);
+            }
+        }
+    }
+}
+
 /* Every (CT, DT) the table knows parses; every other DT is unknown. */
 static void test_table(void)
 {
@@ -680,6 +716,7 @@ int main(void)
     test_framing();
     test_pipelining();
     test_random();
+    test_vectors();
     printf("%d checks, %d failures\n", checks, failures);
     return failures != 0;
 }
