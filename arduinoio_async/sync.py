@@ -1,0 +1,366 @@
+"""Blocking use, for scripts and notebooks: the async API run behind an anyio blocking portal.
+
+Every call here is the async API's call, run to completion on an event loop that lives in
+a worker thread (anyio's :func:`~anyio.from_thread.start_blocking_portal`).  No logic is
+written twice: each method hands its arguments to the async method of the same name, and
+the errors are the same classes.  The board's link, its keepalive heartbeat and its
+failsafe feeding run in that loop between your calls, so a script that sleeps with
+``time.sleep`` still feeds an armed failsafe.
+
+Scripts use a ``with`` block::
+
+    from arduinoio_async import D2
+    from arduinoio_async.sync import open_board
+
+    with open_board("/dev/ttyACM0") as board:
+        board.gpio(D2).write(True)
+
+Notebooks, where a board must stay open across cells, use the explicit pair::
+
+    board = connect("/dev/ttyACM0")      # cell 1
+    board.analog(A0).read_volts()        # any later cell
+    board.close()                        # when done
+
+Why a portal rather than ``asyncio.run`` per call: the link is a long-lived task (its
+reader, its heartbeat), so the loop must outlive each call; and Jupyter already runs an
+event loop in the main thread, which a loop of our own in a worker thread never touches.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
+from contextlib import AbstractContextManager, contextmanager
+from types import TracebackType
+from typing import Any, TypeVar
+
+from anyio.from_thread import BlockingPortal, start_blocking_portal
+
+from . import protocol as p
+from .board import Board
+from .errors import BoardDisconnectedError
+from .handles import (
+    AnalogInput,
+    Counter,
+    DigitalInput,
+    DigitalOutput,
+    Gpio,
+    I2CBus,
+    PinState,
+    PulseOutput,
+    _PinHandle,
+)
+from .protocol.pins import AnalogPin, CounterPin, DigitalPin, ServoPin, SoftPwmPin
+from .streaming import Sample, SampleStream
+
+T = TypeVar("T")
+
+__all__ = [
+    "BlockingAnalogInput",
+    "BlockingBoard",
+    "BlockingCounter",
+    "BlockingDigitalInput",
+    "BlockingDigitalOutput",
+    "BlockingGpio",
+    "BlockingI2CBus",
+    "BlockingPulseOutput",
+    "BlockingSamples",
+    "connect",
+    "open_board",
+]
+
+
+class _Runner:
+    """The portal of one opened board, shared by its handles; refuses calls once closed."""
+
+    def __init__(self, portal: BlockingPortal) -> None:
+        self.portal = portal
+        self.closed = False
+
+    def call(self, func: Callable[..., Awaitable[T]], *args: Any) -> T:
+        if self.closed:
+            raise BoardDisconnectedError("the board was closed (BlockingBoard.close)")
+        return self.portal.call(func, *args)
+
+
+class _Blocking:
+    """A handle of the async API and the runner of its board."""
+
+    def __init__(self, runner: _Runner, handle: Any) -> None:
+        self._runner = runner
+        self.handle = handle
+
+    def __repr__(self) -> str:
+        return f"<blocking {self.handle!r}>"
+
+
+class _BlockingPin(_Blocking):
+    handle: _PinHandle
+
+    @property
+    def pin(self) -> DigitalPin:
+        return self.handle.pin
+
+    def release(self) -> None:
+        self._runner.call(self.handle.release)
+
+
+class BlockingGpio(_BlockingPin):
+    handle: Gpio
+
+    def write(self, value: bool) -> None:
+        self._runner.call(self.handle.write, value)
+
+    def read(self) -> PinState:
+        return self._runner.call(self.handle.read)
+
+    def configure_input(self, *, pull_up: bool = False) -> None:
+        self._runner.call(lambda: self.handle.configure_input(pull_up=pull_up))
+
+
+class BlockingDigitalOutput(_BlockingPin):
+    handle: DigitalOutput
+
+    def write(self, value: bool) -> None:
+        self._runner.call(self.handle.write, value)
+
+    def read(self) -> bool:
+        return self._runner.call(self.handle.read)
+
+
+class BlockingDigitalInput(_BlockingPin):
+    handle: DigitalInput
+
+    def read(self) -> PinState:
+        return self._runner.call(self.handle.read)
+
+
+class BlockingAnalogInput(_Blocking):
+    handle: AnalogInput
+
+    def read(self) -> int:
+        return self._runner.call(self.handle.read)
+
+    def read_volts(self) -> float:
+        return self._runner.call(self.handle.read_volts)
+
+
+class BlockingPulseOutput(_BlockingPin):
+    """A servo (D9/D10) or software-PWM (D2-D7) output."""
+
+    handle: PulseOutput
+
+    def set_pulse(self, pulse_us: int) -> None:
+        self._runner.call(self.handle.set_pulse, pulse_us)
+
+    def set_angle(
+        self, degrees: float, *, min_us: int = p.PULSE_MIN_US, max_us: int = p.PULSE_MAX_US
+    ) -> None:
+        self._runner.call(lambda: self.handle.set_angle(degrees, min_us=min_us, max_us=max_us))
+
+    def stop(self) -> None:
+        self._runner.call(self.handle.stop)
+
+
+class BlockingCounter(_BlockingPin):
+    handle: Counter
+
+    def read(self) -> int:
+        return self._runner.call(self.handle.read)
+
+    def reset(self) -> int:
+        return self._runner.call(self.handle.reset)
+
+
+class BlockingI2CBus(_Blocking):
+    handle: I2CBus
+
+    def read(self, address: int, register: int, length: int) -> bytes:
+        return self._runner.call(self.handle.read, address, register, length)
+
+    def write(self, address: int, register: int, data: bytes) -> None:
+        self._runner.call(self.handle.write, address, register, data)
+
+
+class BlockingSamples(_Blocking):
+    """The samples of a running stream as a plain iterator (``for s in samples``)."""
+
+    handle: SampleStream
+
+    def __iter__(self) -> Iterator[Sample]:
+        return self
+
+    def __next__(self) -> Sample:
+        try:
+            return self._runner.call(self.handle.__anext__)
+        except StopAsyncIteration:
+            raise StopIteration from None
+
+    @property
+    def gaps(self) -> int:
+        return self.handle.gaps
+
+    @property
+    def dropped(self) -> int:
+        return self.handle.dropped
+
+
+class BlockingBoard(_Blocking):
+    """A :class:`~arduinoio_async.board.Board` whose methods block until they are done."""
+
+    handle: Board
+
+    def __init__(self, runner: _Runner, board: Board, closer: contextlib.ExitStack) -> None:
+        super().__init__(runner, board)
+        self._closer = closer
+
+    @property
+    def board_id(self) -> int:
+        return self.handle.board_id
+
+    # ---- handles ------------------------------------------------------------------------
+
+    def gpio(self, pin: DigitalPin) -> BlockingGpio:
+        return BlockingGpio(self._runner, self.handle.gpio(pin))
+
+    def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> BlockingDigitalOutput:
+        handle = self._runner.call(lambda: self.handle.digital_output(pin, initial=initial))
+        return BlockingDigitalOutput(self._runner, handle)
+
+    def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> BlockingDigitalInput:
+        handle = self._runner.call(lambda: self.handle.digital_input(pin, pull_up=pull_up))
+        return BlockingDigitalInput(self._runner, handle)
+
+    def analog(self, pin: AnalogPin) -> BlockingAnalogInput:
+        return BlockingAnalogInput(self._runner, self.handle.analog(pin))
+
+    def read_analog_all(self) -> tuple[int, ...]:
+        return self._runner.call(self.handle.read_analog_all)
+
+    def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> BlockingPulseOutput:
+        handle = self._runner.call(lambda: self.handle.servo(pin, pulse_us=pulse_us))
+        return BlockingPulseOutput(self._runner, handle)
+
+    def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> BlockingPulseOutput:
+        handle = self._runner.call(lambda: self.handle.soft_pwm(pin, pulse_us=pulse_us))
+        return BlockingPulseOutput(self._runner, handle)
+
+    def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> BlockingCounter:
+        handle = self._runner.call(lambda: self.handle.counter(pin, edge=edge))
+        return BlockingCounter(self._runner, handle)
+
+    def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> BlockingI2CBus:
+        return BlockingI2CBus(self._runner, self._runner.call(self.handle.i2c, speed))
+
+    def release(self, pin: DigitalPin) -> None:
+        self._runner.call(self.handle.release, pin)
+
+    # ---- board ----------------------------------------------------------------------------
+
+    def read_id(self) -> int:
+        return self._runner.call(self.handle.read_id)
+
+    def write_id(self, board_id: int) -> None:
+        self._runner.call(self.handle.write_id, board_id)
+
+    def temperature(self) -> float:
+        return self._runner.call(self.handle.temperature)
+
+    def status(self) -> p.ReadStatusReply:
+        return self._runner.call(self.handle.status)
+
+    def reset(self, *, restore: bool = False) -> None:
+        self._runner.call(lambda: self.handle.reset(restore=restore))
+
+    def request(self, request: p.Request[Any], *, timeout: float | None = None) -> Any:
+        """A raw protocol request; returns its verified reply."""
+        return self._runner.call(lambda: self.handle.request(request, timeout=timeout))
+
+    # ---- extensions -------------------------------------------------------------------------
+
+    def stream(
+        self,
+        *,
+        analog: Sequence[AnalogPin] = (),
+        levels: bool = False,
+        edges: bool = False,
+        counters: bool = False,
+        period_ms: float = 10.0,
+        **options: Any,
+    ) -> AbstractContextManager[BlockingSamples]:
+        """``with board.stream(analog=[A0], period_ms=1) as samples: for s in samples: ...``"""
+        async_cm = self.handle.stream(
+            analog=analog,
+            levels=levels,
+            edges=edges,
+            counters=counters,
+            period_ms=period_ms,
+            **options,
+        )
+        if self._runner.closed:
+            raise BoardDisconnectedError("the board was closed (BlockingBoard.close)")
+        samples_cm = self._runner.portal.wrap_async_context_manager(async_cm)
+        return _wrap_samples(self._runner, samples_cm)
+
+    def arm_failsafe(self, timeout_ms: int, safe_states: Mapping[_Blocking, bool | int]) -> None:
+        states = {blocking.handle: state for blocking, state in safe_states.items()}
+        self._runner.call(self.handle.arm_failsafe, timeout_ms, states)
+
+    def disarm_failsafe(self) -> None:
+        self._runner.call(self.handle.disarm_failsafe)
+
+    def rearm_failsafe(self, *, restore: bool = True) -> None:
+        self._runner.call(lambda: self.handle.rearm_failsafe(restore=restore))
+
+    # ---- closing ------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Close the board and stop its event loop (for :func:`connect`; idempotent)."""
+        if not self._runner.closed:
+            self._runner.closed = True
+            self._closer.close()
+
+    def __enter__(self) -> BlockingBoard:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+@contextmanager
+def _wrap_samples(
+    runner: _Runner, samples_cm: AbstractContextManager[SampleStream]
+) -> Iterator[BlockingSamples]:
+    with samples_cm as samples:
+        yield BlockingSamples(runner, samples)
+
+
+@contextmanager
+def open_board(port: str, *, backend: str = "asyncio", **options: Any) -> Iterator[BlockingBoard]:
+    """Open ``port`` as :meth:`Board.open` does (same keyword options) for blocking use."""
+    board = connect(port, backend=backend, **options)
+    try:
+        yield board
+    finally:
+        board.close()
+
+
+def connect(port: str, *, backend: str = "asyncio", **options: Any) -> BlockingBoard:
+    """Open ``port`` and keep it open until :meth:`BlockingBoard.close` (notebook cells).
+
+    The board's link runs on an event loop in a worker thread; ``backend`` picks anyio's
+    backend for it ("asyncio" or "trio").
+    """
+    stack = contextlib.ExitStack()
+    try:
+        portal = stack.enter_context(start_blocking_portal(backend))
+        board = stack.enter_context(portal.wrap_async_context_manager(Board.open(port, **options)))
+    except BaseException:
+        stack.close()
+        raise
+    return BlockingBoard(_Runner(portal), board, stack)
