@@ -20,6 +20,7 @@ from ._board import (
     find_test_firmware,
     start_virtual_unos,
 )
+from ._demo import example_arguments, example_board, port_or_virtual_uno
 
 __all__ = [
     "CircuitPin",
@@ -30,8 +31,11 @@ __all__ = [
     "SimulatorNotAvailable",
     "UsbBridge",
     "VirtualUno",
+    "example_arguments",
+    "example_board",
     "find_firmware_elf",
     "find_harness_binary",
     "find_test_firmware",
+    "port_or_virtual_uno",
     "start_virtual_unos",
 ]

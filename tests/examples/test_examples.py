@@ -1,0 +1,242 @@
+"""Every program in examples/ runs here against a virtual Uno, so no example can rot.
+
+Each runs as a user runs it (``python examples/NAME.py --port P``) in a subprocess under a
+deadline; where an example waits for the world (a button, an encoder, a replugged cable)
+the test plays the world through the virtual Uno's circuit once the example says it is
+ready, and checks what the example printed.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import subprocess
+import sys
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+
+import anyio
+import anyio.abc
+import pytest
+from anyio.streams.text import TextReceiveStream
+
+from arduinoio_async.sim import PulseStats, VirtualUno
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+pytestmark = pytest.mark.sim
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+DEADLINE = 60.0
+
+
+class ExampleRun:
+    """A running example: its output so far, line by line."""
+
+    def __init__(self, process: anyio.abc.Process) -> None:
+        self.process = process
+        self.lines: list[str] = []
+        self._pending = ""
+        assert process.stdout is not None
+        self._text = TextReceiveStream(process.stdout)
+
+    async def wait_for(self, text: str) -> str:
+        """The first line (seen or still to come) that contains ``text``."""
+        seen = 0
+        while True:
+            for line in self.lines[seen:]:
+                if text in line:
+                    return line
+            seen = len(self.lines)
+            if not await self._read_more():
+                raise AssertionError(f"the example ended without printing {text!r}:\n{self}")
+
+    async def finish(self) -> str:
+        while await self._read_more():
+            pass
+        assert await self.process.wait() == 0, f"the example failed:\n{self}"
+        return str(self)
+
+    async def _read_more(self) -> bool:
+        try:
+            chunk = await self._text.receive()
+        except anyio.EndOfStream:
+            return False
+        *complete, self._pending = (self._pending + chunk).split("\n")
+        self.lines += complete
+        return True
+
+    def __str__(self) -> str:
+        return "\n".join([*self.lines, self._pending])
+
+
+@asynccontextmanager
+async def run_example(
+    name: str, *args: str, env: dict[str, str] | None = None
+) -> AsyncIterator[ExampleRun]:
+    command = [sys.executable, str(EXAMPLES / f"{name}.py"), *args]
+    with anyio.fail_after(DEADLINE):
+        async with await anyio.open_process(
+            command,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, **(env or {})},
+        ) as process:
+            try:
+                yield ExampleRun(process)
+            finally:
+                if process.returncode is None:
+                    process.kill()
+
+
+async def captured_pulses(uno: VirtualUno, pin: int, count: int) -> PulseStats:
+    """The fixture's capture of ``pin`` once it holds ``count`` fresh pulses (polled: the
+    harness has no pulse notification; each poll is one control round trip)."""
+    await uno.clear_pulse_stats(pin)
+    with anyio.fail_after(5):
+        while len((stats := await uno.pulse_stats(pin)).high_us) < count:  # noqa: ASYNC110
+            await anyio.sleep(0.02)
+    return stats
+
+
+async def run_to_end(name: str, uno: VirtualUno, *args: str) -> str:
+    async with run_example(name, "--port", uno.port, "--baud", str(uno.baud), *args) as run:
+        return await run.finish()
+
+
+async def test_blink(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory(fixture="loopback")
+    out = await run_to_end("blink", uno, "--times", "2")
+    assert "D13 on  -> D12 reads True" in out and "D13 off -> D12 reads False" in out
+    assert "blinked 2 times" in out
+
+
+async def test_button_edges(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    async with run_example("button_edges", "--port", uno.port, "--presses", "3") as run:
+        await run.wait_for("ready")
+        for n in range(1, 4):
+            await uno.drive(3, 0)  # pressed: to ground
+            assert "held" in await run.wait_for(f"press {n}")
+            await uno.drive(3, 1)  # released
+        assert "3 presses counted" in await run.finish()
+
+
+async def test_analog_volts(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    await uno.set_analog(0, 1250.0)
+    await uno.set_analog(5, 2500.0)
+    out = await run_to_end("analog_volts", uno, "--samples", "1")
+    assert "A0 1.25 V" in out and "A5 2.50 V" in out
+
+
+async def test_servo_sweep(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    out = await run_to_end("servo_sweep", uno, "--step", "45")
+    assert "servo centred at 1500 us" in out
+    stats = await captured_pulses(uno, 9, 2)
+    assert all(abs(high - 1500) <= 1 for high in stats.high_us), stats
+
+
+async def test_six_soft_servos(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    out = await run_to_end("six_soft_servos", uno)
+    widths = {int(line[1]): int(line.split()[1]) for line in out.splitlines() if line[:1] == "D"}
+    assert sorted(widths) == [2, 3, 4, 5, 6, 7]
+    for pin, width in widths.items():
+        stats = await captured_pulses(uno, pin, 2)
+        assert all(abs(high - width) <= 100 for high in stats.high_us), (pin, stats)
+
+
+async def test_wheel_encoder(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    async with run_example("wheel_encoder", "--port", uno.port, "--seconds", "1.5") as run:
+        await run.wait_for("ready")
+        await uno.pulses(2, 120, 500, 500)
+        await uno.pulses(3, 45, 1000, 1000)
+        await uno.wait_pulses()
+        assert "total counts: D2 120, D3 45" in await run.finish()
+
+
+async def test_i2c_registers(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    out = await run_to_end("i2c_registers", uno)
+    assert "read back b'hello'" in out and "I2C_NACK_ADDRESS" in out
+    assert await uno.eeprom_i2c(0x10, 5) == b"hello"
+
+
+async def test_stream_to_csv(virtual_uno_factory: VirtualUnoFactory, tmp_path: Path) -> None:
+    uno = await virtual_uno_factory(baud=1_000_000)
+    for channel, mv in enumerate((1000.0, 2000.0, 3000.0, 4000.0)):
+        await uno.set_analog(channel, mv)
+    table = tmp_path / "stream.csv"
+    out = await run_to_end("stream_to_csv", uno, "--seconds", "1", "--csv", str(table))
+    assert "gaps 0, dropped 0" in out
+    with table.open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) > 500  # 1 kHz for 1 s, less start-up
+    sequences = [int(row["sequence"]) for row in rows]
+    assert sequences == list(range(sequences[0], sequences[0] + len(rows)))
+    assert abs(int(rows[-1]["A2"]) - 614) <= 3  # 3 V of 5 V in 10 bits
+
+
+async def test_failsafe_demo(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory(fixture="loopback")
+    out = await run_to_end("failsafe_demo", uno)
+    assert "failsafe fired" in out and "FAILSAFE_TRIPPED" in out
+    assert "re-armed: D13 reads True, D9 at 1800 us" in out
+
+
+async def test_two_board_robot_survives_a_replug(
+    virtual_uno_factory: VirtualUnoFactory, tmp_path: Path
+) -> None:
+    """The robot's ports are symlinks (as udev names would be); a replug gives the
+    actuator board a new pty, and the link is moved as udev would move it."""
+    unos = [await virtual_uno_factory(board_id=1), await virtual_uno_factory(board_id=2)]
+    links = [tmp_path / "actuators", tmp_path / "sensors"]
+    for link, uno in zip(links, unos, strict=True):
+        link.symlink_to(uno.port)
+    env = {"ARDUINOIO_PORTS": str(tmp_path / "*")}
+    async with run_example("two_board_robot", "--seconds", "8", env=env) as run:
+        await run.wait_for("ready")
+        await unos[0].unplug()
+        await run.wait_for("board 0x0001: disconnected")
+        links[0].unlink()
+        links[0].symlink_to(await unos[0].replug())
+        await run.wait_for("board 0x0001: connected")
+        out = await run.finish()
+    summary = next(line for line in out.splitlines() if "control cycles" in line).split()
+    cycles, waits = int(summary[0]), int(summary[3])
+    assert cycles > 10 and waits >= 1, out
+
+
+def test_fastapi_app(virtual_uno_factory_sync: list[VirtualUno]) -> None:
+    fastapi = pytest.importorskip("fastapi.testclient")
+    uno = virtual_uno_factory_sync[0]
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        import fastapi_app  # type: ignore[import-not-found]
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    with fastapi.TestClient(fastapi_app.app) as client:
+        assert client.get("/boards").json() == {"0x0005": uno.port}
+        assert client.put("/boards/5/gpio/D4", params={"level": True}).json() == {"level": True}
+        assert client.get("/boards/5/gpio/D5").json()["level"] is True  # D4-D5 jumper
+        assert client.get("/boards/6/gpio/D5").status_code == 404
+        assert client.get("/boards/5/gpio/D1").status_code == 422  # not a GPIO pin
+        assert client.get("/boards/5/gpio/X9").status_code == 422
+        assert 0.0 <= client.get("/boards/5/analog/A0").json()["volts"] <= 5.0
+
+
+async def test_notebook_blocking(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory(fixture="loopback")
+    async with run_example("notebook_blocking", "--port", uno.port) as run:
+        out = await run.finish()
+    assert "D3 (jumpered to D2) reads PinState(level=True" in out
+    assert "five samples of A0" in out and out.rstrip().endswith("closed")
+
+
+async def test_design_card_starts_its_own_virtual_uno() -> None:
+    async with run_example("design_card") as run:
+        out = await run.finish()
+    assert "D2 high; D3 (jumpered to D2 on the test circuit) reads" in out
