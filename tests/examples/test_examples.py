@@ -215,7 +215,7 @@ def test_fastapi_app(virtual_uno_factory_sync: list[VirtualUno]) -> None:
     uno = virtual_uno_factory_sync[0]
     sys.path.insert(0, str(EXAMPLES))
     try:
-        import fastapi_app  # type: ignore[import-not-found]
+        import fastapi_app
     finally:
         sys.path.remove(str(EXAMPLES))
     with fastapi.TestClient(fastapi_app.app) as client:
