@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: all setup system-deps venv firmware sim lint test test-fast bench generate clean
+.PHONY: all setup system-deps venv firmware sim lint docs test test-fast bench generate clean
 
 all: setup firmware sim
 
@@ -47,7 +47,11 @@ lint: venv
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy --strict
 
-test: setup firmware sim lint
+# The documentation site, strict: a broken link or reference fails the build.
+docs: venv
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir site
+
+test: setup firmware sim lint docs
 	$(MAKE) -C firmware test
 	$(BIN)/pytest
 
