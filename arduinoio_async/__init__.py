@@ -1,4 +1,15 @@
-"""arduinoio_async: Arduino Unos as typed, asyncio-driven I/O boards for robots."""
+"""arduinoio_async: Arduino Unos as typed, asyncio-driven I/O boards for robots.
+
+``from arduinoio_async import Board, BoardManager, D2`` is the whole import a robot program
+needs.  The board, manager, handle, stream, simulator and fake-board names are imported
+on first use (module ``__getattr__``), so ``import arduinoio_async`` stays cheap for tools
+that only want the pin names or the error classes, and no import cycle can form.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from . import errors, protocol
 from .errors import (
@@ -44,7 +55,66 @@ from .protocol.pins import (
     DigitalPin,
 )
 
+if TYPE_CHECKING:
+    from .board import Board, FailsafeConfig
+    from .handles import (
+        AnalogInput,
+        Counter,
+        DigitalInput,
+        DigitalOutput,
+        Gpio,
+        I2CBus,
+        PinState,
+        PulseOutput,
+        Servo,
+        SoftPwm,
+    )
+    from .manager import BoardManager, ManagerEvent, ProbeResult
+    from .protocol import I2CSpeed
+    from .sim import VirtualUno
+    from .streaming import Sample, SampleStream
+    from .testing import FakeBoard
+
+#: The package version (the only place it is written; pyproject.toml reads it from here).
 __version__ = "0.1.0"
+
+#: Public name -> the module that defines it, imported on first access.
+_LAZY = {
+    "Board": ".board",
+    "FailsafeConfig": ".board",
+    "AnalogInput": ".handles",
+    "Counter": ".handles",
+    "DigitalInput": ".handles",
+    "DigitalOutput": ".handles",
+    "Gpio": ".handles",
+    "I2CBus": ".handles",
+    "PinState": ".handles",
+    "PulseOutput": ".handles",
+    "Servo": ".handles",
+    "SoftPwm": ".handles",
+    "BoardManager": ".manager",
+    "ManagerEvent": ".manager",
+    "ProbeResult": ".manager",
+    "I2CSpeed": ".protocol",
+    "VirtualUno": ".sim",
+    "Sample": ".streaming",
+    "SampleStream": ".streaming",
+    "FakeBoard": ".testing",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])
+
 
 __all__ = [
     "A0",
@@ -65,26 +135,46 @@ __all__ = [
     "D11",
     "D12",
     "D13",
+    "AnalogInput",
     "AnalogPin",
     "ArduinoIOError",
+    "Board",
     "BoardDisconnectedError",
     "BoardError",
+    "BoardManager",
     "BoardNotFoundError",
     "BoardTimeoutError",
+    "Counter",
+    "DigitalInput",
+    "DigitalOutput",
     "DigitalPin",
     "DuplicateBoardError",
+    "FailsafeConfig",
     "FailsafeTrippedError",
+    "FakeBoard",
+    "Gpio",
+    "I2CBus",
     "I2CError",
+    "I2CSpeed",
     "LinkCapacityError",
     "LinkError",
     "LinkResyncError",
+    "ManagerEvent",
     "PinCapabilityError",
     "PinRoleError",
+    "PinState",
     "PortBusyError",
+    "ProbeResult",
     "ProtocolError",
+    "PulseOutput",
     "ReplyMismatchError",
+    "Sample",
+    "SampleStream",
+    "Servo",
+    "SoftPwm",
     "UsageError",
     "ValueRangeError",
+    "VirtualUno",
     "__version__",
     "errors",
     "protocol",

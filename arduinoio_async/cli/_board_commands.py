@@ -1,25 +1,16 @@
-"""Bench checks and maintenance: read, write, servo, analog, i2c, set-id, flash."""
+"""Bench checks and maintenance: read, write, servo, analog, i2c, set-id."""
 
 from __future__ import annotations
 
 import argparse
-import shutil
-from pathlib import Path
 from typing import Any
 
-import anyio
 from rich.console import Console
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, UsageError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from ._target import add_target_options, board_id, target_board
-
-FIRMWARE_HEX = Path(__file__).resolve().parents[2] / "firmware" / "build" / "arduinoio-115200.hex"
-
-
-class ToolMissing(Exception):
-    """A program or file the command needs is not there; the message says what to do."""
 
 
 def digital_pin(text: str) -> DigitalPin:
@@ -68,12 +59,6 @@ def add_commands(sub: Any) -> None:
     i2c.set_defaults(handler=i2c_transfer)
     set_id = sub.add_parser("set-id", help="write a board ID to EEPROM and verify after reset")
     set_id.add_argument("new_id", type=board_id)
-    flash = sub.add_parser("flash", help="flash the built firmware with avrdude")
-    flash.add_argument("--port", required=True)
-    flash.add_argument("--hex", type=Path, default=FIRMWARE_HEX)
-    flash.add_argument("--set-id", type=board_id, default=None)
-    flash.add_argument("--baud", type=int, default=p.DEFAULT_BAUD)
-    flash.set_defaults(handler=flash_firmware)
     for parser in (read, write, servo, analog, i2c, set_id):
         add_target_options(parser)
     set_id.set_defaults(handler=set_board_id)
@@ -145,39 +130,4 @@ async def set_board_id(args: argparse.Namespace, console: Console) -> int:
                 f"board answered ID 0x{read_back:04X} after reset, not 0x{args.new_id:04X}"
             )
         console.print(f"board ID 0x{old:04X} -> 0x{read_back:04X} (verified after reset)")
-    return 0
-
-
-async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
-    avrdude = shutil.which("avrdude")
-    if avrdude is None:
-        raise ToolMissing("avrdude is not installed: apt-get install avrdude")
-    if not args.hex.is_file():
-        raise ToolMissing(f"{args.hex} does not exist: build it with `make firmware`")
-    command = [
-        avrdude,
-        "-p",
-        "atmega328p",
-        "-c",
-        "arduino",
-        "-P",
-        args.port,
-        "-b",
-        "115200",
-        "-D",
-        "-U",
-        f"flash:w:{args.hex}:i",
-    ]
-    with console.status(f"flashing {args.hex.name} to {args.port}..."):
-        result = await anyio.run_process(command, check=False)
-    if result.returncode != 0:
-        tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:]
-        raise ArduinoIOError(f"avrdude failed ({result.returncode}): {' '.join(tail)}")
-    console.print(f"flashed {args.hex} to {args.port}")
-    if args.set_id is not None:
-        args.id = None
-        args.new_id = args.set_id
-        args.probe_timeout = 5.0
-        args.ports = []
-        return await set_board_id(args, console)
     return 0
