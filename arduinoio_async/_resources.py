@@ -165,7 +165,8 @@ def _build_cached_harness(source: Path) -> Path:
     binary = directory / "virtual-uno"
     if binary.is_file() and os.access(binary, os.X_OK):
         return binary
-    compiler = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    wanted = os.environ.get("CC")
+    compiler = shutil.which(wanted) if wanted else (shutil.which("cc") or shutil.which("gcc"))
     if compiler is None:
         raise ResourceNotFound(f"no C compiler to build the virtual Uno harness: {_install_hint()}")
     directory.mkdir(parents=True, exist_ok=True)
