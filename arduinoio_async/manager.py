@@ -201,6 +201,8 @@ class BoardManager:
         :class:`BoardNotFoundError` (naming every port tried and its answer) on timeout.
         """
         if timeout is None:
+            if not self._known and not self._candidates():
+                raise BoardNotFoundError(board_id, {})  # nothing to wait for: say so now
             timeout = self.probe_deadline + (self.rescan_interval or 0.0)
         limit = timeout
         with anyio.move_on_after(limit):
@@ -224,9 +226,7 @@ class BoardManager:
     async def scan(self) -> dict[str, ProbeResult]:
         """Probe every new candidate port concurrently; return what each answered."""
         async with self._scan_lock:
-            candidates = candidate_ports(
-                [*self.ports, *self._extra_ports], self.patterns, usb=self.usb, env=self.env
-            )
+            candidates = self._candidates()
             for gone in set(self._known) - set(candidates):
                 if not self._known[gone].held:
                     del self._known[gone]  # it may come back as something else
@@ -238,6 +238,11 @@ class BoardManager:
             return results
 
     # ---- internals --------------------------------------------------------------------------
+
+    def _candidates(self) -> list[str]:
+        return candidate_ports(
+            [*self.ports, *self._extra_ports], self.patterns, usb=self.usb, env=self.env
+        )
 
     def _raise_duplicate(self, board_id: int) -> None:
         ports = self._duplicates.get(board_id)

@@ -1,4 +1,10 @@
-"""Bench checks and maintenance: read, write, servo, analog, i2c, set-id."""
+"""Bench checks and maintenance: read, write, servo, analog, i2c, release, reset, failsafe,
+set-id.
+
+Pin roles live on the board until released or reset, so each command that configures a
+pin says how to free it when the board refuses (see :class:`~arduinoio_async.errors.
+BoardError`), and ``release``/``reset`` do it from the command line.
+"""
 
 from __future__ import annotations
 
@@ -57,15 +63,38 @@ def add_commands(sub: Any) -> None:
     i2c.add_argument("values", type=byte_value, nargs="+", help="read: length; write: bytes")
     i2c.add_argument("--speed", type=int, choices=[100, 400], default=100)
     i2c.set_defaults(handler=i2c_transfer)
+    release = sub.add_parser(
+        "release", help="free digital pins from their roles (they become plain inputs)"
+    )
+    release.add_argument("pins", type=digital_pin, nargs="+", metavar="PIN")
+    release.set_defaults(handler=release_pins)
+    reset = sub.add_parser(
+        "reset",
+        help="reset the board: every pin released, stream stopped, failsafe cleared",
+    )
+    reset.set_defaults(handler=reset_board)
+    failsafe = sub.add_parser(
+        "failsafe", help="show the failsafe state; --clear disarms it (also when tripped)"
+    )
+    failsafe.add_argument(
+        "--clear",
+        action="store_true",
+        help="disarm the failsafe; outputs keep their safe states until commanded",
+    )
+    failsafe.set_defaults(handler=failsafe_command)
     set_id = sub.add_parser("set-id", help="write a board ID to EEPROM and verify after reset")
     set_id.add_argument("new_id", type=board_id)
-    for parser in (read, write, servo, analog, i2c, set_id):
+    set_id.add_argument(
+        "--force", action="store_true", help="also when another board already answers with it"
+    )
+    for parser in (read, write, servo, analog, i2c, release, reset, failsafe, set_id):
         add_target_options(parser)
     set_id.set_defaults(handler=set_board_id)
 
 
 async def read_pin(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         state = await (await board.digital_input(args.pin, pull_up=args.pull_up)).read()
         console.print(
             f"{args.pin.name}: level {int(state.level)} rose {int(state.rose)} "
@@ -75,7 +104,8 @@ async def read_pin(args: argparse.Namespace, console: Console) -> int:
 
 
 async def write_pin(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         await board.gpio(args.pin).write(bool(args.value))
         console.print(f"{args.pin.name} = {args.value}")
     return 0
@@ -83,7 +113,8 @@ async def write_pin(args: argparse.Namespace, console: Console) -> int:
 
 async def set_servo(args: argparse.Namespace, console: Console) -> int:
     pin = args.pin
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         if pin in (DigitalPin.D9, DigitalPin.D10):
             await board.servo(pin, pulse_us=args.pulse_us)
         else:
@@ -94,7 +125,8 @@ async def set_servo(args: argparse.Namespace, console: Console) -> int:
 
 
 async def read_analog(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         if args.pin is not None:
             value = await board.analog(args.pin).read()
             console.print(f"{args.pin.name}: {value} ({value * 5 / 1024:.3f} V)")
@@ -106,7 +138,8 @@ async def read_analog(args: argparse.Namespace, console: Console) -> int:
 
 async def i2c_transfer(args: argparse.Namespace, console: Console) -> int:
     speed = p.I2CSpeed.KHZ_400 if args.speed == 400 else p.I2CSpeed.KHZ_100
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         bus = await board.i2c(speed)
         if args.action == "read":
             if len(args.values) != 1:
@@ -120,8 +153,17 @@ async def i2c_transfer(args: argparse.Namespace, console: Console) -> int:
 
 
 async def set_board_id(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         old = board.board_id
+        if not args.force and args.new_id != old:
+            holders = await target.boards_elsewhere()
+            if args.new_id in holders:
+                raise UsageError(
+                    f"board ID 0x{args.new_id:04X} is already used by the board on "
+                    f"{holders[args.new_id]}: two boards with one ID cannot be told apart "
+                    "(use --force to write it anyway)"
+                )
         await board.write_id(args.new_id)
         await board.reset()
         read_back = await board.read_id()
@@ -130,4 +172,43 @@ async def set_board_id(args: argparse.Namespace, console: Console) -> int:
                 f"board answered ID 0x{read_back:04X} after reset, not 0x{args.new_id:04X}"
             )
         console.print(f"board ID 0x{old:04X} -> 0x{read_back:04X} (verified after reset)")
+    return 0
+
+
+async def release_pins(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        for pin in args.pins:
+            await target.board.release(pin)
+    console.print(f"released {', '.join(pin.name for pin in args.pins)}", highlight=False)
+    return 0
+
+
+async def reset_board(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        board = target.board
+        await board.reset()
+        console.print(
+            f"board 0x{board.board_id:04X} on {board.port} reset: pins released, "
+            "stream stopped, failsafe off",
+            highlight=False,
+        )
+    return 0
+
+
+async def failsafe_command(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        board = target.board
+        flags = (await board.status()).flags
+        if flags & p.StatusFlags.FAILSAFE_TRIPPED:
+            state = "tripped"
+        elif flags & p.StatusFlags.FAILSAFE_ARMED:
+            state = "armed"
+        else:
+            state = "off"
+        if args.clear:
+            await board.disarm_failsafe()
+            console.print(f"failsafe was {state}; now off", highlight=False)
+        else:
+            hint = " (clear it with --clear)" if state != "off" else ""
+            console.print(f"failsafe {state}{hint}", highlight=False)
     return 0
