@@ -11,6 +11,7 @@ from rich.console import Console
 from .. import protocol as p
 from ..board import Board
 from ._output import print_record, print_rows
+from ._roles import pin_roles
 from ._target import (
     add_scan_options,
     add_target_options,
@@ -34,13 +35,14 @@ def add_commands(sub: Any) -> None:
     listing.add_argument("--json", action="store_true", help="machine-readable output")
     listing.set_defaults(handler=list_boards)
     info = sub.add_parser(
-        "info", help="ID, versions, capabilities, failsafe, stream and temperature of a board"
+        "info",
+        help="ID, versions, capabilities, pin roles, failsafe, stream and temperature of a board",
     )
     add_target_options(info)
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(handler=board_info)
     status = sub.add_parser(
-        "status", help="failsafe (off/armed/tripped) and stream state of a board"
+        "status", help="pin roles, failsafe (off/armed/tripped) and stream state of a board"
     )
     add_target_options(status)
     status.add_argument("--json", action="store_true", help="machine-readable output")
@@ -112,6 +114,7 @@ async def board_state(board: Board) -> dict[str, Any]:
         "id": board.board_id,
         "failsafe": failsafe,
         "stream": "running" if flags & p.StatusFlags.STREAMING else "stopped",
+        "pins": await pin_roles(board),
     }
 
 
@@ -121,7 +124,12 @@ def _state_text(state: dict[str, Any]) -> dict[str, str]:
         failsafe = "TRIPPED: outputs held in their safe states (`arduinoio failsafe --clear`)"
     elif failsafe == "armed":
         failsafe = "armed (trips when the host goes silent)"
-    return {"failsafe": failsafe, "stream": state["stream"]}
+    pins = ", ".join(f"{pin} {role}" for pin, role in state["pins"].items())
+    return {
+        "failsafe": failsafe,
+        "stream": state["stream"],
+        "pin roles": pins or "none (every pin free)",
+    }
 
 
 async def board_info(args: argparse.Namespace, console: Console) -> int:

@@ -14,9 +14,10 @@ from contextlib import asynccontextmanager
 from dataclasses import dataclass
 
 from ..board import Board
-from ..errors import ArduinoIOError
+from ..errors import ArduinoIOError, BoardError
 from ..manager import BoardManager, candidate_ports
 from ..protocol import DEFAULT_BAUD
+from ._roles import explain_busy_pin
 
 __all__ = [
     "NO_PORTS_HINT",
@@ -131,11 +132,23 @@ def _only_board(boards: BoardManager) -> Board:
 
 
 @asynccontextmanager
+async def _explained(board: Board) -> AsyncIterator[None]:
+    """A refusal because a pin is busy gets the role the board says holds the pin."""
+    try:
+        yield
+    except BoardError as exc:
+        if getattr(exc.code, "name", "") != "PIN_BUSY":
+            raise
+        raise await explain_busy_pin(board, exc) from exc
+
+
+@asynccontextmanager
 async def target_board(args: argparse.Namespace) -> AsyncIterator[Target]:
     """The board named by ``--port`` or ``--id``, or the only board that answers."""
     if args.port:
-        async with Board.open(args.port, baudrate=args.baud, ready_timeout=args.probe_timeout) as b:
-            yield Target(b, args)
+        opened = Board.open(args.port, baudrate=args.baud, ready_timeout=args.probe_timeout)
+        async with opened as board, _explained(board):
+            yield Target(board, args)
         return
     require_candidates(args)
     async with manager_for(args) as boards:
@@ -143,4 +156,5 @@ async def target_board(args: argparse.Namespace) -> AsyncIterator[Target]:
             board = await boards.get(args.id, timeout=0)
         else:
             board = _only_board(boards)
-        yield Target(board, args, boards)
+        async with _explained(board):
+            yield Target(board, args, boards)

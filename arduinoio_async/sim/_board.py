@@ -1,9 +1,11 @@
-"""Launcher and control client for the virtual Uno harness (``firmware/sim/build/virtual-uno``).
+"""Launcher and control client for the virtual Uno harness (``virtual-uno``).
 
 The harness is a separate C process because simavr is a C library that is not thread safe
 and must be paced against the wall clock in a tight loop; Python only starts it, reads the
 one JSON line it prints when ready, and talks to its JSON-lines control socket.  Tests then
-open :attr:`VirtualUno.port` with pyserial exactly as they would open a real Uno.
+open :attr:`VirtualUno.port` with pyserial exactly as they would open a real Uno.  Where
+the harness binary and the firmware come from (a clone's build, the package, a per-user
+cache, environment overrides) is decided in :mod:`arduinoio_async._resources`.
 """
 
 from __future__ import annotations

@@ -205,14 +205,23 @@ async def test_a_busy_pin_is_explained_and_freed_from_the_cli(
     assert code == 1
     err = capsys.readouterr().err
     assert "PIN_BUSY" in err and "D3 already has another role on the board" in err
+    assert "on the board D3 is a digital input" in err  # asked the board, not guessed
     assert "arduinoio release D3" in err and "arduinoio reset" in err
     assert "<DigitalPin" not in err and "DigitalPin." not in err
     assert (await run("release", "--port", uno.port, "D3"))[0] == 0
     assert (await run("servo", "--port", uno.port, "D3", "1500"))[0] == 0
     assert (await run("read", "--port", uno.port, "D3"))[0] == 1  # busy again
     capsys.readouterr()
+    code, out = await run("servo", "--port", uno.port, "D9", "1200")
+    assert code == 0
+    code, out = await run("status", "--port", uno.port, "--json")
+    assert code == 0 and json.loads(out)["pins"] == {"D3": "software PWM", "D9": "servo PWM"}
+    code, out = await run("status", "--port", uno.port)
+    assert "pin roles: D3 software PWM, D9 servo PWM" in out
     code, out = await run("reset", "--port", uno.port)
     assert code == 0 and "pins released" in out
+    code, out = await run("status", "--port", uno.port, "--json")
+    assert code == 0 and json.loads(out)["pins"] == {}
     assert (await run("read", "--port", uno.port, "D3"))[0] == 0
 
 
