@@ -49,8 +49,9 @@ UsbBridge = Literal["none", "16u2"]
 PinName = int | str
 
 _INSTALL_HINT = (
-    "in a clone run `make firmware sim`; installed from a wheel, the harness is built on "
-    f"first use and needs `sudo apt-get install {' '.join(_resources.HARNESS_PACKAGES)}`"
+    "from a clone: `make firmware sim` (needs `apt-get install simavr libsimavr-dev libelf-dev "
+    "gcc-avr avr-libc`); installed from a wheel, the harness is built on first use and needs "
+    f"`sudo apt-get install {' '.join(_resources.HARNESS_PACKAGES)}`"
 )
 
 
@@ -124,7 +125,9 @@ def find_harness_binary() -> Path:
     try:
         return _resources.harness_binary()
     except _resources.ResourceNotFound as exc:
-        raise SimulatorNotAvailable(f"virtual Uno harness unavailable: {exc}") from exc
+        raise SimulatorNotAvailable(
+            f"virtual Uno harness unavailable: {exc}; {_INSTALL_HINT}"
+        ) from exc
 
 
 def find_firmware_elf(baud: int) -> Path:
