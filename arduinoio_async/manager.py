@@ -201,7 +201,10 @@ class BoardManager:
         :class:`BoardNotFoundError` (naming every port tried and its answer) on timeout.
         """
         if timeout is None:
-            if not self._known and not self._candidates():
+            ports = [*self.ports, *self._extra_ports]
+            if not self._known and not candidate_ports(
+                ports, self.patterns, usb=self.usb, env=self.env
+            ):
                 raise BoardNotFoundError(board_id, {})  # nothing to wait for: say so now
             timeout = self.probe_deadline + (self.rescan_interval or 0.0)
         limit = timeout
@@ -226,7 +229,9 @@ class BoardManager:
     async def scan(self) -> dict[str, ProbeResult]:
         """Probe every new candidate port concurrently; return what each answered."""
         async with self._scan_lock:
-            candidates = self._candidates()
+            candidates = candidate_ports(
+                [*self.ports, *self._extra_ports], self.patterns, usb=self.usb, env=self.env
+            )
             for gone in set(self._known) - set(candidates):
                 if not self._known[gone].held:
                     del self._known[gone]  # it may come back as something else
@@ -238,11 +243,6 @@ class BoardManager:
             return results
 
     # ---- internals --------------------------------------------------------------------------
-
-    def _candidates(self) -> list[str]:
-        return candidate_ports(
-            [*self.ports, *self._extra_ports], self.patterns, usb=self.usb, env=self.env
-        )
 
     def _raise_duplicate(self, board_id: int) -> None:
         ports = self._duplicates.get(board_id)
