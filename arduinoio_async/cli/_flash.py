@@ -58,6 +58,7 @@ def add_commands(sub: Any) -> None:
         "--id",
         "--set-id",
         dest="set_id",
+        metavar="ID",
         type=board_id,
         default=None,
         help="board ID to store in EEPROM after flashing (verified after a reset)",
