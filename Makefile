@@ -1,13 +1,17 @@
 # Two commands do all set-up from nothing on a fresh Debian machine (as root):
 #   make bench   the main job: build firmware + virtual Uno and run the latency benchmark
 #   make test    lint, type-check, firmware host tests and the whole pytest suite
+#   make package-data   regenerate the firmware images and harness source the wheel ships
+#   make bench RECORD=1 also record the results in benchmarks/results/ (tracked)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc
+APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc \
+                arduino-core-avr
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: all setup system-deps venv firmware sim lint docs test test-fast bench generate clean
+.PHONY: all setup system-deps venv firmware sim bootloader package-data lint docs test test-fast \
+        bench generate clean
 
 all: setup firmware sim
 
@@ -38,6 +42,17 @@ firmware: system-deps
 sim: system-deps firmware
 	$(MAKE) -C firmware/sim
 
+# optiboot from arduino-core-avr's source, for the flashing tests (not committed, not shipped)
+bootloader: system-deps
+	$(MAKE) -C firmware/bootloader
+
+# What the wheel ships: firmware images for every baud and the harness's C source.
+PACKAGE_DATA := arduinoio_async/_data
+package-data: firmware
+	$(MAKE) -C firmware package PACKAGE_DIR=$(CURDIR)/$(PACKAGE_DATA)/firmware
+	@mkdir -p $(PACKAGE_DATA)/sim
+	cp firmware/sim/virtual_uno.c $(PACKAGE_DATA)/sim/virtual_uno.c
+
 generate: venv
 	$(BIN)/python -m arduinoio_async.protocol.cheader
 	$(BIN)/python -m arduinoio_async.protocol.docgen
@@ -51,12 +66,16 @@ lint: venv
 docs: venv
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir site
 
-test: setup firmware sim lint docs
+test: setup firmware sim bootloader lint docs
 	$(MAKE) -C firmware test
 	$(BIN)/pytest
 
+# Results go to benchmarks/results/local/ (untracked); RECORD=1 writes the tracked
+# benchmarks/results/latest.* that docs/performance.md cites.
+BENCH_OUT := $(if $(RECORD),benchmarks/results,benchmarks/results/local)
 bench: setup firmware sim
-	$(BIN)/arduinoio bench --all --json benchmarks/results/latest.json --plot benchmarks/results/latest.png
+	@mkdir -p $(BENCH_OUT)
+	$(BIN)/arduinoio bench --all --json $(BENCH_OUT)/latest.json --plot $(BENCH_OUT)/latest.png
 
 clean:
-	rm -rf firmware/build firmware/sim/build
+	rm -rf firmware/build firmware/sim/build firmware/bootloader/build

@@ -23,6 +23,7 @@ from .errors import (
     ArduinoIOError,
     BoardDisconnectedError,
     FailsafeTrippedError,
+    LinkCapacityError,
     LinkError,
     PinRoleError,
     ProtocolError,
@@ -421,6 +422,13 @@ class Board:
         samples = SampleStream(link, request, buffer)
         try:
             await link.request(request)
+        except LinkCapacityError as exc:
+            samples.detach()
+            baud = self.capabilities.baud
+            shortest = p.stream_min_period_us(request.analog_mask, request.flags, baud)
+            raise LinkCapacityError(
+                exc.code, exc.request, min_period_us=shortest, baud=baud
+            ) from exc
         except BaseException:
             samples.detach()
             raise

@@ -15,6 +15,8 @@ attributes instead of parsing strings.
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 from collections.abc import Iterable, Sequence
 
 __all__ = [
@@ -96,18 +98,60 @@ class ProtocolError(ArduinoIOError):
 # --- the board refused a request ------------------------------------------------------------
 
 
+def describe_request(request: object) -> str:
+    """``PwmConfig(pin=D3, pulse_us=1500)``: a request as a user wrote it, enums by name."""
+    if not dataclasses.is_dataclass(request) or isinstance(request, type):
+        return str(request)
+    fields = []
+    for item in dataclasses.fields(request):
+        value = getattr(request, item.name)
+        text = value.name if isinstance(value, enum.Enum) and value.name else repr(value)
+        fields.append(f"{item.name}={text}")
+    return f"{type(request).__name__}({', '.join(fields)})"
+
+
+def _pin_name(request: object) -> str:
+    pin = getattr(request, "pin", None)
+    if isinstance(pin, enum.Enum) and pin.name:
+        return pin.name
+    return f"D{pin}" if isinstance(pin, int) else "the pin"
+
+
+#: What a refusal means and what to do about it, by error code name.
+_REFUSAL_HINTS = {
+    "PIN_BUSY": "{pin} already has another role on the board (given by an earlier command "
+    "or program; roles last until released or reset): free it with board.release({pin}) "
+    "or `arduinoio release {pin}`, or reset the board with `arduinoio reset`",
+    "PIN_NOT_CONFIGURED": "{pin} does not have the role this request needs on the board: "
+    "configure it first (roles end at every reset of the board)",
+    "PIN_NOT_CAPABLE": "{pin} cannot do this (Table III of the paper lists the pins)",
+    "VALUE_OUT_OF_RANGE": "a value lies outside the range the board accepts",
+    "FAILSAFE_TRIPPED": "the failsafe fired and holds the outputs in their safe states: "
+    "re-arm it (board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
+    "I2C_NACK_ADDRESS": "no I2C device acknowledged its address",
+    "I2C_NACK_DATA": "the I2C device refused a data byte",
+    "I2C_TIMEOUT": "the I2C bus did not finish in time (SDA/SCL held low? pull-ups?)",
+    "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
+    "EEPROM_FAILED": "the EEPROM did not read back what was written",
+}
+
+
 class BoardError(ArduinoIOError):
     """The board answered a request with an error reply.
 
     ``code`` is the protocol's :class:`~arduinoio_async.protocol.ErrorCode`; ``request`` the
-    request that was refused.
+    request that was refused.  The message names the request and says in words what the
+    refusal means and how to get past it.
     """
 
     def __init__(self, code: object, request: object, detail: str = "") -> None:
         self.code = code
         self.request = request
-        text = f"board refused {request!r}: {getattr(code, 'name', code)}"
-        super().__init__(f"{text} ({detail})" if detail else text)
+        name = str(getattr(code, "name", code))
+        hint = _REFUSAL_HINTS.get(name, "").format(pin=_pin_name(request))
+        text = f"board refused {describe_request(request)}: {name}"
+        extra = "; ".join(part for part in (hint, detail) if part)
+        super().__init__(f"{text} ({extra})" if extra else text)
 
 
 class I2CError(BoardError):
@@ -115,7 +159,29 @@ class I2CError(BoardError):
 
 
 class LinkCapacityError(BoardError):
-    """A stream was refused because its frames would not fit the link's byte rate."""
+    """A stream was refused because its frames would not fit the link's byte rate.
+
+    ``min_period_us`` is the shortest period the board admits for the same channels at
+    ``baud`` (None when the raiser did not know the board's baud).
+    """
+
+    def __init__(
+        self,
+        code: object,
+        request: object,
+        detail: str = "",
+        *,
+        min_period_us: int | None = None,
+        baud: int | None = None,
+    ) -> None:
+        self.min_period_us = min_period_us
+        self.baud = baud
+        if min_period_us is not None and not detail:
+            detail = (
+                f"the link cannot carry these samples that often: the shortest period for "
+                f"these channels at {baud} baud is {min_period_us / 1000:g} ms"
+            )
+        super().__init__(code, request, detail)
 
 
 class FailsafeTrippedError(BoardError):
@@ -168,7 +234,14 @@ class BoardNotFoundError(ArduinoIOError, LookupError):
     def __init__(self, board_id: int, tried: dict[str, str]) -> None:
         self.board_id = board_id
         self.tried = dict(tried)
-        ports = "; ".join(f"{p}: {why}" for p, why in sorted(tried.items())) or "no ports found"
+        ports = "; ".join(f"{p}: {why}" for p, why in sorted(tried.items()))
+        if not ports:
+            super().__init__(
+                f"no board with ID 0x{board_id:04X} found: there are no candidate ports "
+                "(plug in an Uno, or name ports: BoardManager(ports=..., patterns=...), "
+                "--ports PATH_OR_GLOB on the command line, or ARDUINOIO_PORTS)"
+            )
+            return
         super().__init__(f"no board with ID 0x{board_id:04X} found (tried {ports})")
 
 

@@ -201,6 +201,11 @@ class BoardManager:
         :class:`BoardNotFoundError` (naming every port tried and its answer) on timeout.
         """
         if timeout is None:
+            ports = [*self.ports, *self._extra_ports]
+            if not self._known and not candidate_ports(
+                ports, self.patterns, usb=self.usb, env=self.env
+            ):
+                raise BoardNotFoundError(board_id, {})  # nothing to wait for: say so now
             timeout = self.probe_deadline + (self.rescan_interval or 0.0)
         limit = timeout
         with anyio.move_on_after(limit):

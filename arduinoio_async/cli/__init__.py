@@ -15,7 +15,7 @@ import anyio
 from rich.console import Console
 
 from ..errors import ArduinoIOError
-from . import _board_commands, _discovery
+from . import _board_commands, _discovery, _flash
 
 __all__ = ["main", "run"]
 
@@ -27,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _discovery.add_commands(sub)
     _board_commands.add_commands(sub)
+    _flash.add_commands(sub)
     sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)
     sim.add_argument("rest", nargs=argparse.REMAINDER)
     bench = sub.add_parser(
@@ -56,7 +57,7 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
     except ArduinoIOError as exc:
         errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 1
-    except _board_commands.ToolMissing as exc:
+    except _flash.ToolMissing as exc:
         errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 2
     except KeyboardInterrupt:

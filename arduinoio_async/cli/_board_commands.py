@@ -1,25 +1,22 @@
-"""Bench checks and maintenance: read, write, servo, analog, i2c, set-id, flash."""
+"""Bench checks and maintenance: read, write, servo, analog, i2c, release, reset, failsafe,
+set-id.
+
+Pin roles live on the board until released or reset, so each command that configures a
+pin says how to free it when the board refuses (see :class:`~arduinoio_async.errors.
+BoardError`), and ``release``/``reset`` do it from the command line.
+"""
 
 from __future__ import annotations
 
 import argparse
-import shutil
-from pathlib import Path
 from typing import Any
 
-import anyio
 from rich.console import Console
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, UsageError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from ._target import add_target_options, board_id, target_board
-
-FIRMWARE_HEX = Path(__file__).resolve().parents[2] / "firmware" / "build" / "arduinoio-115200.hex"
-
-
-class ToolMissing(Exception):
-    """A program or file the command needs is not there; the message says what to do."""
 
 
 def digital_pin(text: str) -> DigitalPin:
@@ -66,21 +63,38 @@ def add_commands(sub: Any) -> None:
     i2c.add_argument("values", type=byte_value, nargs="+", help="read: length; write: bytes")
     i2c.add_argument("--speed", type=int, choices=[100, 400], default=100)
     i2c.set_defaults(handler=i2c_transfer)
+    release = sub.add_parser(
+        "release", help="free digital pins from their roles (they become plain inputs)"
+    )
+    release.add_argument("pins", type=digital_pin, nargs="+", metavar="PIN")
+    release.set_defaults(handler=release_pins)
+    reset = sub.add_parser(
+        "reset",
+        help="reset the board: every pin released, stream stopped, failsafe cleared",
+    )
+    reset.set_defaults(handler=reset_board)
+    failsafe = sub.add_parser(
+        "failsafe", help="show the failsafe state; --clear disarms it (also when tripped)"
+    )
+    failsafe.add_argument(
+        "--clear",
+        action="store_true",
+        help="disarm the failsafe; outputs keep their safe states until commanded",
+    )
+    failsafe.set_defaults(handler=failsafe_command)
     set_id = sub.add_parser("set-id", help="write a board ID to EEPROM and verify after reset")
     set_id.add_argument("new_id", type=board_id)
-    flash = sub.add_parser("flash", help="flash the built firmware with avrdude")
-    flash.add_argument("--port", required=True)
-    flash.add_argument("--hex", type=Path, default=FIRMWARE_HEX)
-    flash.add_argument("--set-id", type=board_id, default=None)
-    flash.add_argument("--baud", type=int, default=p.DEFAULT_BAUD)
-    flash.set_defaults(handler=flash_firmware)
-    for parser in (read, write, servo, analog, i2c, set_id):
+    set_id.add_argument(
+        "--force", action="store_true", help="also when another board already answers with it"
+    )
+    for parser in (read, write, servo, analog, i2c, release, reset, failsafe, set_id):
         add_target_options(parser)
     set_id.set_defaults(handler=set_board_id)
 
 
 async def read_pin(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         state = await (await board.digital_input(args.pin, pull_up=args.pull_up)).read()
         console.print(
             f"{args.pin.name}: level {int(state.level)} rose {int(state.rose)} "
@@ -90,7 +104,8 @@ async def read_pin(args: argparse.Namespace, console: Console) -> int:
 
 
 async def write_pin(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         await board.gpio(args.pin).write(bool(args.value))
         console.print(f"{args.pin.name} = {args.value}")
     return 0
@@ -98,7 +113,8 @@ async def write_pin(args: argparse.Namespace, console: Console) -> int:
 
 async def set_servo(args: argparse.Namespace, console: Console) -> int:
     pin = args.pin
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         if pin in (DigitalPin.D9, DigitalPin.D10):
             await board.servo(pin, pulse_us=args.pulse_us)
         else:
@@ -109,7 +125,8 @@ async def set_servo(args: argparse.Namespace, console: Console) -> int:
 
 
 async def read_analog(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         if args.pin is not None:
             value = await board.analog(args.pin).read()
             console.print(f"{args.pin.name}: {value} ({value * 5 / 1024:.3f} V)")
@@ -121,7 +138,8 @@ async def read_analog(args: argparse.Namespace, console: Console) -> int:
 
 async def i2c_transfer(args: argparse.Namespace, console: Console) -> int:
     speed = p.I2CSpeed.KHZ_400 if args.speed == 400 else p.I2CSpeed.KHZ_100
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         bus = await board.i2c(speed)
         if args.action == "read":
             if len(args.values) != 1:
@@ -135,8 +153,17 @@ async def i2c_transfer(args: argparse.Namespace, console: Console) -> int:
 
 
 async def set_board_id(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         old = board.board_id
+        if not args.force and args.new_id != old:
+            holders = await target.boards_elsewhere()
+            if args.new_id in holders:
+                raise UsageError(
+                    f"board ID 0x{args.new_id:04X} is already used by the board on "
+                    f"{holders[args.new_id]}: two boards with one ID cannot be told apart "
+                    "(use --force to write it anyway)"
+                )
         await board.write_id(args.new_id)
         await board.reset()
         read_back = await board.read_id()
@@ -148,36 +175,40 @@ async def set_board_id(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
-async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
-    avrdude = shutil.which("avrdude")
-    if avrdude is None:
-        raise ToolMissing("avrdude is not installed: apt-get install avrdude")
-    if not args.hex.is_file():
-        raise ToolMissing(f"{args.hex} does not exist: build it with `make firmware`")
-    command = [
-        avrdude,
-        "-p",
-        "atmega328p",
-        "-c",
-        "arduino",
-        "-P",
-        args.port,
-        "-b",
-        "115200",
-        "-D",
-        "-U",
-        f"flash:w:{args.hex}:i",
-    ]
-    with console.status(f"flashing {args.hex.name} to {args.port}..."):
-        result = await anyio.run_process(command, check=False)
-    if result.returncode != 0:
-        tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:]
-        raise ArduinoIOError(f"avrdude failed ({result.returncode}): {' '.join(tail)}")
-    console.print(f"flashed {args.hex} to {args.port}")
-    if args.set_id is not None:
-        args.id = None
-        args.new_id = args.set_id
-        args.probe_timeout = 5.0
-        args.ports = []
-        return await set_board_id(args, console)
+async def release_pins(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        for pin in args.pins:
+            await target.board.release(pin)
+    console.print(f"released {', '.join(pin.name for pin in args.pins)}", highlight=False)
+    return 0
+
+
+async def reset_board(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        board = target.board
+        await board.reset()
+        console.print(
+            f"board 0x{board.board_id:04X} on {board.port} reset: pins released, "
+            "stream stopped, failsafe off",
+            highlight=False,
+        )
+    return 0
+
+
+async def failsafe_command(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        board = target.board
+        flags = (await board.status()).flags
+        if flags & p.StatusFlags.FAILSAFE_TRIPPED:
+            state = "tripped"
+        elif flags & p.StatusFlags.FAILSAFE_ARMED:
+            state = "armed"
+        else:
+            state = "off"
+        if args.clear:
+            await board.disarm_failsafe()
+            console.print(f"failsafe was {state}; now off", highlight=False)
+        else:
+            hint = " (clear it with --clear)" if state != "off" else ""
+            console.print(f"failsafe {state}{hint}", highlight=False)
     return 0

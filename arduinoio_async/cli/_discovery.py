@@ -1,26 +1,52 @@
-"""``arduinoio list`` and ``arduinoio info``."""
+"""``arduinoio list``, ``info`` and ``status``: which boards answer and what state they are in."""
 
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 from typing import Any
 
 from rich.console import Console
-from rich.table import Table
 
 from .. import protocol as p
-from ._target import add_scan_options, add_target_options, manager_for, target_board
+from ..board import Board
+from ._output import print_record, print_rows
+from ._roles import pin_roles
+from ._target import (
+    add_scan_options,
+    add_target_options,
+    manager_for,
+    require_candidates,
+    target_board,
+)
+
+__all__ = ["add_commands", "board_state"]
 
 
 def add_commands(sub: Any) -> None:
-    listing = sub.add_parser("list", help="probe ports and list the boards that answer")
+    listing = sub.add_parser(
+        "list",
+        help="probe ports and list the boards that answer (exit 1 when none does)",
+        description="Probe every candidate port (USB serial devices of Uno bridges, --ports, "
+        "ARDUINOIO_PORTS) and list what answered. Ports another program holds are skipped "
+        "and listed as busy.",
+    )
     add_scan_options(listing)
     listing.add_argument("--json", action="store_true", help="machine-readable output")
     listing.set_defaults(handler=list_boards)
-    info = sub.add_parser("info", help="ID, versions, capabilities and temperature of a board")
+    info = sub.add_parser(
+        "info",
+        help="ID, versions, capabilities, pin roles, failsafe, stream and temperature of a board",
+    )
     add_target_options(info)
+    info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(handler=board_info)
+    status = sub.add_parser(
+        "status", help="pin roles, failsafe (off/armed/tripped) and stream state of a board"
+    )
+    add_target_options(status)
+    status.add_argument("--json", action="store_true", help="machine-readable output")
+    status.set_defaults(handler=board_status)
 
 
 def _features(mask: int) -> list[str]:
@@ -28,6 +54,7 @@ def _features(mask: int) -> list[str]:
 
 
 async def list_boards(args: argparse.Namespace, console: Console) -> int:
+    require_candidates(args)
     with console.status("probing ports..."):
         async with manager_for(args) as boards:
             rows: list[dict[str, Any]] = []
@@ -49,37 +76,94 @@ async def list_boards(args: argparse.Namespace, console: Console) -> int:
                 else:
                     status = result.error or "not answering"
                     rows.append({"port": port, "id": result.board_id, "status": status})
-    if args.json:
-        console.print_json(json.dumps(rows))
-        return 0
-    table = Table(title="arduinoio boards")
-    for column in ("port", "board ID", "firmware", "protocol", "baud", "status"):
-        table.add_column(column)
-    for row in rows:
-        table.add_row(
-            row["port"],
-            f"0x{row['id']:04X}" if row.get("id") is not None else "-",
-            row.get("firmware", "-"),
-            str(row.get("protocol", "-")),
-            str(row.get("baud", "-")),
-            row["status"],
-        )
-    console.print(table)
-    if not rows:
-        console.print("no ports to probe: plug in a board, or pass --ports / set ARDUINOIO_PORTS")
+    shown = [
+        {**{key: str(value) for key, value in row.items()}, "id": _hex_id(row.get("id"))}
+        for row in rows
+    ]
+    columns = [
+        ("port", "port"),
+        ("id", "board ID"),
+        ("firmware", "firmware"),
+        ("protocol", "protocol"),
+        ("baud", "baud"),
+        ("status", "status"),
+    ]
+    print_rows(console, "arduinoio boards", columns, rows, as_json=args.json, shown=shown)
+    if not any(row["status"] == "ok" for row in rows):
+        print(f"no board answered on {len(rows)} port(s)", file=sys.stderr)
+        return 1
     return 0
 
 
+def _hex_id(value: object) -> str:
+    return f"0x{value:04X}" if isinstance(value, int) else "-"
+
+
+async def board_state(board: Board) -> dict[str, Any]:
+    """What the board reports about itself now (``status``; also part of ``info``)."""
+    status = await board.status()
+    flags = status.flags
+    if flags & p.StatusFlags.FAILSAFE_TRIPPED:
+        failsafe = "tripped"
+    elif flags & p.StatusFlags.FAILSAFE_ARMED:
+        failsafe = "armed"
+    else:
+        failsafe = "off"
+    return {
+        "port": board.port,
+        "id": board.board_id,
+        "failsafe": failsafe,
+        "stream": "running" if flags & p.StatusFlags.STREAMING else "stopped",
+        "pins": await pin_roles(board),
+    }
+
+
+def _state_text(state: dict[str, Any]) -> dict[str, str]:
+    failsafe = state["failsafe"]
+    if failsafe == "tripped":
+        failsafe = "TRIPPED: outputs held in their safe states (`arduinoio failsafe --clear`)"
+    elif failsafe == "armed":
+        failsafe = "armed (trips when the host goes silent)"
+    pins = ", ".join(f"{pin} {role}" for pin, role in state["pins"].items())
+    return {
+        "failsafe": failsafe,
+        "stream": state["stream"],
+        "pin roles": pins or "none (every pin free)",
+    }
+
+
 async def board_info(args: argparse.Namespace, console: Console) -> int:
-    async with target_board(args) as board:
+    async with target_board(args) as target:
+        board = target.board
         caps = board.capabilities
-        table = Table(show_header=False, title=f"board on {board.port}")
-        table.add_row("board ID", f"0x{board.board_id:04X}")
-        table.add_row("firmware", f"{caps.firmware_major}.{caps.firmware_minor}")
-        table.add_row("protocol", str(caps.protocol_version))
-        table.add_row("baud", str(caps.baud))
-        table.add_row("receive FIFO", f"{caps.rx_buffer} bytes")
-        table.add_row("features", ", ".join(_features(caps.features)))
-        table.add_row("temperature", f"{await board.temperature():.1f} C")
-        console.print(table)
+        state = await board_state(board)
+        raw = {
+            **state,
+            "firmware": f"{caps.firmware_major}.{caps.firmware_minor}",
+            "protocol": caps.protocol_version,
+            "baud": caps.baud,
+            "rx_buffer": caps.rx_buffer,
+            "features": _features(caps.features),
+            "temperature_c": round(await board.temperature(), 1),
+        }
+    shown = {
+        "board ID": f"0x{board.board_id:04X}",
+        "port": board.port,
+        "firmware": raw["firmware"],
+        "protocol": str(caps.protocol_version),
+        "baud": str(caps.baud),
+        "receive FIFO": f"{caps.rx_buffer} bytes",
+        "features": ", ".join(raw["features"]),
+        **_state_text(state),
+        "temperature": f"{raw['temperature_c']:.1f} C",
+    }
+    print_record(console, f"board on {board.port}", shown, raw=raw, as_json=args.json)
+    return 0
+
+
+async def board_status(args: argparse.Namespace, console: Console) -> int:
+    async with target_board(args) as target:
+        state = await board_state(target.board)
+    shown = {"board ID": _hex_id(state["id"]), "port": state["port"], **_state_text(state)}
+    print_record(console, f"board on {state['port']}", shown, raw=state, as_json=args.json)
     return 0

@@ -85,6 +85,8 @@ __all__ = [
     "ReadCapabilitiesReply",
     "ReadId",
     "ReadIdReply",
+    "ReadPinRoles",
+    "ReadPinRolesReply",
     "ReadStatus",
     "ReadStatusReply",
     "ReadTemperature",
@@ -307,6 +309,27 @@ class SetSession(Request[SetSessionReply]):
     """Tag this boot of the board so the host can detect a reset by itself later."""
 
     session: Annotated[int, U16]
+
+
+@_reply(ClassTag.MISC, 0x08)
+@dataclass(frozen=True, slots=True)
+class ReadPinRolesReply(Reply):
+    """Bit n of each mask is set when Dn has that role on the board (D0/D1 carry the UART).
+
+    Roles last until released or reset, also across host programs, so a bench tool asks
+    the board instead of guessing why it refuses a pin.
+    """
+
+    gpio_input: Annotated[int, U16]
+    gpio_output: Annotated[int, U16]
+    pwm: Annotated[int, U16]
+    counter: Annotated[int, U16]
+
+
+@_request(ReadPinRolesReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class ReadPinRoles(Request[ReadPinRolesReply]):
+    """Which digital pins are GPIO inputs, GPIO outputs, PWM (servo or software) or counters."""
 
 
 # ---- GPIO (0x02) --------------------------------------------------------------------------

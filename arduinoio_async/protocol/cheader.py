@@ -16,6 +16,7 @@ import sys
 from enum import IntEnum, IntFlag
 from pathlib import Path
 
+from .._resources import project_path
 from . import _constants as c
 from ._layout import Layout
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES
@@ -23,7 +24,7 @@ from .pins import Function, pin_mask
 
 __all__ = ["HEADER_PATH", "main", "render"]
 
-HEADER_PATH = Path(__file__).resolve().parents[2] / "firmware" / "include" / "aio_protocol.h"
+HEADER_PATH = project_path("firmware/include/aio_protocol.h")
 
 
 def _snake(name: str) -> str:

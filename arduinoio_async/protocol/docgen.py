@@ -10,8 +10,8 @@ table as the firmware header, so the document cannot drift from the code (a test
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
+from .._resources import project_path
 from ._constants import DEFAULT_BAUD, FAST_BAUD, STREAM_FRAME_OVERHEAD, ClassTag, StreamFlags
 from ._layout import Layout
 from ._messages import (
@@ -23,7 +23,7 @@ from ._messages import (
 
 __all__ = ["DOC_PATH", "main", "render_layouts", "splice"]
 
-DOC_PATH = Path(__file__).resolve().parents[2] / "docs" / "protocol.md"
+DOC_PATH = project_path("docs/protocol.md")
 BEGIN = "<!-- BEGIN GENERATED: python -m arduinoio_async.protocol.docgen -->"
 END = "<!-- END GENERATED -->"
 
@@ -102,6 +102,9 @@ def splice(document: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if not DOC_PATH.is_file():
+        print(f"{DOC_PATH} not found: run this from a clone of the project", file=sys.stderr)
+        return 1
     text = DOC_PATH.read_text()
     if BEGIN not in text or END not in text:
         print(f"{DOC_PATH} lacks the generated-block markers", file=sys.stderr)

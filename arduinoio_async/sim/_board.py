@@ -1,9 +1,11 @@
-"""Launcher and control client for the virtual Uno harness (``firmware/sim/build/virtual-uno``).
+"""Launcher and control client for the virtual Uno harness (``virtual-uno``).
 
 The harness is a separate C process because simavr is a C library that is not thread safe
 and must be paced against the wall clock in a tight loop; Python only starts it, reads the
 one JSON line it prints when ready, and talks to its JSON-lines control socket.  Tests then
-open :attr:`VirtualUno.port` with pyserial exactly as they would open a real Uno.
+open :attr:`VirtualUno.port` with pyserial exactly as they would open a real Uno.  Where
+the harness binary and the firmware come from (a clone's build, the package, a per-user
+cache, environment overrides) is decided in :mod:`arduinoio_async._resources`.
 """
 
 from __future__ import annotations
@@ -21,8 +23,10 @@ from typing import IO, Any, Literal, cast
 
 import anyio
 import anyio.abc
+import anyio.to_thread
 from anyio.streams.buffered import BufferedByteReceiveStream
 
+from .. import _resources
 from ..errors import ArduinoIOError
 
 __all__ = [
@@ -45,10 +49,10 @@ UsbBridge = Literal["none", "16u2"]
 PinName = int | str
 
 _INSTALL_HINT = (
-    "build it with `make firmware sim` (needs `apt-get install simavr libsimavr-dev "
-    "libelf-dev gcc-avr avr-libc`)"
+    "from a clone: `make firmware sim` (needs `apt-get install simavr libsimavr-dev libelf-dev "
+    "gcc-avr avr-libc`); installed from a wheel, the harness is built on first use and needs "
+    f"`sudo apt-get install {' '.join(_resources.HARNESS_PACKAGES)}`"
 )
-_REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 class SimulatorNotAvailable(ArduinoIOError):
@@ -113,30 +117,41 @@ class FirmwareCycles:
 
 
 def find_harness_binary() -> Path:
-    """Locate ``virtual-uno`` (``$ARDUINOIO_SIM_BIN`` wins) or explain how to build it."""
-    env = os.environ.get("ARDUINOIO_SIM_BIN")
-    path = Path(env) if env else _REPO_ROOT / "firmware" / "sim" / "build" / "virtual-uno"
-    if not path.is_file() or not os.access(path, os.X_OK):
-        raise SimulatorNotAvailable(f"virtual Uno harness not found at {path}: {_INSTALL_HINT}")
-    return path
+    """Locate ``virtual-uno``, building it into the user cache if needed (see ``_resources``).
+
+    ``$ARDUINOIO_SIM_BIN`` wins.  Blocking (a first build takes a few seconds): async code
+    calls it through :func:`anyio.to_thread.run_sync`.
+    """
+    try:
+        return _resources.harness_binary()
+    except _resources.ResourceNotFound as exc:
+        raise SimulatorNotAvailable(
+            f"virtual Uno harness unavailable: {exc}; {_INSTALL_HINT}"
+        ) from exc
 
 
 def find_firmware_elf(baud: int) -> Path:
-    """Locate the project firmware for ``baud`` (``$ARDUINOIO_FIRMWARE_DIR`` overrides)."""
-    env = os.environ.get("ARDUINOIO_FIRMWARE_DIR")
-    directory = Path(env) if env else _REPO_ROOT / "firmware" / "build"
-    path = directory / f"arduinoio-{baud}.elf"
-    if not path.is_file():
-        raise SimulatorNotAvailable(f"firmware ELF not found at {path}: {_INSTALL_HINT}")
-    return path
+    """Locate the project firmware ELF for ``baud`` (``$ARDUINOIO_FIRMWARE_DIR`` overrides)."""
+    try:
+        return _resources.firmware_image(baud, "elf")
+    except _resources.ResourceNotFound as exc:
+        raise SimulatorNotAvailable(str(exc)) from exc
 
 
 def find_test_firmware(baud: int) -> Path:
-    """Locate the harness's own echo/test firmware (``firmware/sim/testfw``) for ``baud``."""
-    binary_dir = find_harness_binary().parent
-    path = binary_dir / f"testfw-{baud}.elf"
-    if not path.is_file():
-        raise SimulatorNotAvailable(f"test firmware not found at {path}: {_INSTALL_HINT}")
+    """Locate the harness's own echo/test firmware (``firmware/sim/testfw``, clones only)."""
+    tree = _resources.source_tree()
+    env = os.environ.get(_resources.ENV_SIM_BIN)
+    directory = (
+        Path(env).parent
+        if env
+        else (tree / "firmware" / "sim" / "build" if tree is not None else None)
+    )
+    path = directory / f"testfw-{baud}.elf" if directory is not None else None
+    if path is None or not path.is_file():
+        raise SimulatorNotAvailable(
+            f"test firmware testfw-{baud}.elf not found (a clone builds it with `make sim`)"
+        )
     return path
 
 
@@ -169,6 +184,7 @@ class VirtualUno:
         seed: int | None = None,
         r2r_tolerance: float | None = None,
         elf: str | os.PathLike[str] | None = None,
+        bootloader: str | os.PathLike[str] | None = None,
         binary: str | os.PathLike[str] | None = None,
         control_path: str | os.PathLike[str] | None = None,
         start_timeout: float = 10.0,
@@ -192,6 +208,7 @@ class VirtualUno:
         self.seed = seed
         self.r2r_tolerance = r2r_tolerance
         self._elf = Path(elf) if elf is not None else None
+        self.bootloader = Path(bootloader) if bootloader is not None else None
         self._binary = Path(binary) if binary is not None else None
         self._control_request = Path(control_path) if control_path is not None else None
         self.start_timeout = start_timeout
@@ -206,16 +223,29 @@ class VirtualUno:
 
     # ------------------------------------------------------------------ lifecycle
     def command_line(self) -> list[str]:
-        """The exact harness command line, resolved now (raises SimulatorNotAvailable)."""
+        """The exact harness command line, resolved now (raises SimulatorNotAvailable).
+
+        Blocking: the first call may build the harness into the user cache.  With
+        ``bootloader`` the board starts with only that bootloader in its boot section and
+        an erased application flash, unless ``elf`` puts an application there too; it
+        resets into the bootloader whenever the port is opened (DTR), as a Uno does.
+        """
         binary = self._binary or find_harness_binary()
         if not binary.is_file():
             raise SimulatorNotAvailable(
                 f"virtual Uno harness not found at {binary}: {_INSTALL_HINT}"
             )
-        elf = self._elf or find_firmware_elf(self.baud)
-        if not elf.is_file():
-            raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {_INSTALL_HINT}")
-        args = [str(binary), "--elf", str(elf), "--baud", str(self.baud), "--fixture", self.fixture]
+        args = [str(binary)]
+        if self.bootloader is not None:
+            if not self.bootloader.is_file():
+                raise SimulatorNotAvailable(f"bootloader image {self.bootloader} does not exist")
+            args += ["--bootloader", str(self.bootloader)]
+        elf = self._elf or (None if self.bootloader is not None else find_firmware_elf(self.baud))
+        if elf is not None:
+            if not elf.is_file():
+                raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {_INSTALL_HINT}")
+            args += ["--elf", str(elf)]
+        args += ["--baud", str(self.baud), "--fixture", self.fixture]
         args += ["--usb-bridge", self.usb_bridge, "--exit-with-parent"]
         if self.board_id is not None:
             args += ["--id", str(self.board_id)]
@@ -244,7 +274,7 @@ class VirtualUno:
         """Start the harness and wait for its ready line; errors name what is missing."""
         if self._process is not None:
             raise SimulatorError("virtual Uno already started")
-        args = self.command_line()
+        args = await anyio.to_thread.run_sync(self.command_line)
         self._stderr = tempfile.TemporaryFile()  # noqa: SIM115 - closed in stop()
         try:
             self._process = await anyio.open_process(
@@ -473,8 +503,8 @@ async def start_virtual_unos(
     propagates, so a half-started fleet never leaks processes.
     """
     boards = [VirtualUno(board_id=board_id, **options) for board_id in ids]
-    for board in boards:
-        board.command_line()  # missing binary/ELF: plain SimulatorNotAvailable, no ExceptionGroup
+    for board in boards:  # missing binary/ELF: plain SimulatorNotAvailable, no ExceptionGroup
+        await anyio.to_thread.run_sync(board.command_line)
     try:
         async with anyio.create_task_group() as tg:
             for board in boards:

@@ -41,7 +41,7 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
         help="board ID (repeat for several boards; 0x prefix allowed)",
     )
     p.add_argument("--fixture", choices=["open", "loopback", "r2r"], default="open")
-    p.add_argument("--baud", type=int, choices=[115200, 1000000], default=115200)
+    p.add_argument("--baud", type=int, choices=[115200, 1000000, 2000000], default=115200)
     p.add_argument("--fast", action="store_true", help="run unpaced, as fast as possible")
     p.add_argument("--usb-bridge", choices=["none", "16u2"], default="none")
     p.add_argument("--reset-on-open", action="store_true", help="reset like a real Uno on open")
@@ -51,7 +51,21 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
     p.add_argument("--fault-flip", type=float, default=0.0)
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--r2r-tolerance", type=float, default=None)
-    p.add_argument("--elf", type=Path, default=None, help="firmware ELF (default: firmware/build)")
+    p.add_argument(
+        "--elf",
+        type=Path,
+        default=None,
+        help="firmware ELF (default: the project firmware for --baud; "
+        "with --bootloader: an erased application flash)",
+    )
+    p.add_argument(
+        "--bootloader",
+        type=Path,
+        default=None,
+        metavar="HEX",
+        help="boot this bootloader (e.g. optiboot at 0x7C00) from its boot section; the board "
+        "resets into it when the port is opened, so `arduinoio flash` and avrdude work",
+    )
     return p
 
 
@@ -69,6 +83,7 @@ async def _run(args: argparse.Namespace) -> None:
         "seed": args.seed,
         "r2r_tolerance": args.r2r_tolerance,
         "elf": args.elf,
+        "bootloader": args.bootloader,
     }
     ids: list[int | None] = list(args.ids) if args.ids else [None]
     with anyio.open_signal_receiver(signal.SIGINT, signal.SIGTERM) as signals:

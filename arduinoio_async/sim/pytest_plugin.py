@@ -1,6 +1,8 @@
 """pytest fixture ``virtual_uno_factory``: start virtual Unos that are stopped after the test.
 
-Load it with ``pytest_plugins = ["arduinoio_async.sim.pytest_plugin"]``.  When the simulator
+Installing the package registers it with pytest (``pytest11`` entry point), so any test
+suite in that environment can use the fixture; ``pytest_plugins =
+["arduinoio_async.sim.pytest_plugin"]`` loads it explicitly.  When the simulator
 is not built or simavr is missing, tests using the fixture are *skipped* with the reason
 (so the suite still runs on machines without simavr); set ``ARDUINOIO_SIM_REQUIRED=1`` to
 make that a failure instead, e.g. in CI where the simulator must be present.

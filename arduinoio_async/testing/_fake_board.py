@@ -89,6 +89,7 @@ class FakeBoard:
             p.WriteId: self._write_id,
             p.ReadStatus: self._status,
             p.SetSession: self._set_session,
+            p.ReadPinRoles: self._pin_roles,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
             p.GpioWrite: self._gpio_write,
@@ -264,6 +265,12 @@ class FakeBoard:
     def _write_id(self, request: p.WriteId) -> p.Frame:
         self.board_id = request.board_id
         return p.WriteIdReply(request.board_id)
+
+    def _pin_roles(self, request: p.ReadPinRoles) -> p.Frame:
+        def mask(role: str) -> int:
+            return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
+
+        return p.ReadPinRolesReply(mask("input"), mask("output"), mask("pwm"), mask("counter"))
 
     def _set_session(self, request: p.SetSession) -> p.Frame:
         self.session = request.session

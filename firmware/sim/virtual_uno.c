@@ -55,6 +55,7 @@
 #include "sim_avr.h"
 #include "sim_core.h"
 #include "sim_elf.h"
+#include "sim_hex.h"
 #include "sim_io.h"
 #include "sim_irq.h"
 #include "sim_time.h"
@@ -76,6 +77,7 @@
 
 /* ------------------------------------------------------------------ options */
 static const char *opt_elf;
+static const char *opt_bootloader; /* optiboot .hex: reset into the boot section */
 static int opt_id = -1;
 static unsigned opt_baud = 115200;
 static enum { FIX_OPEN, FIX_LOOPBACK, FIX_R2R } opt_fixture = FIX_OPEN;
@@ -804,11 +806,35 @@ static void my_run(avr_t *a)
 		avr_service_interrupts(a);
 }
 
+/* MCUSR (data address 0x54) and its reset flags, as on silicon: a power-on reset
+ * leaves only PORF, an external (DTR) reset adds EXTRF to what was there, and the
+ * watchdog's WDRF is set by simavr's watchdog module itself.  Optiboot decides on
+ * EXTRF alone whether to wait for avrdude or start the application. */
+#define MCUSR_ADDR 0x54
+#define MCUSR_PORF 0x01
+#define MCUSR_EXTRF 0x02
+static uint8_t next_reset_flags; /* set by reset_avr(); 0: a reset from inside simavr */
+static uint8_t mcusr_before_reset;
+
 static void my_reset_wrapper(avr_t *a)
 {
 	if (orig_reset)
 		orig_reset(a);
+	/* avr_reset() has cleared the I/O registers and set pc = reset_pc (the boot
+	 * section in --bootloader mode, like the BOOTRST fuse) */
+	if (next_reset_flags == MCUSR_PORF)
+		a->data[MCUSR_ADDR] = MCUSR_PORF;
+	else if (next_reset_flags)
+		a->data[MCUSR_ADDR] = mcusr_before_reset | next_reset_flags;
+	next_reset_flags = 0;
 	reset_seen = 1;
+}
+
+static void reset_avr(uint8_t flags)
+{
+	mcusr_before_reset = avr->data[MCUSR_ADDR];
+	next_reset_flags = flags;
+	avr_reset(avr);
 }
 
 static void logger(avr_t *a, const int level, const char *fmt, va_list ap)
@@ -849,9 +875,18 @@ static void after_reset(void)
 	recompute_next_event();
 }
 
+static void reset_and_run(uint8_t flags)
+{
+	reset_avr(flags);
+	avr->state = cpu_Running;
+	reset_count++;
+	after_reset();
+	rebase();
+}
+
 static void power_on_reset(void)
 {
-	avr_reset(avr);
+	reset_avr(MCUSR_PORF);
 	avr->state = cpu_Running;
 	reset_count++;
 	after_reset();
@@ -895,7 +930,7 @@ static void on_slave_open(void)
 	slave_open = 1;
 	open_count++;
 	if (opt_reset_on_open && plugged) {
-		avr_reset(avr);
+		reset_avr(MCUSR_EXTRF);
 		avr->state = cpu_Running;
 		reset_count++;
 		after_reset();
@@ -1432,7 +1467,7 @@ static void service_io(void)
 	}
 	if (holding_reset && t >= hold_until_ns) {
 		holding_reset = 0;
-		power_on_reset();
+		reset_and_run(MCUSR_EXTRF); /* DTR released: an external reset */
 	}
 	run_events();
 }
@@ -1444,13 +1479,47 @@ static void poll_io(uint64_t timeout_ns)
 	service_io();
 }
 
+/* ------------------------------------------------------------------ bootloader */
+/* --bootloader HEX: the image goes to its real flash addresses (optiboot: 0x7C00
+ * for a 1 KiB boot section) and every reset starts there, as with the BOOTRST
+ * fuse programmed.  The rest of the flash is erased (0xFF) unless --elf put an
+ * application at 0.  The bootloader writes the application with SPM (simavr's
+ * self-programming module) and leaves through a watchdog reset. */
+static int load_bootloader(const char *path)
+{
+	ihex_chunk_p chunks = NULL;
+	int count = access(path, R_OK) == 0 ? read_ihex_chunks(path, &chunks) : -1;
+	if (count <= 0) {
+		logf_("cannot read bootloader hex %s", path);
+		return -1;
+	}
+	uint32_t boot = avr->flashend + 1;
+	for (int i = 0; i < count; i++) {
+		if (chunks[i].baseaddr + chunks[i].size > avr->flashend + 1) {
+			logf_("bootloader %s: %u bytes at 0x%04X run past the end of flash",
+			      path, chunks[i].size, chunks[i].baseaddr);
+			free_ihex_chunks(chunks);
+			return -1;
+		}
+		memcpy(avr->flash + chunks[i].baseaddr, chunks[i].data, chunks[i].size);
+		if (chunks[i].baseaddr < boot)
+			boot = chunks[i].baseaddr;
+	}
+	free_ihex_chunks(chunks);
+	avr->reset_pc = boot;
+	avr->pc = boot;
+	avr->codeend = avr->flashend; /* the application is whatever gets flashed */
+	avr->data[MCUSR_ADDR] = MCUSR_PORF;
+	return 0;
+}
+
 /* ------------------------------------------------------------------ setup */
 static void on_signal(int sig) { quit_flag = 1; }
 
 static void usage(void)
 {
 	fprintf(stderr,
-		"usage: virtual-uno --elf PATH [--id N] [--baud 115200|1000000] [--fixture open|loopback|r2r]\n"
+		"usage: virtual-uno --elf PATH|--bootloader HEX [--elf PATH] [--id N] [--baud 115200|1000000] [--fixture open|loopback|r2r]\n"
 		"       [--r2r-tolerance PCT] [--fast] [--reset-on-open] [--boot-delay-ms MS]\n"
 		"       [--usb-bridge none|16u2] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
 		"       [--seed N] [--control SOCKET_PATH] [--exit-with-parent]\n");
@@ -1463,6 +1532,7 @@ static int parse_args(int argc, char **argv)
 		const char *v = i + 1 < argc ? argv[i + 1] : NULL;
 #define NEEDV() do { if (!v) { logf_("%s needs a value", a); return -1; } i++; } while (0)
 		if (!strcmp(a, "--elf")) { NEEDV(); opt_elf = v; }
+		else if (!strcmp(a, "--bootloader")) { NEEDV(); opt_bootloader = v; opt_reset_on_open = 1; }
 		else if (!strcmp(a, "--id")) { NEEDV(); long n = strtol(v, NULL, 0); if (n < 0 || n > 0xFFFF) { logf_("--id must be 0..65535"); return -1; } opt_id = (int)n; }
 		else if (!strcmp(a, "--baud")) { NEEDV(); opt_baud = (unsigned)strtoul(v, NULL, 0); if (opt_baud < 300 || opt_baud > 2000000) { logf_("bad --baud"); return -1; } }
 		else if (!strcmp(a, "--fixture")) {
@@ -1491,7 +1561,7 @@ static int parse_args(int argc, char **argv)
 		else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { usage(); exit(0); }
 		else { logf_("unknown argument %s", a); usage(); return -1; }
 	}
-	if (!opt_elf) { logf_("--elf is required"); usage(); return -1; }
+	if (!opt_elf && !opt_bootloader) { logf_("--elf or --bootloader is required"); usage(); return -1; }
 	return 0;
 }
 
@@ -1540,7 +1610,7 @@ int main(int argc, char **argv)
 	avr_global_logger_set(logger);
 	elf_firmware_t fw;
 	memset(&fw, 0, sizeof(fw));
-	if (access(opt_elf, R_OK) != 0 || elf_read_firmware(opt_elf, &fw) != 0) {
+	if (opt_elf && (access(opt_elf, R_OK) != 0 || elf_read_firmware(opt_elf, &fw) != 0)) {
 		logf_("cannot read firmware ELF %s", opt_elf);
 		return 2;
 	}
@@ -1548,7 +1618,10 @@ int main(int argc, char **argv)
 	if (!avr) { logf_("simavr does not know atmega328p"); return 2; }
 	avr_init(avr);
 	avr->log = LOG_WARNING;
-	avr_load_firmware(avr, &fw);
+	if (opt_elf)
+		avr_load_firmware(avr, &fw);
+	if (opt_bootloader && load_bootloader(opt_bootloader) < 0)
+		return 2;
 	avr->frequency = (uint32_t)F_CPU;
 	avr->vcc = 5000;
 	avr->avcc = 5000;

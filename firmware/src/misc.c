@@ -6,6 +6,7 @@
 #include "analog.h"
 #include "failsafe.h"
 #include "hal.h"
+#include "pins.h"
 #include "stream.h"
 
 #ifndef BAUD
@@ -19,6 +20,18 @@
 
 uint8_t misc_reset_pending;
 static uint16_t session;
+
+/* Bit n set when digital pin n has `role` (READ_PIN_ROLES reply). */
+static uint16_t role_mask(uint8_t role)
+{
+    uint16_t mask = 0;
+    uint8_t pin;
+
+    for (pin = 0; pin < PINS_COUNT; pin++)
+        if (pins_role[pin] == role)
+            mask |= (uint16_t)(1u << pin);
+    return mask;
+}
 
 void misc_init(void)
 {
@@ -63,6 +76,12 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
     case AIO_DT_MISC_SET_SESSION:
         session = aio_be16(rq->data);
         p = aio_put16(p, session);
+        break;
+    case AIO_DT_MISC_READ_PIN_ROLES:
+        p = aio_put16(p, role_mask(ROLE_GPIO_IN));
+        p = aio_put16(p, role_mask(ROLE_GPIO_OUT));
+        p = aio_put16(p, role_mask(ROLE_PWM));
+        p = aio_put16(p, role_mask(ROLE_COUNTER));
         break;
     default:
         return AIO_ERR_UNKNOWN_DESCRIPTOR; /* not reached: the parser checked the tags */

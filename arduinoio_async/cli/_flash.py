@@ -1,0 +1,180 @@
+"""``arduinoio flash``: write the project firmware through the Uno's bootloader with avrdude.
+
+An Uno's bootloader (optiboot) runs after the reset that opening the port causes (DTR)
+and speaks STK500 at 115200 baud (57600 on older boards: ``--baud 57600``).  The firmware
+image comes from the package (see ``arduinoio_async._resources``), so this works from a
+wheel as well as from a clone.  With ``--id`` the board ID is written to EEPROM after the
+flash and verified after a reset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+import anyio
+from rich.console import Console
+
+from .. import _resources
+from .. import protocol as p
+from ..board import Board
+from ..errors import ArduinoIOError
+from ..manager import candidate_ports
+from ._target import board_id
+
+__all__ = ["ToolMissing", "add_commands", "avrdude_command", "flash_firmware"]
+
+#: Lines of avrdude's output that say what went wrong (its last line is always "done").
+_ERROR_LINE = re.compile(
+    r"error|not in sync|not responding|can't|cannot|failed|mismatch|timeout|"
+    r"does not match|no such file|permission denied|invalid|initiali[sz]ation",
+    re.IGNORECASE,
+)
+#: Harmless on a pseudo-terminal (a virtual Uno): the modem-control ioctls do not exist.
+_HARMLESS = re.compile(r"TIOCM[GS]ET")
+
+
+class ToolMissing(Exception):
+    """A program or file the command needs is not there; the message says what to do."""
+
+
+def add_commands(sub: Any) -> None:
+    flash = sub.add_parser(
+        "flash",
+        help="write the arduinoio firmware to an Uno through its bootloader (avrdude)",
+        description="Write the arduinoio firmware to an Arduino Uno through its bootloader "
+        "with avrdude (apt-get install avrdude), then optionally store a board ID. The "
+        "firmware images ship with the package.",
+    )
+    flash.add_argument(
+        "--port",
+        default=None,
+        help="serial port of the Uno (default: the only USB serial port that looks like one)",
+    )
+    flash.add_argument(
+        "--id",
+        "--set-id",
+        dest="set_id",
+        metavar="ID",
+        type=board_id,
+        default=None,
+        help="board ID to store in EEPROM after flashing (verified after a reset)",
+    )
+    flash.add_argument(
+        "--firmware-baud",
+        type=int,
+        choices=_resources.FIRMWARE_BAUDS,
+        default=p.DEFAULT_BAUD,
+        help="link speed the firmware will use (default %(default)s)",
+    )
+    flash.add_argument("--hex", type=Path, default=None, help="flash this Intel hex file instead")
+    flash.add_argument(
+        "--baud",
+        type=int,
+        default=115200,
+        help="bootloader speed: 115200 for optiboot (Uno), 57600 for older bootloaders",
+    )
+    flash.add_argument("--avrdude", default=None, help="avrdude executable (default: from PATH)")
+    flash.add_argument(
+        "--dry-run", action="store_true", help="print the avrdude command and do nothing"
+    )
+    flash.add_argument(
+        "--probe-timeout",
+        type=float,
+        default=5.0,
+        help="seconds to wait for the flashed firmware to answer (with --id)",
+    )
+    flash.set_defaults(handler=flash_firmware)
+
+
+def avrdude_command(avrdude: str, port: str, image: Path, baud: int) -> list[str]:
+    """The avrdude invocation for an Uno's bootloader (STK500v1, "arduino" programmer)."""
+    return [
+        avrdude,
+        "-p",
+        "atmega328p",
+        "-c",
+        "arduino",
+        "-P",
+        port,
+        "-b",
+        str(baud),
+        "-D",
+        "-U",
+        f"flash:w:{image}:i",
+    ]
+
+
+def _only_port() -> str:
+    ports = candidate_ports()
+    if len(ports) == 1:
+        return ports[0]
+    if not ports:
+        raise ArduinoIOError(
+            "no serial port looks like an Uno: pass --port (e.g. --port /dev/ttyACM0)"
+        )
+    raise ArduinoIOError(f"several candidate ports ({', '.join(ports)}): pass --port")
+
+
+def _error_lines(output: str) -> list[str]:
+    lines = [line.strip() for line in output.splitlines() if line.strip()]
+    errors = [line for line in lines if _ERROR_LINE.search(line) and not _HARMLESS.search(line)]
+    return errors or lines[-5:]
+
+
+async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
+    image = args.hex
+    if image is None:
+        try:
+            image = _resources.firmware_image(args.firmware_baud, "hex")
+        except _resources.ResourceNotFound as exc:
+            raise ToolMissing(str(exc)) from exc
+    elif not image.is_file():
+        raise ToolMissing(f"{image} does not exist")
+    avrdude = args.avrdude or shutil.which("avrdude")
+    if avrdude is None:
+        raise ToolMissing("avrdude is not installed: sudo apt-get install avrdude")
+    port = args.port or _only_port()
+    command = avrdude_command(avrdude, port, image, args.baud)
+    if args.dry_run:
+        console.print(" ".join(command), highlight=False, soft_wrap=True)
+        return 0
+    with console.status(f"flashing {image.name} to {port} ..."):
+        result = await anyio.run_process(command, check=False)
+    output = result.stderr.decode(errors="replace") + result.stdout.decode(errors="replace")
+    if result.returncode != 0:
+        detail = "\n  ".join(_error_lines(output))
+        raise ArduinoIOError(f"avrdude failed (exit {result.returncode}):\n  {detail}")
+    written = re.search(r"(\d+) bytes of flash verified", output)
+    size = f"{written.group(1)} bytes, verified" if written else "done"
+    console.print(f"flashed {image.name} to {port} ({size})", highlight=False)
+    if args.set_id is not None:
+        await _store_id(
+            port,
+            args.set_id,
+            baud=_image_baud(image, args),
+            console=console,
+            ready_timeout=args.probe_timeout,
+        )
+    return 0
+
+
+def _image_baud(image: Path, args: argparse.Namespace) -> int:
+    """The firmware's link speed: from a shipped image's name, else ``--firmware-baud``."""
+    match = re.fullmatch(r"arduinoio-(\d+)\.hex", image.name)
+    return int(match.group(1)) if match else int(args.firmware_baud)
+
+
+async def _store_id(
+    port: str, new_id: int, *, baud: int, console: Console, ready_timeout: float
+) -> None:
+    async with Board.open(port, baudrate=baud, ready_timeout=ready_timeout) as board:
+        await board.write_id(new_id)
+        await board.reset()
+        read_back = await board.read_id()
+    if read_back != new_id:
+        raise ArduinoIOError(f"board answered ID 0x{read_back:04X} after reset, not 0x{new_id:04X}")
+    console.print(f"board ID 0x{read_back:04X} stored (verified after reset)", highlight=False)

@@ -1,0 +1,229 @@
+"""What a pip user gets: the wheel installed into a fresh venv, used from outside the repo.
+
+One venv per module (building the wheel, creating the venv and installing take ~10 s);
+pip installs the dependencies from its configured index or cache, so no network is
+needed where the dev environment could be installed.  Every command runs with the
+temporary directory as its working directory and without the repo's overrides, so
+nothing can come from the clone: the firmware images come from the wheel and the virtual
+Uno harness is compiled from the C source in the wheel into a fresh per-user cache.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tarfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+OPTIBOOT_HEX = REPO / "firmware" / "bootloader" / "build" / "optiboot-1k.hex"
+
+pytestmark = [pytest.mark.sim, pytest.mark.timeout(300)]
+
+
+@dataclass
+class Installed:
+    """The fresh venv with the wheel installed, and where to run things from."""
+
+    venv: Path
+    workdir: Path
+    env: dict[str, str]
+    wheel: Path
+
+    def exe(self, name: str) -> str:
+        return str(self.venv / "bin" / name)
+
+    def run(self, *argv: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            argv,
+            cwd=self.workdir,
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            check=False,
+        )
+
+
+def _checked(result: subprocess.CompletedProcess[str]) -> subprocess.CompletedProcess[str]:
+    assert result.returncode == 0, f"{result.args}:\n{result.stdout}\n{result.stderr}"
+    return result
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Installed]:
+    root = tmp_path_factory.mktemp("wheel")
+    dist = root / "dist"
+    _checked(
+        subprocess.run(
+            [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(dist), str(REPO)],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            check=False,
+        )
+    )
+    (wheel,) = dist.glob("arduinoio_async-*.whl")
+    venv = root / "venv"
+    _checked(
+        subprocess.run(
+            [sys.executable, "-m", "venv", str(venv)], capture_output=True, text=True, check=False
+        )
+    )
+    workdir = root / "work"
+    workdir.mkdir()
+    env = {
+        key: value
+        for key, value in os.environ.items()
+        if not key.startswith(("ARDUINOIO_", "PYTHON", "VIRTUAL_ENV"))
+    }
+    env["ARDUINOIO_CACHE_DIR"] = str(root / "cache")  # the harness gets built afresh
+    env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
+    box = Installed(venv, workdir, env, wheel)
+    _checked(box.run(box.exe("pip"), "install", "-q", str(wheel), timeout=300))
+    yield box
+
+
+def test_public_names_import_from_the_installed_wheel(installed: Installed) -> None:
+    script = (
+        "import arduinoio_async as a\n"
+        "from arduinoio_async import Board, BoardManager, VirtualUno, FakeBoard, D2, A0\n"
+        "from arduinoio_async import DigitalOutput, Servo, PinState, Sample, SampleStream\n"
+        "print(a.__file__)\n"
+        "print(a.__version__)\n"
+    )
+    out = _checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
+    assert out[0].startswith(str(installed.venv)), out  # not the clone
+    version = (REPO / "arduinoio_async" / "__init__.py").read_text()
+    assert f'__version__ = "{out[1]}"' in version
+    help_text = _checked(installed.run(installed.exe("arduinoio"), "flash", "--help")).stdout
+    assert "--dry-run" in help_text and "--baud" in help_text
+
+
+def test_the_wheel_ships_firmware_and_harness_source(installed: Installed) -> None:
+    script = (
+        "from arduinoio_async import _resources as r\n"
+        "for baud in r.FIRMWARE_BAUDS:\n"
+        "    print(r.firmware_image(baud, 'hex'), r.firmware_image(baud, 'elf'))\n"
+        "print(r.harness_source())\n"
+    )
+    lines = _checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
+    assert len(lines) == 4
+    for line in lines:
+        for path in line.split():
+            assert path.startswith(str(installed.venv)), line
+            assert Path(path).is_file()
+
+
+def _start_sim(installed: Installed, *args: str) -> tuple[subprocess.Popen[str], dict[str, object]]:
+    process = subprocess.Popen(
+        [installed.exe("arduinoio"), "sim", *args],
+        cwd=installed.workdir,
+        env=installed.env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert process.stdout is not None
+    line = process.stdout.readline()  # blocks until ready; the harness build comes first
+    if not line:
+        process.wait(timeout=10)
+        assert process.stderr is not None
+        pytest.fail(f"arduinoio sim exited: {process.stderr.read()}")
+    return process, json.loads(line)
+
+
+def _stop_sim(process: subprocess.Popen[str]) -> int:
+    process.send_signal(signal.SIGINT)
+    try:
+        return process.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        raise
+
+
+def _read_id(installed: Installed, port: str) -> str:
+    script = (
+        "import sys, anyio\n"
+        "from arduinoio_async import Board\n"
+        "async def main():\n"
+        "    async with Board.open(sys.argv[1]) as board:\n"
+        "        print(await board.read_id())\n"
+        "anyio.run(main)\n"
+    )
+    return _checked(installed.run(installed.exe("python"), "-c", script, port)).stdout.strip()
+
+
+def test_arduinoio_sim_from_the_wheel_answers_read_id(installed: Installed) -> None:
+    process, info = _start_sim(installed, "--id", "3")
+    try:
+        assert info["id"] == 3
+        assert _read_id(installed, str(info["port"])) == "3"
+        cached = list(
+            (Path(installed.env["ARDUINOIO_CACHE_DIR"])).glob("virtual-uno-*/virtual-uno")
+        )
+        assert len(cached) == 1  # built from the wheel's source, keyed by its hash
+    finally:
+        assert _stop_sim(process) == 0
+
+
+def test_arduinoio_flash_from_the_wheel_through_a_bootloader(installed: Installed) -> None:
+    if not OPTIBOOT_HEX.is_file() or shutil.which("avrdude") is None:
+        if os.environ.get("ARDUINOIO_SIM_REQUIRED"):
+            pytest.fail("needs avrdude and `make bootloader`")
+        pytest.skip("needs avrdude and `make bootloader`")
+    process, info = _start_sim(installed, "--bootloader", str(OPTIBOOT_HEX))
+    try:
+        port = str(info["port"])
+        flashed = _checked(
+            installed.run(installed.exe("arduinoio"), "flash", "--port", port, "--id", "7")
+        )
+        print(flashed.stdout)
+        assert "arduinoio-115200.hex" in flashed.stdout and "0x0007 stored" in flashed.stdout
+        assert _read_id(installed, port) == "7"
+    finally:
+        assert _stop_sim(process) == 0
+
+
+def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> None:
+    _checked(installed.run(installed.exe("pip"), "install", "-q", "build", "setuptools>=77"))
+    _checked(
+        installed.run(
+            installed.exe("python"),
+            "-m",
+            "build",
+            "--sdist",
+            "--no-isolation",
+            "--outdir",
+            str(tmp_path),
+            str(REPO),
+        )
+    )
+    (sdist,) = tmp_path.glob("arduinoio_async-*.tar.gz")
+    with tarfile.open(sdist) as archive:
+        names = {name.split("/", 1)[1] for name in archive.getnames() if "/" in name}
+    for required in (
+        "LICENSE",
+        "CHANGELOG.md",
+        "Makefile",
+        "firmware/Makefile",
+        "firmware/src/main.c",
+        "firmware/include/aio_protocol.h",
+        "firmware/sim/virtual_uno.c",
+        "firmware/bootloader/Makefile",
+        "docs/protocol.md",
+        "examples/design_card.py",
+        "tests/conftest.py",
+        "tests/e2e/test_flash.py",
+        "arduinoio_async/_data/firmware/arduinoio-115200.hex",
+    ):
+        assert required in names, required
+    assert not any(name.startswith(("firmware/build/", "firmware/sim/build/")) for name in names)
