@@ -12,8 +12,8 @@ import ipaddress
 import logging
 import secrets
 import socket
-from collections.abc import AsyncIterator, Sequence
-from contextlib import asynccontextmanager
+from collections.abc import AsyncIterator, Iterator, Sequence
+from contextlib import asynccontextmanager, contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -73,6 +73,16 @@ class MonitorServer:
         return f"http://{host}:{self.port}/{query}"
 
 
+class _Server(uvicorn.Server):
+    """uvicorn without its own signal handling: the caller owns the process's signals
+    (``arduinoio monitor`` stops on SIGINT/SIGTERM; a test or robot program decides itself).
+    """
+
+    @contextmanager
+    def capture_signals(self) -> Iterator[None]:
+        yield
+
+
 def _bind(host: str, port: int) -> socket.socket:
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
@@ -122,7 +132,7 @@ async def serve_monitor(
         ws="websockets-sansio",
         timeout_graceful_shutdown=SHUTDOWN_GRACE,
     )
-    server = uvicorn.Server(config)
+    server = _Server(config)
     running = MonitorServer(hub, host, sock.getsockname()[1], token)
     served = anyio.Event()
 

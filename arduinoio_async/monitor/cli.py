@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import signal
 from collections.abc import AsyncIterator, Sequence
 from contextlib import AsyncExitStack, asynccontextmanager
 
@@ -108,7 +109,10 @@ async def _monitor(args: argparse.Namespace, console: Console) -> int:
         names = ", ".join(f"0x{b.board_id:04X} on {b.port}" for b in boards)
         console.print(f"monitoring {names}")
         console.print(f"open [bold]{server.url}[/] (Ctrl-C stops)", soft_wrap=True)
-        await anyio.sleep_forever()
+        with anyio.open_signal_receiver(signal.SIGINT, signal.SIGTERM) as signals:
+            async for _signal in signals:
+                break
+    console.print("monitor stopped")
     return 0
 
 
