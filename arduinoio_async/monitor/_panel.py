@@ -127,7 +127,6 @@ class BoardPanel:
         self._batch = _Batch()
         self._notify = on_change
         self._lock = anyio.Lock()
-        board.on_failsafe(lambda _board: self.changed())
 
     # ---- live data ---------------------------------------------------------------------
 
@@ -180,10 +179,14 @@ class BoardPanel:
         }
 
     async def run(self) -> None:
-        """Run every activity source until cancelled."""
-        async with anyio.create_task_group() as tg:
-            for source in self.sources:
-                tg.start_soon(source.run, self.on_activity)
+        """Run every activity source until cancelled; a failsafe trip updates the page."""
+        stop_listening = self.board.on_failsafe(lambda _board: self.changed())
+        try:
+            async with anyio.create_task_group() as tg:
+                for source in self.sources:
+                    tg.start_soon(source.run, self.on_activity)
+        finally:
+            stop_listening()
 
     # ---- state for the page ------------------------------------------------------------------
 

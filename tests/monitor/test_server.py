@@ -53,6 +53,7 @@ class Page:
     def __init__(self, connection: Any) -> None:
         self.connection = connection
         self.next_id = 0
+        self.board = "b0"
 
     async def receive(self, kind: str) -> dict[str, Any]:
         with anyio.fail_after(5):
@@ -64,7 +65,7 @@ class Page:
     async def call(self, op: str, **args: Any) -> dict[str, Any]:
         self.next_id += 1
         await self.connection.send(
-            json.dumps({"id": self.next_id, "board": "b0", "op": op, **args})
+            json.dumps({"id": self.next_id, "board": self.board, "op": op, **args})
         )
         with anyio.fail_after(5):
             while True:
@@ -190,3 +191,40 @@ async def test_a_page_that_stops_reading_is_dropped_not_waited_for() -> None:
         # The snapshot and what fitted, in order, then the end of the stream.
         assert len(drained) == _hub.SUBSCRIBER_QUEUE
         assert [m["n"] for m in drained[1:]] == list(range(_hub.SUBSCRIBER_QUEUE - 1))
+
+
+async def test_a_tripped_failsafe_shows_and_rearms_with_outputs_restored() -> None:
+    async with fake_monitor() as (fake, server), page(ws_url(server)) as tab:
+        assert (await tab.call("role", pin="D6", role="output"))["ok"]
+        assert (await tab.call("write", pin="D6", value=1))["ok"]
+        assert (await tab.call("failsafe_arm", timeout_ms=200))["ok"]
+        await fake.expire_failsafe()
+        while (await tab.receive("board"))["failsafe"] != "tripped":
+            pass
+        assert not fake.levels[6]  # the board applied the safe state
+        reply = await tab.call("write", pin="D6", value=1)
+        assert not reply["ok"] and "failsafe" in reply["error"].lower()
+        assert (await tab.call("failsafe_rearm"))["ok"]
+        assert fake.levels[6] and fake.failsafe.armed
+        snapshot = await tab.receive("board")
+        while snapshot["failsafe"] != "armed (200 ms)":
+            snapshot = await tab.receive("board")
+
+
+async def test_every_board_gets_its_own_panel() -> None:
+    async with (
+        FakeBoard(board_id=0x0001) as left_fake,
+        FakeBoard(board_id=0x0002) as right_fake,
+        Board.connect(left_fake.host_stream) as left,
+        Board.connect(right_fake.host_stream) as right,
+        monitor.serve_monitor([left, right], http="127.0.0.1:0") as server,
+        page(ws_url(server)) as tab,
+    ):
+        first, second = await tab.receive("board"), await tab.receive("board")
+        assert {(first["key"], first["id"]), (second["key"], second["id"])} == {
+            ("b0", 1),
+            ("b1", 2),
+        }
+        tab.board = "b1"
+        assert (await tab.call("role", pin="D7", role="output"))["ok"]
+        assert right_fake.role(7) == "output" and left_fake.role(7) == "free"
