@@ -90,7 +90,10 @@ def create_app(hub: MonitorHub, *, token: str | None = None, loopback: bool = Tr
 
         async def answer(request: dict[str, object]) -> None:
             try:
-                subscriber.offer(await hub.perform(request))
+                # A control runs to its end even if the page closes meanwhile: a role change
+                # or a reset cut in half would leave the board in neither state.
+                with anyio.CancelScope(shield=True):
+                    subscriber.offer(await hub.perform(request))
             finally:
                 slots.release()
 

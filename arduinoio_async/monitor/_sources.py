@@ -132,6 +132,7 @@ class StreamSource:
         self._stopped = anyio.Event()
         self._stopped.set()
         self._scope: anyio.CancelScope | None = None
+        self._restart = False
 
     def describe(self) -> dict[str, object]:
         s = self.state
@@ -147,6 +148,7 @@ class StreamSource:
 
     def restart(self) -> None:
         """Start the stream again with fresh parameters (e.g. after the I2C bus took A4/A5)."""
+        self._restart = True
         if self._scope is not None:
             self._scope.cancel()
         self._wake.set()
@@ -163,6 +165,9 @@ class StreamSource:
         finally:
             self._pause_depth -= 1
             self._wake.set()
+
+    def _should_stop(self) -> bool:
+        return bool(self._pause_depth) or self._restart
 
     async def run(self, emit: Emit) -> None:
         while True:
@@ -183,13 +188,18 @@ class StreamSource:
     async def _stream_once(self, emit: Emit) -> None:
         pins = tuple(self._analog_pins())
         clock = _Clock()
+        self._restart = False
         self._stopped = anyio.Event()
         try:
-            with anyio.CancelScope() as scope:
-                self._scope = scope
-                async with self.board.stream(
-                    analog=pins, levels=True, edges=True, counters=True, period_ms=self.period_ms
-                ) as samples:
+            async with self.board.stream(
+                analog=pins, levels=True, edges=True, counters=True, period_ms=self.period_ms
+            ) as samples:
+                # Only the reading is cancelled: a start or stop request cut in half would
+                # leave the board streaming with nobody to stop it.
+                with anyio.CancelScope() as scope:
+                    self._scope = scope
+                    if self._should_stop():  # asked while the start request was under way
+                        scope.cancel()
                     self.state = StreamState(
                         period_ms=self.period_ms, channels=tuple(p.name for p in pins)
                     )
