@@ -4,7 +4,7 @@
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc chromium npm
+APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc chromium
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
 .PHONY: all setup system-deps venv firmware sim lint test test-fast bench generate clean monitor-assets
@@ -38,7 +38,10 @@ MONITOR_NPM := arduinoio_async/monitor/npm
 MONITOR_VENDOR := arduinoio_async/monitor/static/vendor
 monitor-assets: $(MONITOR_VENDOR)/uPlot.iife.min.js
 
+# npm: Debian's package unless a Node.js install already brings it (they conflict).
 $(MONITOR_VENDOR)/uPlot.iife.min.js: $(MONITOR_NPM)/package.json $(MONITOR_NPM)/package-lock.json
+	@command -v npm >/dev/null || { $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
 	cd $(MONITOR_NPM) && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
 	mkdir -p $(MONITOR_VENDOR)
 	cp $(MONITOR_NPM)/node_modules/uplot/dist/uPlot.iife.min.js $(MONITOR_NPM)/node_modules/uplot/dist/uPlot.min.css $(MONITOR_VENDOR)/

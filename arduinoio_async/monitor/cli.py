@@ -40,10 +40,12 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
     )
     target = parser.add_mutually_exclusive_group()
     target.add_argument("--port", help="serial port or pyserial URL of the board")
-    target.add_argument("--id", type=_board_id, help="board ID to look for on all ports")
     target.add_argument(
-        "--remote", metavar="HOST:PORT", help="a board served over the network (network module)"
+        "--remote",
+        action="store_true",
+        help="boards served on the network by `arduinoio serve` (with --id: that one)",
     )
+    parser.add_argument("--id", type=_board_id, help="board ID to look for on all ports")
     parser.add_argument(
         "--http",
         default="127.0.0.1:8000",
@@ -71,9 +73,13 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
 @asynccontextmanager
 async def _boards(args: argparse.Namespace) -> AsyncIterator[list[Board]]:
     if args.remote:
+        # Remote boards are Board objects too: the network module's client hands them over
+        # here and the rest of the monitor is unchanged.
         if importlib.util.find_spec("arduinoio_async.network") is None:
             raise UsageError("--remote needs the network module, which this install lacks")
         raise UsageError("--remote is not wired to the network module yet")
+    if args.port and args.id is not None:
+        raise UsageError("--port and --id name a board twice: give one of them")
     if args.port:
         async with Board.open(args.port, baudrate=args.baud, ready_timeout=args.probe_timeout) as b:
             yield [b]

@@ -49,7 +49,8 @@ def test_the_page_loads_nothing_from_outside() -> None:
     ("argv", "message"),
     [
         (["--port", "loop://", "--http", "nowhere"], "HOST:PORT"),
-        (["--remote", "robot.local:7000"], "network module"),
+        (["--remote", "--id", "7"], "network module"),
+        (["--port", "loop://", "--id", "7"], "give one of them"),
     ],
 )
 def test_monitor_command_refusals(
