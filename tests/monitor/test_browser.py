@@ -148,6 +148,15 @@ async def test_monitor_page_drives_and_follows_a_virtual_uno(
         await expect(message).to_contain_text("I2C_NACK_ADDRESS")
         await form.locator('input[name="address"]').fill("0x50")
 
+        # Reset from the page: the board reboots, the monitor puts every role back and the
+        # stream resumes (D9 pulses again, D3 follows D2 again, the I2C bus answers).
+        await d2.locator("input.out").check()
+        await expect(d3_led).to_have_attribute("data-level", "1")
+        await section.locator("button.reset").click()
+        await expect(message).to_have_text("board reset; roles restored", timeout=10_000)
+        await pulses_settle(uno, "D9", 1700, tolerance=1)
+        await d2.locator("input.out").uncheck()
+        await expect(d3_led).to_have_attribute("data-level", "0")
         await form.locator('input[name="length"]').fill("3")
         await form.locator(".i2c-read").click()
         await expect(form.locator(".i2c-result")).to_have_text("read: c0 ff ee")
