@@ -17,20 +17,13 @@ import anyio
 from rich.console import Console
 
 from ..board import Board
+from ..cli._target import add_scan_options, board_id
 from ..errors import ArduinoIOError, UsageError
 from ..manager import BoardManager
-from ..protocol import DEFAULT_BAUD
 
 __all__ = ["build_parser", "main"]
 
 INSTALL_HINT = "the monitor needs its extra: pip install 'arduinoio_async[monitor]'"
-
-
-def _board_id(text: str) -> int:
-    value = int(text, 0)
-    if not 0 <= value <= 0xFFFF:
-        raise argparse.ArgumentTypeError(f"board ID must be 0x0000-0xFFFF, got {text}")
-    return value
 
 
 def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
@@ -45,7 +38,7 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
         action="store_true",
         help="boards served on the network by `arduinoio serve` (with --id: that one)",
     )
-    parser.add_argument("--id", type=_board_id, help="board ID to look for on all ports")
+    parser.add_argument("--id", type=board_id, help="board ID to look for on all ports")
     parser.add_argument(
         "--http",
         default="127.0.0.1:8000",
@@ -58,15 +51,7 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
     parser.add_argument(
         "--period-ms", type=float, default=20.0, help="stream period of the board (default 20)"
     )
-    parser.add_argument(
-        "--ports",
-        action="append",
-        default=[],
-        metavar="PATH_OR_GLOB",
-        help="also probe these ports (repeatable; ARDUINOIO_PORTS works too)",
-    )
-    parser.add_argument("--baud", type=int, default=DEFAULT_BAUD)
-    parser.add_argument("--probe-timeout", type=float, default=5.0, help="seconds per port")
+    add_scan_options(parser)
     return parser
 
 
