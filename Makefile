@@ -7,15 +7,15 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc \
-                arduino-core-avr
+                arduino-core-avr chromium
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: all setup system-deps venv firmware sim bootloader package-data lint docs test test-fast \
-        bench generate clean
+.PHONY: all setup system-deps venv firmware sim bootloader package-data monitor-assets lint docs \
+        test test-fast bench generate clean
 
 all: setup firmware sim
 
-setup: system-deps venv
+setup: system-deps venv monitor-assets
 
 # Installs only what is missing, so a second run costs a dpkg query per package.
 system-deps:
@@ -34,6 +34,22 @@ $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	touch $@
+
+# The monitor's browser library (uPlot), pinned by package-lock.json, installed through npm
+# into the package's static dir; never committed, never fetched at run time (docs/monitor.md).
+MONITOR_NPM := arduinoio_async/monitor/npm
+MONITOR_VENDOR := arduinoio_async/monitor/static/vendor
+monitor-assets: $(MONITOR_VENDOR)/uPlot.iife.min.js
+
+# npm: Debian's package unless a Node.js install already brings it (they conflict).
+$(MONITOR_VENDOR)/uPlot.iife.min.js: $(MONITOR_NPM)/package.json $(MONITOR_NPM)/package-lock.json
+	@command -v npm >/dev/null || { $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
+	cd $(MONITOR_NPM) && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
+	mkdir -p $(MONITOR_VENDOR)
+	cp $(MONITOR_NPM)/node_modules/uplot/dist/uPlot.iife.min.js $(MONITOR_NPM)/node_modules/uplot/dist/uPlot.min.css $(MONITOR_VENDOR)/
+	cp $(MONITOR_NPM)/node_modules/uplot/LICENSE $(MONITOR_VENDOR)/uPlot.LICENSE
 	touch $@
 
 firmware: system-deps

@@ -34,6 +34,10 @@ def build_parser() -> argparse.ArgumentParser:
         "bench", help="latency benchmark against the paper's Table IV", add_help=False
     )
     bench.add_argument("rest", nargs=argparse.REMAINDER)
+    monitor = sub.add_parser(
+        "monitor", help="live page of the boards in the browser", add_help=False
+    )
+    monitor.add_argument("rest", nargs=argparse.REMAINDER)
     return parser
 
 
@@ -50,6 +54,10 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
         from ..bench.cli import main as bench_main
 
         return bench_main(args_list[1:], console=console)
+    if args_list[:1] == ["monitor"]:
+        from ..monitor.cli import main as monitor_main
+
+        return monitor_main(args_list[1:], console=console)
     parser = build_parser()
     args = parser.parse_args(args_list)
     try:

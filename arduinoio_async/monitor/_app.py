@@ -1,0 +1,126 @@
+"""The monitor's web application (Starlette): one page, its static files, one WebSocket.
+
+Who may connect:
+
+* Bound to a loopback address, only this machine can reach the server; the Host header
+  must name a loopback host too, so a web page on the Internet cannot reach it through
+  DNS rebinding.
+* Bound to any other address, the page and the WebSocket need the server's token
+  (``?token=...``; the page passes it on to the WebSocket).  Static files (our script,
+  style and the plotting library) are public: they hold no data and no controls.
+* A WebSocket whose ``Origin`` is not the page's own host is refused, so another site
+  open in the same browser cannot drive the board.
+"""
+
+from __future__ import annotations
+
+import hmac
+import json
+import logging
+from pathlib import Path
+from urllib.parse import urlsplit
+
+import anyio
+from starlette.applications import Starlette
+from starlette.middleware import Middleware
+from starlette.middleware.trustedhost import TrustedHostMiddleware
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, PlainTextResponse, Response
+from starlette.routing import Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from ._hub import MonitorHub
+
+__all__ = ["LOOPBACK_HOSTS", "STATIC_DIR", "VENDOR_FILES", "create_app", "missing_assets"]
+
+logger = logging.getLogger(__name__)
+
+STATIC_DIR = Path(__file__).resolve().parent / "static"
+#: Files that ``make monitor-assets`` installs through npm (see docs/monitor.md).
+VENDOR_FILES = ("vendor/uPlot.iife.min.js", "vendor/uPlot.min.css")
+LOOPBACK_HOSTS = ["127.0.0.1", "localhost", "::1", "[::1]"]
+#: Control requests of one page that may be in progress at once.
+PAGE_CONCURRENCY = 8
+
+
+def missing_assets() -> list[str]:
+    """Vendor files that are not installed (an empty list when the page can work)."""
+    return [name for name in VENDOR_FILES if not (STATIC_DIR / name).is_file()]
+
+
+def _token_ok(given: str | None, token: str | None) -> bool:
+    if token is None:
+        return True
+    return given is not None and hmac.compare_digest(given.encode(), token.encode())
+
+
+def _same_origin(websocket: WebSocket) -> bool:
+    origin = websocket.headers.get("origin")
+    if origin is None:
+        return True  # not a browser: the host and token checks apply
+    return urlsplit(origin).netloc.lower() == websocket.headers.get("host", "").lower()
+
+
+def create_app(hub: MonitorHub, *, token: str | None = None, loopback: bool = True) -> Starlette:
+    """The ASGI app serving ``hub``; ``token`` is required unless bound to loopback."""
+    index_html = (STATIC_DIR / "index.html").read_text(encoding="utf-8")
+
+    async def index(request: Request) -> Response:
+        if not _token_ok(request.query_params.get("token"), token):
+            return PlainTextResponse("this monitor needs its token: open the URL it printed", 403)
+        return HTMLResponse(index_html, headers={"Cache-Control": "no-store"})
+
+    async def socket(websocket: WebSocket) -> None:
+        if not _token_ok(websocket.query_params.get("token"), token) or not _same_origin(websocket):
+            await websocket.close(code=1008)
+            return
+        await websocket.accept()
+        subscriber = hub.subscribe()
+        slots = anyio.Semaphore(PAGE_CONCURRENCY)
+
+        async def send_all(scope: anyio.CancelScope) -> None:
+            try:
+                async for message in subscriber.messages:
+                    await websocket.send_text(json.dumps(message))
+                await websocket.close(code=1013)  # fell behind: the page reconnects
+            except (WebSocketDisconnect, OSError, RuntimeError):
+                pass  # the page went away mid-send
+            scope.cancel()
+
+        async def answer(request: dict[str, object]) -> None:
+            try:
+                # A control runs to its end even if the page closes meanwhile: a role change
+                # or a reset cut in half would leave the board in neither state.
+                with anyio.CancelScope(shield=True):
+                    subscriber.offer(await hub.perform(request))
+            finally:
+                slots.release()
+
+        try:
+            async with anyio.create_task_group() as tg:
+                tg.start_soon(send_all, tg.cancel_scope)
+                while True:
+                    try:
+                        request = json.loads(await websocket.receive_text())
+                    except json.JSONDecodeError:
+                        continue
+                    if isinstance(request, dict):
+                        await slots.acquire()  # back-pressure on a page that floods
+                        tg.start_soon(answer, request)
+        except* WebSocketDisconnect:
+            pass  # the page closed (or was closed after falling behind)
+        finally:
+            hub.unsubscribe(subscriber)
+
+    middleware = []
+    if loopback:
+        middleware.append(Middleware(TrustedHostMiddleware, allowed_hosts=LOOPBACK_HOSTS))
+    return Starlette(
+        routes=[
+            Route("/", index),
+            WebSocketRoute("/ws", socket),
+            Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),
+        ],
+        middleware=middleware,
+    )

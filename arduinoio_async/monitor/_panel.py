@@ -1,0 +1,373 @@
+"""One board as the monitor page sees it: its state, its live activity, and its controls.
+
+A :class:`BoardPanel` is built around a :class:`~arduinoio_async.board.Board` it is handed
+(opened on a port, found by the manager by ID, or later a remote board): it never opens
+anything itself.  The pin roles it shows are the board's own records, so roles set up by
+a robot program that embeds the monitor show up too, and every control goes through the
+board's typed handles with their checks; a refused operation comes back to the page as
+the library's error message.
+
+Live data arrives from :mod:`._sources` as :class:`~._sources.Activity` and is folded into
+a batch that the hub sends to the browsers a few times a second (the browser never polls).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import anyio
+
+from .. import protocol as p
+from ..errors import ArduinoIOError, PinRoleError, UsageError
+from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PulseOutput, _PinHandle
+from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ._sources import Activity, ActivitySource, StreamSource
+
+if TYPE_CHECKING:
+    from ..board import Board
+
+__all__ = ["ROLES", "BoardPanel", "roles_for"]
+
+#: Roles the page offers, in menu order; each pin offers those of Table III it can do.
+ROLES: Mapping[str, Function | None] = {
+    "free": None,
+    "input": Function.DIGITAL_INPUT,
+    "input_pullup": Function.DIGITAL_INPUT,
+    "output": Function.DIGITAL_OUTPUT,
+    "soft_pwm": Function.SOFT_PWM,
+    "servo": Function.SERVO_PWM,
+    "counter_rising": Function.COUNTER,
+    "counter_falling": Function.COUNTER,
+}
+
+
+def roles_for(pin: DigitalPin) -> list[str]:
+    return [
+        role
+        for role, function in ROLES.items()
+        if function is None or pin in capable_pins(function)
+    ]
+
+
+@dataclass
+class PinRole:
+    """A pin's role as read back from the board's records, with its setting."""
+
+    role: str = "free"
+    #: Output level, or pulse width in us, or None.
+    value: int | None = None
+    handle: _PinHandle | None = None
+
+
+def _board_roles(board: Board) -> dict[DigitalPin, tuple[_PinHandle, p.Request[Any]]]:
+    """The board's record of configured pins (handle and the request that set it up).
+
+    The one place the monitor reads a private attribute of :class:`Board`: the record the
+    board keeps to replay roles after a reset is exactly what the page must show.
+    """
+    roles: dict[DigitalPin, tuple[_PinHandle, p.Request[Any]]] = board._roles
+    return roles
+
+
+def _role_of(handle: _PinHandle, config: p.Request[Any]) -> PinRole:
+    if isinstance(config, p.GpioConfig):
+        if config.flags & p.GpioFlags.OUTPUT:
+            return PinRole("output", int(bool(config.flags & p.GpioFlags.INITIAL_HIGH)), handle)
+        pull_up = bool(config.flags & p.GpioFlags.PULL_UP)
+        return PinRole("input_pullup" if pull_up else "input", None, handle)
+    if isinstance(config, p.PwmConfig):
+        kind = "servo" if config.pin in (DigitalPin.D9, DigitalPin.D10) else "soft_pwm"
+        return PinRole(kind, config.pulse_us, handle)
+    if isinstance(config, p.CounterConfig):
+        edge = "rising" if config.edge == p.Edge.RISING else "falling"
+        return PinRole(f"counter_{edge}", None, handle)
+    return PinRole(handle.ROLE, None, handle)
+
+
+@dataclass
+class _Batch:
+    """Activity gathered since the last flush to the browsers."""
+
+    times: list[float] = field(default_factory=list)
+    analog: dict[str, list[int]] = field(default_factory=dict)
+    rose: int = 0
+    fell: int = 0
+
+    def __bool__(self) -> bool:
+        return bool(self.times) or bool(self.rose | self.fell)
+
+
+class BoardPanel:
+    """The monitor's view of one board and the controls the page may use on it."""
+
+    def __init__(
+        self,
+        key: str,
+        board: Board,
+        *,
+        period_ms: float = 20.0,
+        on_change: Callable[[], None] = lambda: None,
+    ) -> None:
+        self.key = key
+        self.board = board
+        self.stream = StreamSource(
+            board, self.analog_pins, period_ms=period_ms, on_change=self.changed
+        )
+        self.sources: list[ActivitySource] = [self.stream]
+        self.levels: int | None = None
+        self.counters: tuple[int, int] | None = None
+        self.analog: dict[str, int] = {}
+        self.rises = dict.fromkeys(DigitalPin, 0)
+        self.falls = dict.fromkeys(DigitalPin, 0)
+        self.i2c: I2CBus | None = None
+        self.message = ""
+        self.config_changed = True
+        self._batch = _Batch()
+        self._notify = on_change
+        self._lock = anyio.Lock()
+
+    # ---- live data ---------------------------------------------------------------------
+
+    def analog_pins(self) -> list[AnalogPin]:
+        """The stream's channels: all six, less A4/A5 while the I2C bus uses them."""
+        busy = (AnalogPin.A4, AnalogPin.A5) if self.i2c is not None else ()
+        return [pin for pin in AnalogPin if pin not in busy]
+
+    def on_activity(self, activity: Activity) -> None:
+        batch = self._batch
+        if activity.analog:
+            batch.times.append(activity.time)
+            for channel, value in activity.analog.items():
+                batch.analog.setdefault(channel.name, []).append(value)
+                self.analog[channel.name] = value
+        if activity.levels is not None:
+            self.levels = activity.levels
+        if activity.rose or activity.fell:
+            batch.rose |= activity.rose
+            batch.fell |= activity.fell
+            for pin in DigitalPin:
+                self.rises[pin] += activity.rose >> int(pin) & 1
+                self.falls[pin] += activity.fell >> int(pin) & 1
+        if activity.counters is not None:
+            self.counters = activity.counters
+        self._notify()
+
+    def changed(self) -> None:
+        """Configuration or state changed: the page gets a fresh snapshot."""
+        self.config_changed = True
+        self._notify()
+
+    def take_samples(self) -> dict[str, object] | None:
+        """The activity since the previous call as one message, or None if there was none."""
+        batch, self._batch = self._batch, _Batch()
+        if not batch and self.levels is None:
+            return None
+        return {
+            "type": "samples",
+            "board": self.key,
+            "t": batch.times,
+            "analog": batch.analog,
+            "levels": self.levels,
+            "rose": batch.rose,
+            "fell": batch.fell,
+            "rises": [self.rises[pin] for pin in DigitalPin],
+            "falls": [self.falls[pin] for pin in DigitalPin],
+            "counters": self.counters,
+            "stream": self.stream.describe(),
+        }
+
+    async def run(self) -> None:
+        """Run every activity source until cancelled; a failsafe trip updates the page."""
+        stop_listening = self.board.on_failsafe(lambda _board: self.changed())
+        try:
+            async with anyio.create_task_group() as tg:
+                for source in self.sources:
+                    tg.start_soon(source.run, self.on_activity)
+        finally:
+            stop_listening()
+
+    # ---- state for the page ------------------------------------------------------------------
+
+    def pin_roles(self) -> dict[DigitalPin, PinRole]:
+        roles = {pin: PinRole() for pin in DigitalPin}
+        for pin, (handle, config) in _board_roles(self.board).items():
+            roles[pin] = _role_of(handle, config)
+        return roles
+
+    def snapshot(self) -> dict[str, object]:
+        board = self.board
+        caps = board.capabilities
+        roles = self.pin_roles()
+        if board.failsafe is None:
+            failsafe = "off"
+        elif board.failsafe_tripped:
+            failsafe = "tripped"
+        else:
+            failsafe = f"armed ({board.failsafe.timeout_ms} ms)"
+        return {
+            "type": "board",
+            "key": self.key,
+            "id": board.board_id,
+            "port": board.port,
+            "connected": board.connected,
+            "firmware": f"{caps.firmware_major}.{caps.firmware_minor}",
+            "protocol": caps.protocol_version,
+            "baud": caps.baud,
+            "failsafe": failsafe,
+            "failsafe_tripped": board.failsafe_tripped,
+            "stream": self.stream.describe(),
+            "i2c": None if self.i2c is None else int(self.i2c.speed),
+            "analog_pins": [pin.name for pin in AnalogPin],
+            "message": self.message,
+            "pins": [
+                {
+                    "name": pin.name,
+                    "role": roles[pin].role,
+                    "value": roles[pin].value,
+                    "roles": roles_for(pin),
+                }
+                for pin in DigitalPin
+            ],
+        }
+
+    # ---- controls ----------------------------------------------------------------------------
+
+    async def perform(self, op: str, args: Mapping[str, Any]) -> object:
+        """Carry out one control from the page; returns JSON-ready data for the reply.
+
+        Controls on one board run one at a time, in the order they arrived.
+        """
+        action = self._actions().get(op)
+        if action is None:
+            raise UsageError(f"unknown monitor operation {op!r}")
+        async with self._lock:
+            try:
+                return await action(args)
+            finally:
+                self.changed()
+
+    def _actions(self) -> dict[str, Callable[[Mapping[str, Any]], Any]]:
+        return {
+            "role": self._set_role,
+            "write": self._write,
+            "pulse": self._pulse,
+            "counter_reset": self._counter_reset,
+            "i2c_read": self._i2c_read,
+            "i2c_write": self._i2c_write,
+            "reset": self._reset,
+            "failsafe_arm": self._failsafe_arm,
+            "failsafe_disarm": self._failsafe_disarm,
+            "failsafe_rearm": self._failsafe_rearm,
+        }
+
+    def _handle(self, pin: DigitalPin, kind: tuple[type[_PinHandle], ...], wanted: str) -> Any:
+        current = self.pin_roles()[pin]
+        if not isinstance(current.handle, kind):
+            raise PinRoleError(pin.name, current.role, wanted)
+        return current.handle
+
+    async def _set_role(self, args: Mapping[str, Any]) -> None:
+        pin = _pin(args)
+        role = str(args["role"])
+        if role not in roles_for(pin):
+            raise UsageError(f"{pin.name} cannot be {role}; it can be {', '.join(roles_for(pin))}")
+        if self.pin_roles()[pin].role != "free":
+            await self.board.release(pin)
+        board = self.board
+        if role == "input" or role == "input_pullup":
+            await board.digital_input(pin, pull_up=role == "input_pullup")
+        elif role == "output":
+            await board.digital_output(pin)
+        elif role == "soft_pwm":
+            await board.soft_pwm(pin)  # type: ignore[arg-type]  # checked by roles_for
+        elif role == "servo":
+            await board.servo(pin)  # type: ignore[arg-type]
+        elif role.startswith("counter_"):
+            edge = p.Edge.RISING if role == "counter_rising" else p.Edge.FALLING
+            await board.counter(pin, edge=edge)  # type: ignore[arg-type]
+
+    async def _write(self, args: Mapping[str, Any]) -> None:
+        pin = _pin(args)
+        handle = self._handle(pin, (DigitalOutput, Gpio), "digital output")
+        await handle.write(bool(int(args["value"])))
+
+    async def _pulse(self, args: Mapping[str, Any]) -> None:
+        pin = _pin(args)
+        handle: PulseOutput = self._handle(pin, (PulseOutput,), "servo or software PWM")
+        await handle.set_pulse(int(args["us"]))
+
+    async def _counter_reset(self, args: Mapping[str, Any]) -> int:
+        pin = _pin(args)
+        counter: Counter = self._handle(pin, (Counter,), "event counter")
+        return await counter.reset()
+
+    async def _bus(self, args: Mapping[str, Any]) -> I2CBus:
+        speed = p.I2CSpeed.KHZ_400 if int(args.get("speed", 100)) == 400 else p.I2CSpeed.KHZ_100
+        if self.i2c is None or self.i2c.speed != speed:
+            first = self.i2c is None
+            async with self.stream.paused():  # A4/A5 leave the stream
+                self.i2c = await self.board.i2c(speed)
+            if first:
+                self.analog.pop("A4", None)
+                self.analog.pop("A5", None)
+        return self.i2c
+
+    async def _i2c_read(self, args: Mapping[str, Any]) -> str:
+        bus = await self._bus(args)
+        data = await bus.read(int(args["address"]), int(args["register"]), int(args["length"]))
+        return data.hex(" ")
+
+    async def _i2c_write(self, args: Mapping[str, Any]) -> int:
+        try:
+            data = bytes.fromhex(str(args["data"]))
+        except ValueError:
+            raise UsageError(
+                f"I2C data must be hex bytes like '01 ff', got {args['data']!r}"
+            ) from None
+        bus = await self._bus(args)
+        await bus.write(int(args["address"]), int(args["register"]), data)
+        return len(data)
+
+    async def _reset(self, args: Mapping[str, Any]) -> None:
+        """Reset the board, then put back every role, the I2C bus and an armed failsafe."""
+        async with self.stream.paused():
+            await self.board.reset(restore=True)
+            if self.board.failsafe is not None:
+                await self.board.rearm_failsafe(restore=False)
+
+    async def _failsafe_arm(self, args: Mapping[str, Any]) -> None:
+        """Arm with every output's safe state off (low, no pulses)."""
+        outputs: dict[_PinHandle, bool | int] = {
+            role.handle: 0
+            for role in self.pin_roles().values()
+            if isinstance(role.handle, DigitalOutput | Gpio | PulseOutput)
+            and role.role in ("output", "servo", "soft_pwm")
+        }
+        await self.board.arm_failsafe(int(args["timeout_ms"]), outputs)
+
+    async def _failsafe_disarm(self, args: Mapping[str, Any]) -> None:
+        await self.board.disarm_failsafe()
+
+    async def _failsafe_rearm(self, args: Mapping[str, Any]) -> None:
+        if self.board.failsafe is None:
+            raise UsageError("the failsafe is not armed: arm it first")
+        await self.board.rearm_failsafe(restore=True)
+
+
+def _pin(args: Mapping[str, Any]) -> DigitalPin:
+    name = str(args.get("pin", ""))
+    try:
+        return DigitalPin[name.upper()]
+    except KeyError:
+        raise UsageError(f"{name!r} is not a digital pin (D2-D13)") from None
+
+
+def describe_error(exc: BaseException) -> str:
+    """What the page shows for a refused control."""
+    if isinstance(exc, ArduinoIOError):
+        return str(exc)
+    if isinstance(exc, KeyError):
+        return f"missing field {exc}"
+    return f"{type(exc).__name__}: {exc}"

@@ -1,0 +1,324 @@
+// arduinoio monitor page: renders what the server pushes over one WebSocket and sends
+// controls back.  There is no polling: snapshots ("board") and live data ("samples")
+// arrive when the server has them; a lost connection is re-opened with a back-off.
+"use strict";
+
+(function () {
+  const WINDOW_S = 10;            // seconds of analog history in the plot
+  const VREF = 5.0;               // AVCC of an Uno: raw 0-1023 -> volts
+  const COLORS = ["#2563eb", "#dc2626", "#16a34a", "#d97706", "#7c3aed", "#0891b2"];
+  const ROLE_LABELS = {
+    free: "free", input: "input", input_pullup: "input, pull-up", output: "output",
+    soft_pwm: "software PWM", servo: "servo PWM",
+    counter_rising: "counter (rising)", counter_falling: "counter (falling)",
+  };
+
+  const boards = {};              // key -> view state
+  const pending = new Map();      // request id -> {board, resolve}
+  let socket = null;
+  let nextId = 1;
+  let backoff = 500;
+
+  window.arduinoioMonitor = { boards };
+
+  // ---- connection --------------------------------------------------------------------
+
+  function connect() {
+    const scheme = location.protocol === "https:" ? "wss" : "ws";
+    socket = new WebSocket(`${scheme}://${location.host}/ws${location.search}`);
+    setConnection("connecting", "connecting…");
+    socket.onopen = () => { backoff = 500; setConnection("open", "live"); };
+    socket.onmessage = (event) => handle(JSON.parse(event.data));
+    socket.onclose = () => {
+      setConnection("closed", "disconnected, reconnecting…");
+      for (const [, req] of pending) req.resolve({ ok: false, error: "connection lost" });
+      pending.clear();
+      setTimeout(connect, backoff);
+      backoff = Math.min(backoff * 2, 5000);
+    };
+  }
+
+  function setConnection(state, text) {
+    const el = document.getElementById("connection");
+    el.dataset.state = state;
+    el.textContent = text;
+  }
+
+  function request(boardKey, op, args) {
+    return new Promise((resolve) => {
+      if (!socket || socket.readyState !== WebSocket.OPEN) {
+        resolve({ ok: false, error: "not connected" });
+        return;
+      }
+      const id = nextId++;
+      pending.set(id, { board: boardKey, resolve });
+      socket.send(JSON.stringify({ id, board: boardKey, op, ...args }));
+    });
+  }
+
+  // One request in flight per control; the newest value waits for it (a dragged slider
+  // sends as fast as the board answers, never a backlog).
+  function latestOnly(send) {
+    let busy = false, queued = null;
+    return async function push(value) {
+      if (busy) { queued = value; return; }
+      busy = true;
+      try {
+        let current = value;
+        for (;;) {
+          await send(current);
+          if (queued === null) break;
+          current = queued; queued = null;
+        }
+      } finally { busy = false; }
+    };
+  }
+
+  function handle(message) {
+    if (message.type === "board") renderBoard(message);
+    else if (message.type === "samples") applySamples(message);
+    else if (message.type === "result") {
+      const req = pending.get(message.id);
+      if (req) { pending.delete(message.id); req.resolve(message); }
+    }
+  }
+
+  async function control(view, op, args, describe) {
+    const result = await request(view.key, op, args || {});
+    showMessage(view, result.ok ? (describe ? describe(result.data) : "") : result.error, !result.ok);
+    return result;
+  }
+
+  function showMessage(view, text, isError) {
+    const el = view.root.querySelector(".message");
+    el.textContent = text || "";
+    el.dataset.error = isError ? "true" : "false";
+  }
+
+  // ---- building a board's section ----------------------------------------------------
+
+  function createBoard(snapshot) {
+    const root = document.getElementById("board-template").content.firstElementChild.cloneNode(true);
+    root.dataset.board = snapshot.key;
+    document.getElementById("boards").appendChild(root);
+    const view = { key: snapshot.key, root, pins: {}, plot: null, data: null, frame: 0, snapshot };
+    boards[snapshot.key] = view;
+
+    const tbody = root.querySelector("tbody.pins, table.pins tbody");
+    for (const pin of snapshot.pins) {
+      const row = document.createElement("tr");
+      row.dataset.pin = pin.name;
+      row.innerHTML = `<td class="name">${pin.name}</td><td><span class="led" data-level=""></span></td>` +
+        `<td class="edges">0 / 0</td><td><select class="role"></select></td><td><div class="control"></div></td>`;
+      const select = row.querySelector("select.role");
+      for (const role of pin.roles) {
+        const option = document.createElement("option");
+        option.value = role;
+        option.textContent = ROLE_LABELS[role] || role;
+        select.appendChild(option);
+      }
+      select.addEventListener("change", async () => {
+        const result = await control(view, "role", { pin: pin.name, role: select.value },
+          () => `${pin.name} is now ${ROLE_LABELS[select.value] || select.value}`);
+        if (!result.ok) select.value = view.pins[pin.name].role;
+      });
+      tbody.appendChild(row);
+      view.pins[pin.name] = { row, role: null, led: row.querySelector(".led"), edges: row.querySelector(".edges") };
+    }
+
+    root.querySelector(".reset").addEventListener("click", () =>
+      control(view, "reset", {}, () => "board reset; roles restored"));
+    const timeout = root.querySelector(".failsafe-timeout");
+    root.querySelector(".failsafe-arm").addEventListener("click", () =>
+      control(view, "failsafe_arm", { timeout_ms: Number(timeout.value) }, () => "failsafe armed"));
+    root.querySelector(".failsafe-rearm").addEventListener("click", () =>
+      control(view, "failsafe_rearm", {}, () => "failsafe re-armed, outputs restored"));
+    root.querySelector(".failsafe-disarm").addEventListener("click", () =>
+      control(view, "failsafe_disarm", {}, () => "failsafe disarmed"));
+
+    const form = root.querySelector("form.i2c");
+    const i2cArgs = () => ({
+      address: Number(form.address.value), register: Number(form.register.value),
+      speed: Number(form.speed.value),
+    });
+    const i2cResult = form.querySelector(".i2c-result");
+    form.querySelector(".i2c-read").addEventListener("click", async () => {
+      const r = await control(view, "i2c_read", { ...i2cArgs(), length: Number(form.length.value) });
+      i2cResult.textContent = r.ok ? `read: ${r.data}` : "";
+    });
+    form.querySelector(".i2c-write").addEventListener("click", async () => {
+      const r = await control(view, "i2c_write", { ...i2cArgs(), data: form.data.value });
+      i2cResult.textContent = r.ok ? `wrote ${r.data} bytes` : "";
+    });
+
+    createPlot(view, snapshot.analog_pins);
+    return view;
+  }
+
+  function createPlot(view, channels) {
+    const container = view.root.querySelector(".plot");
+    view.channels = channels;
+    view.data = [[], ...channels.map(() => [])];
+    const series = [{}, ...channels.map((name, i) => ({
+      label: name, stroke: COLORS[i % COLORS.length], width: 1.5,
+      value: (u, v) => (v == null ? "–" : v.toFixed(3) + " V"),
+    }))];
+    const width = Math.max(320, container.clientWidth || 520);
+    view.plot = new uPlot({
+      width, height: 220, series, legend: { show: false },
+      scales: { y: { range: [0, VREF] } },
+      axes: [{}, { size: 45 }],
+    }, view.data, container);
+    const list = view.root.querySelector(".readouts");
+    channels.forEach((name, i) => {
+      const li = document.createElement("li");
+      li.dataset.channel = name;
+      li.innerHTML = `<span class="swatch" style="background:${COLORS[i % COLORS.length]}"></span>` +
+        `${name} <span class="value" data-raw="">–</span>`;
+      list.appendChild(li);
+    });
+    new ResizeObserver(() => {
+      const w = container.clientWidth;
+      if (w && Math.abs(w - view.plot.width) > 4) view.plot.setSize({ width: w, height: 220 });
+    }).observe(container);
+  }
+
+  // ---- snapshots -----------------------------------------------------------------------
+
+  function renderBoard(snapshot) {
+    const view = boards[snapshot.key] || createBoard(snapshot);
+    view.snapshot = snapshot;
+    const root = view.root;
+    root.dataset.boardId = snapshot.id;
+    root.querySelector(".title").textContent =
+      `Board 0x${snapshot.id.toString(16).toUpperCase().padStart(4, "0")}` + (snapshot.connected ? "" : " (disconnected)");
+    const fact = (name) => root.querySelector(`[data-fact="${name}"]`);
+    fact("port").textContent = snapshot.port;
+    fact("firmware").textContent = `${snapshot.firmware} (protocol ${snapshot.protocol})`;
+    fact("baud").textContent = snapshot.baud;
+    fact("failsafe").textContent = snapshot.failsafe;
+    fact("failsafe").dataset.tripped = snapshot.failsafe_tripped ? "true" : "false";
+    renderStream(view, snapshot.stream);
+    for (const pin of snapshot.pins) renderPin(view, pin);
+  }
+
+  function renderStream(view, stream) {
+    const el = view.root.querySelector('[data-fact="stream"]');
+    el.dataset.running = stream.running ? "true" : "false";
+    el.textContent = stream.running
+      ? `${stream.period_ms} ms · ${stream.channels.join(" ") || "levels"} · ${stream.received} samples, ${stream.lost} lost`
+      : `stopped${stream.error ? ": " + stream.error : ""}`;
+  }
+
+  function renderPin(view, pin) {
+    const state = view.pins[pin.name];
+    const select = state.row.querySelector("select.role");
+    if (document.activeElement !== select) select.value = pin.role;
+    const box = state.row.querySelector(".control");
+    if (state.role !== pin.role) {
+      state.role = pin.role;
+      box.replaceChildren(...buildControl(view, pin));
+    }
+    if (pin.role === "output") {
+      const toggle = box.querySelector("input.out");
+      if (document.activeElement !== toggle) toggle.checked = pin.value === 1;
+    } else if (pin.role === "servo" || pin.role === "soft_pwm") {
+      const slider = box.querySelector("input.pulse");
+      if (document.activeElement !== slider && pin.value) slider.value = pin.value;
+      box.querySelector("output").textContent = pin.value ? `${pin.value} µs` : "off";
+    }
+  }
+
+  function buildControl(view, pin) {
+    const key = pin.name;
+    if (pin.role === "output") {
+      const label = document.createElement("label");
+      label.innerHTML = `<input type="checkbox" class="out"> high`;
+      const toggle = label.querySelector("input");
+      toggle.addEventListener("change", () =>
+        control(view, "write", { pin: key, value: toggle.checked ? 1 : 0 }));
+      return [label];
+    }
+    if (pin.role === "servo" || pin.role === "soft_pwm") {
+      const slider = document.createElement("input");
+      slider.type = "range"; slider.className = "pulse";
+      slider.min = 1000; slider.max = 2000; slider.step = pin.role === "servo" ? 1 : 100;
+      slider.value = pin.value || 1500;
+      const shown = document.createElement("output");
+      const send = latestOnly((us) => control(view, "pulse", { pin: key, us }));
+      slider.addEventListener("input", () => { shown.textContent = `${slider.value} µs`; send(Number(slider.value)); });
+      const off = document.createElement("button");
+      off.type = "button"; off.textContent = "off"; off.className = "pulse-off";
+      off.addEventListener("click", () => send(0));
+      return [slider, shown, off];
+    }
+    if (pin.role.startsWith("counter_")) {
+      const clear = document.createElement("button");
+      clear.type = "button"; clear.textContent = "clear count";
+      clear.addEventListener("click", () =>
+        control(view, "counter_reset", { pin: key }, (count) => `${key} counter cleared at ${count}`));
+      return [clear];
+    }
+    return [];
+  }
+
+  // ---- live data -------------------------------------------------------------------------
+
+  function applySamples(message) {
+    const view = boards[message.board];
+    if (!view) return;
+    if (message.levels !== null) {
+      for (const [name, state] of Object.entries(view.pins)) {
+        const bit = 1 << Number(name.slice(1));
+        state.led.dataset.level = message.levels & bit ? "1" : "0";
+        if ((message.rose | message.fell) & bit) blink(state.led);
+      }
+    }
+    const pinNames = Object.keys(view.pins);
+    pinNames.forEach((name, i) => {
+      view.pins[name].edges.textContent = `${message.rises[i]} / ${message.falls[i]}`;
+    });
+    if (message.counters) {
+      view.root.querySelectorAll("[data-counter]").forEach((el) => {
+        el.textContent = message.counters[Number(el.dataset.counter)];
+      });
+    }
+    renderStream(view, message.stream);
+    if (message.t.length) appendAnalog(view, message);
+  }
+
+  function blink(led) {
+    led.classList.add("blink");
+    clearTimeout(led.blinkTimer);
+    led.blinkTimer = setTimeout(() => led.classList.remove("blink"), 150);
+  }
+
+  function appendAnalog(view, message) {
+    const data = view.data;
+    data[0].push(...message.t);
+    view.channels.forEach((name, i) => {
+      const values = message.analog[name];
+      const column = data[i + 1];
+      const readout = view.root.querySelector(`.readouts [data-channel="${name}"] .value`);
+      if (values) {
+        for (const raw of values) column.push(raw * VREF / 1024);
+        const last = values[values.length - 1];
+        readout.dataset.raw = last;
+        readout.textContent = `${(last * VREF / 1024).toFixed(3)} V`;
+      } else {
+        for (let k = 0; k < message.t.length; k++) column.push(null);
+        readout.dataset.raw = "";
+        readout.textContent = "in use (I2C)";
+      }
+    });
+    const cutoff = data[0][data[0].length - 1] - WINDOW_S;
+    let drop = 0;
+    while (drop < data[0].length && data[0][drop] < cutoff) drop++;
+    if (drop) for (const column of data) column.splice(0, drop);
+    if (!view.frame) {
+      view.frame = requestAnimationFrame(() => { view.frame = 0; view.plot.setData(view.data); });
+    }
+  }
+
+  connect();
+})();
