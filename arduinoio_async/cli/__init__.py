@@ -33,6 +33,10 @@ def build_parser() -> argparse.ArgumentParser:
         "bench", help="latency benchmark against the paper's Table IV", add_help=False
     )
     bench.add_argument("rest", nargs=argparse.REMAINDER)
+    serve = sub.add_parser(
+        "serve", help="serve this machine's boards on the network", add_help=False
+    )
+    serve.add_argument("rest", nargs=argparse.REMAINDER)
     return parser
 
 
@@ -49,6 +53,10 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
         from ..bench.cli import main as bench_main
 
         return bench_main(args_list[1:], console=console)
+    if args_list[:1] == ["serve"]:
+        from ..network.cli import main as serve_main
+
+        return serve_main(args_list[1:])
     parser = build_parser()
     args = parser.parse_args(args_list)
     try:

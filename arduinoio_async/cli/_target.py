@@ -8,6 +8,7 @@ from contextlib import asynccontextmanager
 
 from ..board import Board
 from ..manager import BoardManager
+from ..network.options import add_remote_options, remote_board
 from ..protocol import DEFAULT_BAUD
 
 
@@ -37,6 +38,7 @@ def add_target_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--port", help="serial port or pyserial URL of the board")
     group.add_argument("--id", type=board_id, help="board ID to look for on all ports")
     add_scan_options(parser)
+    add_remote_options(parser)
 
 
 def manager_for(args: argparse.Namespace) -> BoardManager:
@@ -51,6 +53,10 @@ def manager_for(args: argparse.Namespace) -> BoardManager:
 @asynccontextmanager
 async def target_board(args: argparse.Namespace) -> AsyncIterator[Board]:
     """The board named by ``--port`` or ``--id``."""
+    if getattr(args, "remote", False):
+        async with remote_board(args) as b:
+            yield b
+        return
     if args.port:
         async with Board.open(args.port, baudrate=args.baud, ready_timeout=args.probe_timeout) as b:
             yield b

@@ -219,6 +219,7 @@ class RemoteBoards:
         async def restore_after_reset() -> None:
             self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
             await board.adopt(link)
+            self._notify()  # connected again: wake wait_connected()
 
         async def rearm_after_trip() -> None:
             if board.failsafe is None:

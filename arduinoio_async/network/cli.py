@@ -14,22 +14,19 @@ import argparse
 import json
 import logging
 import sys
-from collections.abc import AsyncIterator, Sequence
-from contextlib import asynccontextmanager
+from collections.abc import Sequence
 from pathlib import Path
 
 import anyio
 import zenoh
 
-from ..board import Board
 from ..errors import ArduinoIOError
 from ..manager import BoardManager, ManagerEvent
 from ..protocol import DEFAULT_BAUD
-from ._client import open_remote_board
 from ._keys import DEFAULT_ENDPOINT, zenoh_config
 from ._server import BoardServer
 
-__all__ = ["add_remote_options", "build_parser", "main", "remote_board", "serve"]
+__all__ = ["build_parser", "main", "serve"]
 
 log = logging.getLogger(__name__)
 
@@ -117,35 +114,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 130
     return 0
-
-
-def add_remote_options(parser: argparse.ArgumentParser) -> None:
-    """``--remote`` (with ``--id``): talk to a board served by ``arduinoio serve``."""
-    parser.add_argument(
-        "--remote", action="store_true", help="the board (--id) is served on the network"
-    )
-    parser.add_argument(
-        "--connect",
-        action="append",
-        default=[],
-        metavar="ENDPOINT",
-        help=f"with --remote: Zenoh endpoint of the server (default {DEFAULT_ENDPOINT})",
-    )
-    parser.add_argument("--zenoh-config", type=Path, help="with --remote: Zenoh JSON5 config")
-
-
-@asynccontextmanager
-async def remote_board(args: argparse.Namespace) -> AsyncIterator[Board]:
-    """The board ``--id`` served on the network (the CLI's ``--remote``)."""
-    if args.id is None:
-        raise ArduinoIOError("--remote needs --id (the board's ID, e.g. --id 0x0007)")
-    async with open_remote_board(
-        args.id,
-        connect=args.connect,
-        config_file=args.zenoh_config,
-        ready_timeout=args.probe_timeout,
-    ) as board:
-        yield board
 
 
 if __name__ == "__main__":
