@@ -54,14 +54,16 @@ _NO_REPLY = RemoteFault("BoardDisconnectedError", "no server answered")
 class _Slot:
     """Callbacks of one query, run on Zenoh's threads; they only schedule."""
 
-    __slots__ = ("_loop", "_number", "_stream")
+    __slots__ = ("_answered", "_loop", "_number", "_stream")
 
     def __init__(self, stream: RemoteByteStream, number: int, loop: LoopHandle) -> None:
         self._stream = stream
         self._number = number
         self._loop = loop
+        self._answered = False
 
     def on_reply(self, reply: zenoh.Reply) -> None:
+        self._answered = True
         sample = reply.ok
         if sample is not None:
             result: bytes | RemoteFault = sample.payload.to_bytes()
@@ -71,7 +73,10 @@ class _Slot:
         self._loop.call_soon(self._stream._settle, self._number, result)
 
     def on_done(self) -> None:
-        self._loop.call_soon(self._stream._settle, self._number, _NO_REPLY)
+        # Both run on the thread that received the query's messages, reply first; waking
+        # the loop for a query that was answered would only cost time.
+        if not self._answered:
+            self._loop.call_soon(self._stream._settle, self._number, _NO_REPLY)
 
 
 class RemoteByteStream(anyio.abc.ByteStream):

@@ -64,16 +64,18 @@ def serve_unos(virtual_uno_factory: VirtualUnoFactory, tmp_path: Path) -> ServeF
     """``async with serve_unos([7], baud=...) as served:`` -- boards and a server."""
 
     @asynccontextmanager
-    async def serve(ids: list[int], **uno_options: object) -> AsyncIterator[Served]:
+    async def serve(
+        ids: list[int], *, server_args: tuple[str, ...] = (), **uno_options: object
+    ) -> AsyncIterator[Served]:
         ports_dir = tmp_path / "ports"
         ports_dir.mkdir(exist_ok=True)
         unos = {bid: await virtual_uno_factory(board_id=bid, **uno_options) for bid in ids}
-        endpoint = free_endpoint()
+        endpoint = free_endpoint().replace("tcp/", "tls/" if "--config" in server_args else "tcp/")
         baud = int(str(uno_options.get("baud", 115200)))
         env = {k: v for k, v in os.environ.items() if k != "ARDUINOIO_PORTS"}
         command = [sys.executable, "-m", "arduinoio_async", "serve", "--no-usb"]
         command += ["--ports", str(ports_dir / "uno-*"), "--baud", str(baud)]
-        command += ["--listen", endpoint, "--rescan", "0.2"]
+        command += ["--listen", endpoint, "--rescan", "0.2", *server_args]
         for bid, uno in unos.items():
             (ports_dir / f"uno-{bid:04x}").symlink_to(uno.port)
         served = Served(unos, endpoint, await anyio.open_process(command, env=env), ports_dir)
