@@ -78,7 +78,8 @@ def serve_unos(virtual_uno_factory: VirtualUnoFactory, tmp_path: Path) -> ServeF
         command += ["--listen", endpoint, "--rescan", "0.2", *server_args]
         for bid, uno in unos.items():
             (ports_dir / f"uno-{bid:04x}").symlink_to(uno.port)
-        served = Served(unos, endpoint, await anyio.open_process(command, env=env), ports_dir)
+        server = await anyio.open_process(command, env=env, stderr=None)
+        served = Served(unos, endpoint, server, ports_dir)
         try:
             assert served.server.stdout is not None
             with anyio.fail_after(SERVER_START_TIMEOUT):

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import anyio
+import anyio.abc
 import pytest
 
 from arduinoio_async import A0, A1, D4, D5, D6, D7, D9
@@ -16,6 +17,7 @@ from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardError, PinRoleError
 from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.network import RemoteBoards, open_remote_board
+from arduinoio_async.sim import VirtualUno
 
 from .conftest import ServeFactory
 
@@ -213,37 +215,68 @@ anyio.run(main)
 """
 
 
+async def start_armed_client(tmp_path: Path, endpoint: str, timeout_ms: int) -> anyio.abc.Process:
+    """A controller process that arms the failsafe of board 7 and then just lives."""
+    script = tmp_path / "client.py"
+    script.write_text(CLIENT.format(timeout=timeout_ms))
+    client = await anyio.open_process([sys.executable, str(script), endpoint])
+    assert client.stdout is not None
+    with anyio.fail_after(20):
+        assert (await client.stdout.receive()).strip() == b"armed"
+    return client
+
+
+async def wait_board_time(uno: VirtualUno, span_us: float) -> None:
+    """Let ``span_us`` of the board's time pass (a condition on the fixture's clock)."""
+    start = float((await uno.status())["sim_us"])
+    with anyio.fail_after(5):
+        while float((await uno.status())["sim_us"]) < start + span_us:
+            await uno.pin("D4")
+
+
 async def test_a_killed_remote_client_trips_the_failsafe(
     serve_unos: ServeFactory, tmp_path: Path
 ) -> None:
     timeout_ms = 100
-    script = tmp_path / "client.py"
-    script.write_text(CLIENT.format(timeout=timeout_ms))
-    async with (
-        serve_unos([7]) as served,
-        RemoteBoards(connect=[served.endpoint]) as observer,
-        await anyio.open_process([sys.executable, str(script), served.endpoint]) as client,
-    ):
+    async with serve_unos([7]) as served:
         uno = served.unos[7]
-        assert client.stdout is not None
-        with anyio.fail_after(20):
-            assert (await client.stdout.receive()).strip() == b"armed"
-        # Another client's traffic must not keep the dead controller's failsafe fed.
-        watcher = await observer.get(7)
-        armed_at = float((await uno.status())["sim_us"])
-        with anyio.fail_after(5):  # three timeouts of board time: the live client feeds it
-            while float((await uno.status())["sim_us"]) < armed_at + 3 * timeout_ms * 1000:
-                await watcher.read_id()
-        assert (await uno.pin("D4")).level == 1
-        killed_at = float((await uno.status())["sim_us"])
-        client.send_signal(signal.SIGKILL)
-        with anyio.fail_after(2):
-            while (await uno.pin("D4")).level != 0:
-                await watcher.read_id()
+        client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
+        async with client:
+            await wait_board_time(uno, 3 * timeout_ms * 1000)  # the live client feeds it
+            assert (await uno.pin("D4")).level == 1
+            killed_at = float((await uno.status())["sim_us"])
+            client.send_signal(signal.SIGKILL)
+            with anyio.fail_after(2):
+                while (await uno.pin("D4")).level != 0:
+                    await uno.status()
         led = await uno.pulse_stats("D4")
         assert led.last_edge_us is not None
         reaction_ms = (led.last_edge_us - killed_at) / 1000
         print(f"\nfailsafe after SIGKILL of the remote client: {reaction_ms:.1f} ms")
         assert 0 < reaction_ms <= timeout_ms + 20
+
+
+async def test_other_clients_do_not_feed_a_dead_owners_failsafe(
+    serve_unos: ServeFactory, tmp_path: Path
+) -> None:
+    timeout_ms = 100
+    async with serve_unos([7]) as served, RemoteBoards(connect=[served.endpoint]) as remote:
+        uno = served.unos[7]
+        watcher = await remote.get(7)
+        client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
+        async with client:
+            client.send_signal(signal.SIGKILL)
+            killed_at = float((await uno.status())["sim_us"])
+            # Without the server's gate these reads would keep the watchdog fed forever.
+            with anyio.fail_after(2):
+                while (await uno.pin("D4")).level != 0:
+                    assert await watcher.read_id() == 7
+        led = await uno.pulse_stats("D4")
+        assert led.last_edge_us is not None
+        print(
+            f"\nfailsafe with another client busy: {(led.last_edge_us - killed_at) / 1000:.1f} ms"
+            " after the kill (the server's notice of the death + the timeout)"
+        )
         status = await watcher.status()
         assert status.flags & p.StatusFlags.FAILSAFE_TRIPPED
+        assert watcher.failsafe is None  # not this client's failsafe: it does not re-arm
