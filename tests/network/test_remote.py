@@ -256,26 +256,30 @@ async def test_a_killed_remote_client_trips_the_failsafe(
         assert 0 < reaction_ms <= timeout_ms + 20
 
 
-async def test_other_clients_do_not_feed_a_dead_owners_failsafe(
-    serve_unos: ServeFactory, tmp_path: Path
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGSTOP], ids=["killed", "frozen"])
+async def test_other_clients_do_not_feed_a_lost_owners_failsafe(
+    serve_unos: ServeFactory, tmp_path: Path, how: signal.Signals
 ) -> None:
+    """A killed owner vanishes (its liveliness token goes); a frozen one only falls silent."""
     timeout_ms = 100
     async with serve_unos([7]) as served, RemoteBoards(connect=[served.endpoint]) as remote:
         uno = served.unos[7]
         watcher = await remote.get(7)
         client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
         async with client:
-            client.send_signal(signal.SIGKILL)
+            client.send_signal(how)
             killed_at = float((await uno.status())["sim_us"])
             # Without the server's gate these reads would keep the watchdog fed forever.
             with anyio.fail_after(2):
                 while (await uno.pin("D4")).level != 0:
                     assert await watcher.read_id() == 7
+            if how is not signal.SIGKILL:
+                client.send_signal(signal.SIGKILL)
         led = await uno.pulse_stats("D4")
         assert led.last_edge_us is not None
         print(
-            f"\nfailsafe with another client busy: {(led.last_edge_us - killed_at) / 1000:.1f} ms"
-            " after the kill (the server's notice of the death + the timeout)"
+            f"\nfailsafe with another client busy, owner {how.name}: "
+            f"{(led.last_edge_us - killed_at) / 1000:.1f} ms (the server's notice + the timeout)"
         )
         status = await watcher.status()
         assert status.flags & p.StatusFlags.FAILSAFE_TRIPPED
