@@ -190,7 +190,9 @@ class RemoteBoards:
                     stream, timeout=self.timeout, ready_timeout=self.ready_timeout
                 )
                 await self._run_link(board_id, link)
-            except ArduinoIOError as exc:
+            except (ArduinoIOError, anyio.BrokenResourceError, anyio.ClosedResourceError) as exc:
+                # Announced but not answering (yet): the server is restarting, or access
+                # control lets us see the token but not query.
                 log.info("remote board 0x%04X: %s", board_id, exc)
             await anyio.sleep(RETRY_DELAY)
 

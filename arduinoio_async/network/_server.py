@@ -95,6 +95,7 @@ class _ServedBoard:
         self.stale = False  # the board rebooted and the manager has not re-tagged it yet
         self.owner: str | None = None  # the client whose failsafe is armed
         self.owner_timeout = 0.0
+        self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
         self.last_heard: dict[str, float] = {}
         self.gate: anyio.Event | None = None  # set while the board is being starved
         self.tripped = anyio.Event()
@@ -183,7 +184,8 @@ class _ServedBoard:
             self.owner, self.owner_timeout = client, request.timeout_ms / 1000
             self.tripped = anyio.Event()
             self.board.failsafe_tripped = False
-            self.server.start_soon(self._watch_owner, client)
+            self.arms += 1
+            self.server.start_soon(self._watch_owner, client, self.arms)
         elif isinstance(request, p.FailsafeDisarm):
             self.owner = None
             self.board.failsafe_tripped = False
@@ -213,9 +215,14 @@ class _ServedBoard:
         if client == self.owner and not self.tripped.is_set():
             self._starve(f"client {client} vanished")
 
-    async def _watch_owner(self, client: str) -> None:
-        """While ``client`` owns the failsafe, starve the board once it falls silent."""
-        while self.owner == client and not self.closed and not self.tripped.is_set():
+    async def _watch_owner(self, client: str, arm: int) -> None:
+        """While ``client`` owns this arming, starve the board once it falls silent."""
+        while (
+            self.arms == arm
+            and self.owner == client
+            and not self.closed
+            and not self.tripped.is_set()
+        ):
             silent_for = anyio.current_time() - self.last_heard.get(client, 0.0)
             if silent_for > self.owner_timeout and self.gate is None:
                 self._starve(f"client {client} silent for {silent_for * 1000:.0f} ms")

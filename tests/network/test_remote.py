@@ -14,10 +14,11 @@ import pytest
 from arduinoio_async import A0, A1, D4, D5, D6, D7, D9
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.errors import BoardError, PinRoleError
+from arduinoio_async.errors import BoardError, BoardNotFoundError, PinRoleError
 from arduinoio_async.manager import ManagerEvent
-from arduinoio_async.network import RemoteBoards, open_remote_board
+from arduinoio_async.network import NetworkBoardManager, RemoteBoards, open_remote_board
 from arduinoio_async.sim import VirtualUno
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
 from .conftest import ServeFactory
 
@@ -57,6 +58,25 @@ async def test_remote_read_id_and_the_same_api(serve_unos: ServeFactory) -> None
         )
         assert result.returncode == 0, result.stderr.decode()
         assert "0x0007" in result.stdout.decode()
+
+
+async def test_the_manager_finds_boards_on_ports_and_on_the_network(
+    serve_unos: ServeFactory, virtual_uno_factory: VirtualUnoFactory
+) -> None:
+    local_uno = await virtual_uno_factory(board_id=8)
+    async with (
+        serve_unos([7]) as served,
+        NetworkBoardManager(
+            ports=[local_uno.port], usb=False, env=False, connect=[served.endpoint]
+        ) as boards,
+    ):
+        local, remote = await boards.get(8), await boards.get(7)
+        assert local.port == local_uno.port and remote.port == "zenoh://0x0007"
+        assert await local.read_id() == 8 and await remote.read_id() == 7
+        assert set(boards.present()) == {7, 8}
+        with pytest.raises(BoardNotFoundError) as missing:
+            await boards.get(9, timeout=0.5)
+        assert missing.value.tried["zenoh"] == "no server announces it"
 
 
 async def test_gpio_through_the_loopback_fixture(serve_unos: ServeFactory) -> None:
