@@ -89,7 +89,8 @@ class _ServedBoard:
         # from it, but the link itself goes on carrying the clients' requests.
         self.link: Transport = board.link
         self.board_id = board.board_id
-        self.key = request_key(self.board_id)
+        # Parsed once: a key given as a string is parsed and checked on every reply.
+        self.key = zenoh.KeyExpr(request_key(self.board_id))
         self.closed = False
         self.tags: dict[str, _Tag] = {}
         self.stale = False  # the board rebooted and the manager has not re-tagged it yet
