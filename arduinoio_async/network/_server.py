@@ -5,9 +5,12 @@ Theory of operation
 Each board the manager has connected gets a queryable for requests, a publisher for its
 board-initiated frames and a liveliness token (see :mod:`._keys`); they go when the
 manager loses the board and come back when it reconnects.  A query is handed from
-Zenoh's thread to the event loop and gets a task of its own; the task's first step puts
-the request on the board's one transport, so requests reach the link in the order the
-queries arrived and several clients' requests are pipelined on it like one client's.
+Zenoh's thread to the event loop, numbered in arrival order, and on to the next free one
+of a pool of worker tasks (a task per query would cost more than the rest of the
+request).  A worker takes its query's turn (see ``_take_turn``) and puts the request on
+the board's one transport without suspending in between, so requests reach the link in
+the order the queries arrived, on any scheduler, and several clients' requests are
+pipelined on it like one client's.
 
 What the server changes on the way (everything else passes through untouched):
 
@@ -37,12 +40,14 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import anyio
 import anyio.abc
 import zenoh
+from anyio.streams.memory import MemoryObjectReceiveStream
 
 from .. import protocol as p
 from ..board import Board
@@ -69,6 +74,8 @@ log = logging.getLogger(__name__)
 STARVE_MARGIN = 0.2
 #: How often a starving board's heartbeat is held off and its owner's silence is checked.
 STARVE_TICK = 0.02
+#: Queries of one board in progress at once (the transport keeps at most 64 in flight).
+WORKERS = 64
 
 
 @dataclass
@@ -101,6 +108,14 @@ class _ServedBoard:
         self.gate: anyio.Event | None = None  # set while the board is being starved
         self.tripped = anyio.Event()
         self._decoder = p.Decoder.from_host()
+        send, receive = anyio.create_memory_object_stream[tuple[int, zenoh.Query]](math.inf)
+        self._arrivals = 0  # queries admitted so far: each gets the next number
+        self._turn = 0  # number of the last query that went on to the link
+        self._turn_waiters = 0
+        self._turn_changed = anyio.Event()
+        self._admitted, admitted = send, receive
+        for _ in range(WORKERS):
+            server.start_soon(self._work, admitted)
         session = server.session
         loop = server.loop
         self._unsubscribe = self.link.subscribe(self._on_event)
@@ -116,6 +131,7 @@ class _ServedBoard:
         if self.closed:
             return
         self.closed = True
+        self._admitted.close()  # the workers answer what was admitted, then end
         self._unsubscribe()
         for entity in (self.token, self.queryable, self.publisher):
             undeclare(entity)
@@ -135,10 +151,37 @@ class _ServedBoard:
     # ---- requests --------------------------------------------------------------------
 
     def _admit(self, query: zenoh.Query) -> None:
-        """In the loop, in arrival order: start the query's task (it runs in that order)."""
-        self.server.start_soon(self._answer, query)
+        """In the loop, in arrival order: number the query, hand it to a free worker."""
+        self._arrivals += 1
+        try:
+            self._admitted.send_nowait((self._arrivals, query))
+        except (anyio.ClosedResourceError, anyio.BrokenResourceError):
+            query.drop()  # type: ignore[no-untyped-call]  # unanswered: the board is gone
 
-    async def _answer(self, query: zenoh.Query) -> None:
+    async def _work(self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]) -> None:
+        """Answer queries one after another; WORKERS of these pipeline on the link."""
+        async for number, query in admitted:
+            await self._answer(query, number)
+
+    async def _take_turn(self, number: int) -> None:
+        """Return once every query that arrived earlier has had its turn.
+
+        Workers may resume in any order (a worker that just finished can overtake one
+        that was woken for an earlier query); the turns restore arrival order.  The caller
+        must reach the link without suspending after this returns.
+        """
+        while self._turn + 1 != number:
+            self._turn_waiters += 1
+            try:
+                await self._turn_changed.wait()
+            finally:
+                self._turn_waiters -= 1
+        self._turn = number
+        if self._turn_waiters:
+            changed, self._turn_changed = self._turn_changed, anyio.Event()
+            changed.set()
+
+    async def _answer(self, query: zenoh.Query, number: int) -> None:
         with query:
             client = (
                 query.attachment.to_bytes().decode(errors="replace") if query.attachment else ""
@@ -146,6 +189,9 @@ class _ServedBoard:
             payload = query.payload.to_bytes() if query.payload is not None else b""
             frames = self._decoder.feed(payload)
             self._decoder.reset()
+            if self.gate is not None:  # every query waits while the board is being starved
+                await self.gate.wait()
+            await self._take_turn(number)
             if len(frames) != 1 or not isinstance(frames[0], p.Request):
                 query.reply_err(
                     json.dumps(
@@ -171,10 +217,6 @@ class _ServedBoard:
                 query.reply(self.key, reply)
 
     async def _execute(self, client: str, request: p.Request[Any]) -> bytes:
-        if self.gate is not None:
-            await self.gate.wait()
-            if self.closed:
-                raise BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
         if isinstance(request, p.SetSession):
             self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
             return p.SetSessionReply(request.session).encode()
