@@ -16,7 +16,9 @@ bench measures batches of sequential round trips of
   one thread-to-loop hop any asyncio server adds);
 
 then the pipelined throughput (many concurrent tasks) of the remote and the local board.
-The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).
+The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  As the
+machine's load drifts, the ratio is also taken round by round (medians of each batch) and
+reported as the median over rounds with its quartiles.
 
     .venv/bin/python benchmarks/network_bench.py --json benchmarks/results/network.json
 """
@@ -28,6 +30,7 @@ import json
 import os
 import platform
 import socket
+import statistics
 import sys
 import time
 from collections.abc import Awaitable, Callable
@@ -208,6 +211,22 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 process.terminate()
                 await process.wait()
     summary = {kind: summarize(values).as_dict() for kind, values in samples.items()}
+    # The machine's load drifts: each round's medians are compared within the round.
+    per_round = {
+        kind: [
+            statistics.median(values[i : i + args.batch]) for i in range(0, len(values), args.batch)
+        ]
+        for kind, values in samples.items()
+    }
+    ratios = {
+        floor: sorted(
+            (remote - local) / low
+            for remote, local, low in zip(
+                per_round["remote"], per_round["local"], per_round[floor], strict=True
+            )
+        )
+        for floor in ("floor", "floor_server_loop", "floor_blocking")
+    }
     overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
     return {
         "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
@@ -218,6 +237,16 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         "batch": args.batch,
         "round_trip_ms": summary,
         "remote_overhead_ms": overhead,
+        "overhead_over_floor_per_round": {
+            floor: {
+                "median": round(statistics.median(values), 3),
+                "quartiles": [
+                    round(values[len(values) // 4], 3),
+                    round(values[-1 - len(values) // 4], 3),
+                ],
+            }
+            for floor, values in ratios.items()
+        },
         "overhead_over_floor_p50": overhead["p50"] / summary["floor"]["p50"],
         "overhead_over_blocking_floor_p50": overhead["p50"] / summary["floor_blocking"]["p50"],
         "overhead_over_server_loop_floor_p50": overhead["p50"]
