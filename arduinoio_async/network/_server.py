@@ -31,7 +31,8 @@ What the server changes on the way (everything else passes through untouched):
   they would if it had been on the USB cable itself.
 
 Pin roles are the board's: a vanished client's roles stay configured (outputs hold their
-levels unless its failsafe makes them safe).  Configuring a pin in the role it already has
+levels unless its failsafe makes them safe); its sample stream, which nobody reads any
+more, is stopped.  Configuring a pin in the role it already has
 is accepted by the board, so a restarted controller sets its pins up again as usual; a
 different role needs the pin released first, as on any board.
 """
@@ -104,6 +105,7 @@ class _ServedBoard:
         self.owner: str | None = None  # the client whose failsafe is armed
         self.owner_timeout = 0.0
         self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
+        self.streamer: str | None = None  # the client whose stream runs (one per board)
         self.last_heard: dict[str, float] = {}
         self.gate: anyio.Event | None = None  # set while the board is being starved
         self.tripped = anyio.Event()
@@ -232,6 +234,10 @@ class _ServedBoard:
         elif isinstance(request, p.FailsafeDisarm):
             self.owner = None
             self.board.failsafe_tripped = False
+        elif isinstance(request, p.StreamStart):
+            self.streamer = client
+        elif isinstance(request, p.StreamStop):
+            self.streamer = None
         frame: bytes = reply.encode()
         return frame
 
@@ -257,6 +263,22 @@ class _ServedBoard:
         self.last_heard.pop(client, None)
         if client == self.owner and not self.tripped.is_set():
             self._starve(f"client {client} vanished")
+        if client == self.streamer:
+            self.streamer = None
+            self.server.start_soon(self._stop_stream_of, client)
+
+    async def _stop_stream_of(self, client: str) -> None:
+        """Nobody reads a vanished client's stream: stop it (after any starving)."""
+        if self.gate is not None:
+            await self.gate.wait()
+        try:
+            await self.link.request(p.StreamStop())
+        except ArduinoIOError as exc:
+            log.info("board 0x%04X: stream of %s not stopped: %s", self.board_id, client, exc)
+        else:
+            log.info(
+                "board 0x%04X: stopped the stream of vanished client %s", self.board_id, client
+            )
 
     async def _watch_owner(self, client: str, arm: int) -> None:
         """While ``client`` owns this arming, starve the board once it falls silent."""

@@ -220,7 +220,7 @@ async def test_two_clients_share_one_board(serve_unos: ServeFactory) -> None:
 
 CLIENT = """
 import sys, anyio
-from arduinoio_async import D4, D9
+from arduinoio_async import A0, D4, D9
 from arduinoio_async.network import open_remote_board
 
 async def main():
@@ -228,8 +228,9 @@ async def main():
         led = await board.digital_output(D4, initial=True)
         motor = await board.servo(D9, pulse_us=1500)
         await board.arm_failsafe({timeout}, {{led: False, motor: 1000}})
-        print("armed", flush=True)
-        await anyio.sleep_forever()
+        async with board.stream(analog=[A0], period_ms=10):
+            print("armed", flush=True)
+            await anyio.sleep_forever()
 
 anyio.run(main)
 """
@@ -274,6 +275,12 @@ async def test_a_killed_remote_client_trips_the_failsafe(
         reaction_ms = (led.last_edge_us - killed_at) / 1000
         print(f"\nfailsafe after SIGKILL of the remote client: {reaction_ms:.1f} ms")
         assert 0 < reaction_ms <= timeout_ms + 20
+        # Nobody reads the dead client's stream any more: the server stops it.
+        async with RemoteBoards(connect=[served.endpoint]) as remote:
+            observer = await remote.get(7)
+            with anyio.fail_after(5):
+                while (await observer.status()).flags & p.StatusFlags.STREAMING:
+                    await uno.status()
 
 
 @pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGSTOP], ids=["killed", "frozen"])
