@@ -113,6 +113,36 @@ async def test_a_1khz_stream_for_10s_without_gaps(serve_unos: ServeFactory) -> N
         assert all((b - a) & 0xFFFF == 1 for a, b in itertools.pairwise(sequences))
 
 
+async def test_many_callers_and_cancellations_never_get_a_wrong_reply(
+    serve_unos: ServeFactory,
+) -> None:
+    async with (
+        serve_unos([7]) as served,
+        open_remote_board(7, connect=[served.endpoint]) as board,
+    ):
+        await served.unos[7].set_analog(0, 1000)
+        await served.unos[7].set_analog(1, 4000)
+        a0, a1 = board.analog(A0), board.analog(A1)
+        completed = cancelled = 0
+
+        async def caller(index: int) -> None:
+            nonlocal completed, cancelled
+            for round_ in range(10):
+                # Every third call gives up at once: its reply arrives later and is dropped.
+                with anyio.move_on_after(0.0005 if (index + round_) % 3 == 0 else 5) as scope:
+                    value = await (a0 if index % 2 else a1).read()
+                    assert abs(value - (205 if index % 2 else 819)) <= 3, (index, value)
+                    assert await board.read_id() == 7
+                    completed += 1
+                cancelled += scope.cancelled_caught
+
+        async with anyio.create_task_group() as tg:
+            for index in range(20):
+                tg.start_soon(caller, index)
+        assert completed > 100 and cancelled > 0
+        assert await board.read_id() == 7
+
+
 async def test_unplug_and_replug_are_seen_remotely_and_roles_restored(
     serve_unos: ServeFactory,
 ) -> None:

@@ -198,3 +198,24 @@ async def test_a_vanished_board_disconnects(session: zenoh.Session) -> None:
                 await link.request(p.ReadId())
         with pytest.raises(BoardDisconnectedError):
             await link.request(p.ReadId())
+
+
+async def test_a_cancelled_callers_reply_is_consumed_in_order(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    async with Transport(stream, name="remote") as link:
+        with anyio.move_on_after(0.05) as scope:  # gives up before its reply comes
+            await link.request(p.AnalogRead(1))
+        assert scope.cancelled_caught
+        results: list[p.AnalogReadReply] = []
+
+        async def read() -> None:
+            results.append(await link.request(p.AnalogRead(2)))
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(read)
+            await board.wait_queries(2)
+            board.answer(1)  # the later reply first: it must wait for the abandoned one
+            board.answer(0)
+        assert results == [p.AnalogReadReply(2, 200)]
+        assert link.stats.dropped_late_replies == 1
