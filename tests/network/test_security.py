@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import anyio
@@ -138,6 +139,7 @@ def tls_config(directory: Path, name: str, *, allowed: list[str]) -> Path:
 
 
 @pytest.mark.sim
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs the openssl command")
 async def test_mutual_tls_and_access_control(serve_unos: ServeFactory, tmp_path: Path) -> None:
     await openssl(
         "req",
