@@ -107,7 +107,7 @@ class _ServedBoard:
         self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
         self.streamer: str | None = None  # the client whose stream runs (one per board)
         self.last_heard: dict[str, float] = {}
-        self.gate: anyio.Event | None = None  # set while the board is being starved
+        self.gate: anyio.Event | None = None  # while the board is being starved
         self.tripped = anyio.Event()
         self._decoder = p.Decoder.from_host()
         send, receive = anyio.create_memory_object_stream[tuple[int, zenoh.Query]](math.inf)
@@ -115,9 +115,8 @@ class _ServedBoard:
         self._turn = 0  # number of the last query that went on to the link
         self._turn_waiters = 0
         self._turn_changed = anyio.Event()
-        self._admitted, admitted = send, receive
-        for _ in range(WORKERS):
-            server.start_soon(self._work, admitted)
+        self._admitted = send
+        server.start_soon(self._run_workers, receive)
         session = server.session
         loop = server.loop
         self._unsubscribe = self.link.subscribe(self._on_event)
@@ -159,6 +158,13 @@ class _ServedBoard:
             self._admitted.send_nowait((self._arrivals, query))
         except (anyio.ClosedResourceError, anyio.BrokenResourceError):
             query.drop()  # type: ignore[no-untyped-call]  # unanswered: the board is gone
+
+    async def _run_workers(
+        self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]
+    ) -> None:
+        async with admitted, anyio.create_task_group() as workers:
+            for _ in range(WORKERS):
+                workers.start_soon(self._work, admitted)
 
     async def _work(self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]) -> None:
         """Answer queries one after another; WORKERS of these pipeline on the link."""
