@@ -117,8 +117,15 @@ class Board:
         """Open ``port`` (a device path or pyserial URL) and wait until the board answers.
 
         ``timeout`` is the default per-request timeout; ``ready_timeout`` bounds the wait
-        for a board that resets when its port opens.
+        for a board that resets when its port opens.  ``zenoh://0x0007[@endpoint]`` opens
+        a board served on the network (:mod:`arduinoio_async.network`).
         """
+        if port.startswith("zenoh://"):
+            from .network import open_remote_board
+
+            async with open_remote_board(port, timeout=timeout, ready_timeout=ready_timeout) as b:
+                yield b
+            return
         stream = await open_serial_stream(port, baudrate)
         async with cls.connect(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=port

@@ -38,6 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
         "monitor", help="live page of the boards in the browser", add_help=False
     )
     monitor.add_argument("rest", nargs=argparse.REMAINDER)
+    serve = sub.add_parser(
+        "serve", help="serve this machine's boards on the network", add_help=False
+    )
+    serve.add_argument("rest", nargs=argparse.REMAINDER)
     return parser
 
 
@@ -58,6 +62,10 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
         from ..monitor.cli import main as monitor_main
 
         return monitor_main(args_list[1:], console=console)
+    if args_list[:1] == ["serve"]:
+        from ..network.cli import main as serve_main
+
+        return serve_main(args_list[1:])
     parser = build_parser()
     args = parser.parse_args(args_list)
     try:

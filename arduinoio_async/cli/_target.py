@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from ..board import Board
 from ..errors import ArduinoIOError, BoardError
 from ..manager import BoardManager, candidate_ports
+from ..network.options import add_remote_options, remote_board
 from ..protocol import DEFAULT_BAUD
 from ._roles import explain_busy_pin
 
@@ -64,6 +65,7 @@ def add_target_options(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument("--id", type=board_id, help="board ID to look for on all ports")
     add_scan_options(parser)
+    add_remote_options(parser)
 
 
 def manager_for(args: argparse.Namespace) -> BoardManager:
@@ -145,6 +147,10 @@ async def _explained(board: Board) -> AsyncIterator[None]:
 @asynccontextmanager
 async def target_board(args: argparse.Namespace) -> AsyncIterator[Target]:
     """The board named by ``--port`` or ``--id``, or the only board that answers."""
+    if getattr(args, "remote", False):
+        async with remote_board(args) as remote, _explained(remote):
+            yield Target(remote, args)
+        return
     if args.port:
         opened = Board.open(args.port, baudrate=args.baud, ready_timeout=args.probe_timeout)
         async with opened as board, _explained(board):

@@ -1,0 +1,407 @@
+"""``arduinoio serve``: the boards of a local BoardManager, served on a Zenoh session.
+
+Theory of operation
+-------------------
+Each board the manager has connected gets a queryable for requests, a publisher for its
+board-initiated frames and a liveliness token (see :mod:`._keys`); they go when the
+manager loses the board and come back when it reconnects.  A query is handed from
+Zenoh's thread to the event loop, numbered in arrival order, and on to the next free one
+of a pool of worker tasks (a task per query would cost more than the rest of the
+request).  A worker takes its query's turn (see ``_take_turn``) and puts the request on
+the board's one transport without suspending in between, so requests reach the link in
+the order the queries arrived, on any scheduler, and several clients' requests are
+pipelined on it like one client's.
+
+What the server changes on the way (everything else passes through untouched):
+
+* **Sessions are virtual.**  Every client's ``Board`` tags the board's session at
+  connect and polls it to notice resets.  A client's ``SetSession`` is answered by the
+  server and recorded with the *boot* it was set in (the server's own tag of the real
+  board, which changes whenever the manager meets a fresh boot); a client's
+  ``ReadStatus`` shows the client its own tag while that boot lasts and 0 -- a fresh
+  board -- once the board has reset or been replugged since.  So clients never take each
+  other's tags for a reset, and a real reset still reaches every client, which then
+  restores its own pin roles.
+* **The failsafe follows its owner.**  The client whose ``FailsafeArm`` went through
+  owns the failsafe.  When its liveliness token vanishes (the process died, the session
+  closed, the lease ran out) or it has sent nothing for the failsafe's timeout, the
+  server stops every byte to that board -- other clients' requests wait, and the
+  manager's heartbeat is held off -- until the board trips (or the timeout has passed
+  with a margin).  A dead controller's outputs therefore go safe within its timeout, as
+  they would if it had been on the USB cable itself.
+
+Pin roles are the board's: a vanished client's roles stay configured (outputs hold their
+levels unless its failsafe makes them safe); its sample stream, which nobody reads any
+more, is stopped.  Configuring a pin in the role it already has
+is accepted by the board, so a restarted controller sets its pins up again as usual; a
+different role needs the pin released first, as on any board.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import anyio
+import anyio.abc
+import zenoh
+from anyio.streams.memory import MemoryObjectReceiveStream
+
+from .. import protocol as p
+from ..board import Board
+from ..errors import ArduinoIOError, BoardDisconnectedError, BoardError
+from ..manager import BoardManager, ManagerEvent
+from ..transport import Transport
+from ._keys import (
+    ALL_CLIENTS,
+    board_key,
+    connection_key,
+    encode_fault,
+    events_key,
+    request_key,
+    undeclare,
+)
+from ._loop import LoopHandle
+
+__all__ = ["BoardServer"]
+
+log = logging.getLogger(__name__)
+
+#: After the failsafe owner is gone the board is starved this much beyond its timeout at
+#: most (a trip report normally ends the starvation sooner).
+STARVE_MARGIN = 0.2
+#: How often a starving board's heartbeat is held off and its owner's silence is checked.
+STARVE_TICK = 0.02
+#: Queries of one board in progress at once (the transport keeps at most 64 in flight).
+WORKERS = 64
+
+
+@dataclass
+class _Tag:
+    """A client's virtual session tag and the boot of the board it was set in."""
+
+    tag: int
+    boot: int | None  # None: set after a reboot the server has not re-tagged yet
+
+
+class _ServedBoard:
+    """One board on the network: queryable, event publisher, liveliness token."""
+
+    def __init__(self, server: BoardServer, board: Board) -> None:
+        self.server = server
+        self.board = board
+        # The transport is captured now: during a restore the manager detaches the Board
+        # from it, but the link itself goes on carrying the clients' requests.
+        self.link: Transport = board.link
+        self.board_id = board.board_id
+        # Parsed once: a key given as a string is parsed and checked on every reply.
+        self.key = zenoh.KeyExpr(request_key(self.board_id))
+        self.closed = False
+        self.tags: dict[str, _Tag] = {}
+        self.stale = False  # the board rebooted and the manager has not re-tagged it yet
+        self.owner: str | None = None  # the client whose failsafe is armed
+        self.owner_timeout = 0.0
+        self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
+        self.streamer: str | None = None  # the client whose stream runs (one per board)
+        self.last_heard: dict[str, float] = {}
+        self.gate: anyio.Event | None = None  # while the board is being starved
+        self.tripped = anyio.Event()
+        self._decoder = p.Decoder.from_host()
+        send, receive = anyio.create_memory_object_stream[tuple[int, zenoh.Query]](math.inf)
+        self._arrivals = 0  # queries admitted so far: each gets the next number
+        self._turn = 0  # number of the last query that went on to the link
+        self._turn_waiters = 0
+        self._turn_changed = anyio.Event()
+        self._admitted = send
+        server.start_soon(self._run_workers, receive)
+        session = server.session
+        loop = server.loop
+        self._unsubscribe = self.link.subscribe(self._on_event)
+        self.publisher = session.declare_publisher(events_key(self.board_id))
+        self.queryable = session.declare_queryable(
+            self.key,
+            loop.forward(self._admit),
+            complete=True,
+        )
+        self.token = session.liveliness().declare_token(board_key(self.board_id))
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        self._admitted.close()  # the workers answer what was admitted, then end
+        self._unsubscribe()
+        for entity in (self.token, self.queryable, self.publisher):
+            undeclare(entity)
+        if self.gate is not None:
+            self.gate.set()
+
+    # ---- board-initiated frames --------------------------------------------------------
+
+    def _on_event(self, event: p.Event) -> None:
+        if isinstance(event, p.FailsafeTripped):
+            self.tripped.set()
+        try:
+            self.publisher.put(event.encode())
+        except zenoh.ZError as exc:
+            log.debug("board 0x%04X: event not published: %s", self.board_id, exc)
+
+    # ---- requests --------------------------------------------------------------------
+
+    def _admit(self, query: zenoh.Query) -> None:
+        """In the loop, in arrival order: number the query, hand it to a free worker."""
+        self._arrivals += 1
+        try:
+            self._admitted.send_nowait((self._arrivals, query))
+        except (anyio.ClosedResourceError, anyio.BrokenResourceError):
+            query.drop()  # type: ignore[no-untyped-call]  # unanswered: the board is gone
+
+    async def _run_workers(
+        self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]
+    ) -> None:
+        async with admitted, anyio.create_task_group() as workers:
+            for _ in range(WORKERS):
+                workers.start_soon(self._work, admitted)
+
+    async def _work(self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]) -> None:
+        """Answer queries one after another; WORKERS of these pipeline on the link."""
+        async for number, query in admitted:
+            await self._answer(query, number)
+
+    async def _take_turn(self, number: int) -> None:
+        """Return once every query that arrived earlier has had its turn.
+
+        Workers may resume in any order (a worker that just finished can overtake one
+        that was woken for an earlier query); the turns restore arrival order.  The caller
+        must reach the link without suspending after this returns.
+        """
+        while self._turn + 1 != number:
+            self._turn_waiters += 1
+            try:
+                await self._turn_changed.wait()
+            finally:
+                self._turn_waiters -= 1
+        self._turn = number
+        if self._turn_waiters:
+            changed, self._turn_changed = self._turn_changed, anyio.Event()
+            changed.set()
+
+    async def _answer(self, query: zenoh.Query, number: int) -> None:
+        with query:
+            client = (
+                query.attachment.to_bytes().decode(errors="replace") if query.attachment else ""
+            )
+            payload = query.payload.to_bytes() if query.payload is not None else b""
+            frames = self._decoder.feed(payload)
+            self._decoder.reset()
+            if self.gate is not None:  # every query waits while the board is being starved
+                await self.gate.wait()
+            await self._take_turn(number)
+            if len(frames) != 1 or not isinstance(frames[0], p.Request):
+                query.reply_err(
+                    json.dumps(
+                        {"error": "ProtocolError", "message": "a query carries one request frame"}
+                    ).encode()
+                )
+                return
+            request: p.Request[Any] = frames[0]
+            if client:
+                self.last_heard[client] = anyio.current_time()
+            try:
+                if self.closed:
+                    raise BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
+                reply = await self._execute(client, request)
+            except BoardError as exc:
+                layout = request.LAYOUT
+                code = p.ErrorCode(exc.code)  # type: ignore[arg-type]
+                error = p.ErrorReply(layout.class_tag, layout.descriptor, code)
+                query.reply(self.key, error.encode())
+            except ArduinoIOError as exc:
+                query.reply_err(encode_fault(exc))
+            else:
+                query.reply(self.key, reply)
+
+    async def _execute(self, client: str, request: p.Request[Any]) -> bytes:
+        if isinstance(request, p.SetSession):
+            self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
+            return p.SetSessionReply(request.session).encode()
+        reply = await self.link.request(request)
+        if isinstance(reply, p.ReadStatusReply):
+            return self._virtual_status(client, reply).encode()
+        if isinstance(request, p.FailsafeArm):
+            self.owner, self.owner_timeout = client, request.timeout_ms / 1000
+            self.tripped = anyio.Event()
+            self.board.failsafe_tripped = False
+            self.arms += 1
+            self.server.start_soon(self._watch_owner, client, self.arms)
+        elif isinstance(request, p.FailsafeDisarm):
+            self.owner = None
+            self.board.failsafe_tripped = False
+        elif isinstance(request, p.StreamStart):
+            self.streamer = client
+        elif isinstance(request, p.StreamStop):
+            self.streamer = None
+        frame: bytes = reply.encode()
+        return frame
+
+    def _virtual_status(self, client: str, raw: p.ReadStatusReply) -> p.ReadStatusReply:
+        """The status as ``client`` must see it: its own tag, or 0 after a reboot."""
+        self.stale = raw.session != self.board.session
+        record = self.tags.get(client)
+        if record is None:
+            return raw
+        if self.stale:
+            session = record.tag if record.boot is None else 0
+        elif record.boot is None or record.boot == self.board.session:
+            record.boot = self.board.session
+            session = record.tag
+        else:
+            session = 0
+        return p.ReadStatusReply(raw.flags, session)
+
+    # ---- the failsafe's owner ----------------------------------------------------------
+
+    def client_gone(self, client: str) -> None:
+        self.tags.pop(client, None)
+        self.last_heard.pop(client, None)
+        if client == self.owner and not self.tripped.is_set():
+            self._starve(f"client {client} vanished")
+        if client == self.streamer:
+            self.streamer = None
+            self.server.start_soon(self._stop_stream_of, client)
+
+    async def _stop_stream_of(self, client: str) -> None:
+        """Nobody reads a vanished client's stream: stop it (after any starving)."""
+        if self.gate is not None:
+            await self.gate.wait()
+        try:
+            await self.link.request(p.StreamStop())
+        except ArduinoIOError as exc:
+            log.info("board 0x%04X: stream of %s not stopped: %s", self.board_id, client, exc)
+        else:
+            log.info(
+                "board 0x%04X: stopped the stream of vanished client %s", self.board_id, client
+            )
+
+    async def _watch_owner(self, client: str, arm: int) -> None:
+        """While ``client`` owns this arming, starve the board once it falls silent."""
+        while (
+            self.arms == arm
+            and self.owner == client
+            and not self.closed
+            and not self.tripped.is_set()
+        ):
+            silent_for = anyio.current_time() - self.last_heard.get(client, 0.0)
+            if silent_for > self.owner_timeout and self.gate is None:
+                self._starve(f"client {client} silent for {silent_for * 1000:.0f} ms")
+                return
+            await anyio.sleep(max(STARVE_TICK, self.owner_timeout - silent_for))
+
+    def _starve(self, reason: str) -> None:
+        if self.gate is not None or self.closed:
+            return
+        log.warning("board 0x%04X: %s; letting its failsafe trip", self.board_id, reason)
+        self.gate = anyio.Event()
+        self.server.start_soon(self._starve_until_tripped, self.gate)
+
+    async def _starve_until_tripped(self, gate: anyio.Event) -> None:
+        give_up = anyio.current_time() + self.owner_timeout + STARVE_MARGIN
+        try:
+            while not self.tripped.is_set() and anyio.current_time() < give_up:
+                # The manager's heartbeat skips a link that sent recently: keep it quiet.
+                self.link.last_send = anyio.current_time()
+                with anyio.move_on_after(STARVE_TICK):
+                    await self.tripped.wait()
+            if not self.tripped.is_set():
+                log.warning("board 0x%04X: no failsafe trip reported", self.board_id)
+        finally:
+            self.owner = None
+            self.gate = None
+            gate.set()
+
+
+class BoardServer:
+    """Serves every board of ``manager`` on ``session`` until cancelled.
+
+    ``async with BoardManager(...) as boards: await BoardServer(boards, session).run()``
+    """
+
+    def __init__(self, manager: BoardManager, session: zenoh.Session) -> None:
+        self.manager = manager
+        self.session = session
+        self.served: dict[int, _ServedBoard] = {}
+        self._task_group: anyio.abc.TaskGroup | None = None
+        self._loop: LoopHandle | None = None
+
+    @property
+    def loop(self) -> LoopHandle:
+        assert self._loop is not None, "the server is not running"
+        return self._loop
+
+    def start_soon(self, func: Any, *args: Any) -> None:
+        if self._task_group is not None:
+            self._task_group.start_soon(func, *args)
+
+    async def run(
+        self, *, task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED
+    ) -> None:
+        """Serve until cancelled; ``task_status.started()`` once the present boards are up."""
+        self._loop = LoopHandle()
+        loop = self._loop
+        clients = self.session.liveliness().declare_subscriber(
+            ALL_CLIENTS,
+            loop.forward(self._on_client),
+        )
+        unsubscribe = self.manager.subscribe(self._on_manager_event)
+        try:
+            async with anyio.create_task_group() as tg:
+                self._task_group = tg
+                for board in self.manager.present().values():
+                    self._serve(board)
+                task_status.started()
+                await anyio.sleep_forever()
+        finally:
+            self._task_group = None
+            unsubscribe()
+            for served in self.served.values():
+                served.close()
+            self.served.clear()
+            undeclare(clients)
+
+    def _serve(self, board: Board) -> None:
+        old = self.served.pop(board.board_id, None)
+        if old is not None:
+            old.close()
+        if board.connected:
+            self.served[board.board_id] = _ServedBoard(self, board)
+            log.info("serving board 0x%04X from %s", board.board_id, board.port)
+
+    def _on_manager_event(self, event: ManagerEvent) -> None:
+        if event.kind == "connected":
+            board = self.manager.present().get(event.board_id)
+            if board is not None:
+                self._serve(board)
+        elif event.kind == "disconnected":
+            served = self.served.get(event.board_id)
+            if served is not None and served.link.name == event.port:
+                self.served.pop(event.board_id).close()
+        self._publish_event(event)
+
+    def _publish_event(self, event: ManagerEvent) -> None:
+        if event.kind == "failsafe":
+            return  # the trip itself is on the event key; re-arming is the clients' job
+        message = {"kind": event.kind, "port": event.port, "detail": event.detail}
+        try:
+            self.session.put(connection_key(event.board_id), json.dumps(message).encode())
+        except zenoh.ZError as exc:
+            log.debug("connection event not published: %s", exc)
+
+    def _on_client(self, sample: zenoh.Sample) -> None:
+        if sample.kind != zenoh.SampleKind.DELETE:
+            return
+        client = str(sample.key_expr).rsplit("/", 1)[-1]
+        for served in list(self.served.values()):
+            served.client_gone(client)

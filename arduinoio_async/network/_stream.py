@@ -1,0 +1,209 @@
+"""A remote board as an anyio byte stream: a normal ``Transport`` runs on top of it.
+
+Theory of operation
+-------------------
+``send()`` splits the bytes into request frames with the protocol's host-side decoder and
+issues one Zenoh query per frame, each numbered (a *slot*).  Replies come back on Zenoh's
+threads in any order; each is handed to the event loop (never waiting there) and held
+until every earlier slot is settled, so ``receive()`` yields reply frames strictly in the
+order the requests were sent -- the order the transport's pending queue expects.
+Board-initiated frames (class 0x40) arrive as publications and join the same byte queue
+as they arrive; the transport's decoder sorts them from the replies as it does on a
+serial line.
+
+A slot settles in one of three ways:
+
+* a reply frame (an error reply frame included): its bytes are delivered;
+* a *link fault* on the server (its link timed out or lost sync): one byte that no frame
+  starts with is delivered in the slot's place.  The transport treats it like line noise:
+  everything in flight fails with :class:`~arduinoio_async.errors.LinkResyncError`
+  (their fate on the board is unknown, as the server's own link says) and it resyncs
+  with an ID request, which travels as a query like any other;
+* the board is gone (the server answered ``BoardDisconnectedError``, or nobody answered
+  at all): the stream breaks, so the transport fails everything with
+  :class:`~arduinoio_async.errors.BoardDisconnectedError`.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+
+import anyio
+import anyio.abc
+import zenoh
+
+from .. import protocol as p
+from ._keys import RemoteFault, decode_fault, events_key, request_key, undeclare
+from ._loop import LoopHandle, zenoh_callback
+
+__all__ = ["LINK_FAULT_BYTE", "RemoteByteStream"]
+
+log = logging.getLogger(__name__)
+
+#: Stands in for a reply the server could not get: 0x00 starts no frame, and lacks the
+#: error flag, so the transport's decoder reports it as garbage at once.
+LINK_FAULT_BYTE = b"\x00"
+#: Longest a query may wait for its reply before it counts as unanswered (the transport's
+#: own per-request timeout is much shorter and acts first).
+QUERY_TIMEOUT = 10.0
+
+_NO_REPLY = RemoteFault("BoardDisconnectedError", "no server answered")
+
+
+class _Slot:
+    """Callbacks of one query, run on Zenoh's threads; they only schedule."""
+
+    __slots__ = ("_answered", "_loop", "_number", "_stream")
+
+    def __init__(self, stream: RemoteByteStream, number: int, loop: LoopHandle) -> None:
+        self._stream = stream
+        self._number = number
+        self._loop = loop
+        self._answered = False
+
+    def on_reply(self, reply: zenoh.Reply) -> None:
+        self._answered = True
+        sample = reply.ok
+        if sample is not None:
+            result: bytes | RemoteFault = sample.payload.to_bytes()
+        else:
+            error = reply.err
+            result = decode_fault(error.payload.to_bytes() if error is not None else b"")
+        self._loop.call_soon(self._stream._settle, self._number, result)
+
+    def on_done(self) -> None:
+        # Both run on the thread that received the query's messages, reply first; waking
+        # the loop for a query that was answered would only cost time.
+        if not self._answered:
+            self._loop.call_soon(self._stream._settle, self._number, _NO_REPLY)
+
+
+class RemoteByteStream(anyio.abc.ByteStream):
+    """The byte stream of board ``board_id`` served somewhere on the Zenoh network."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        board_id: int,
+        client_id: str,
+        *,
+        query_timeout: float = QUERY_TIMEOUT,
+    ) -> None:
+        self.board_id = board_id
+        #: The transport names its link after this.
+        self.port = f"zenoh://0x{board_id:04X}"
+        self._loop = LoopHandle()
+        self._decoder = p.Decoder.from_host()
+        self._attachment = client_id.encode()
+        self._querier = session.declare_querier(
+            request_key(board_id),
+            timeout=query_timeout,
+            consolidation=zenoh.ConsolidationMode.NONE,
+        )
+        self._issued = 0
+        self._next = 0
+        self._settled: dict[int, bytes | RemoteFault] = {}
+        self._chunks: collections.deque[bytes] = collections.deque()
+        self._arrived = anyio.Event()
+        self._error: anyio.BrokenResourceError | None = None
+        self._closed = False
+        #: The server's link faults seen so far (class name and message), for diagnostics.
+        self.faults: list[RemoteFault] = []
+        self._subscriber = session.declare_subscriber(
+            events_key(board_id),
+            self._loop.forward(self._deliver_event),
+        )
+
+    # ---- anyio.abc.ByteStream ---------------------------------------------------------
+
+    async def receive(self, max_bytes: int = 65536) -> bytes:
+        while not self._chunks:
+            if self._closed:
+                raise anyio.ClosedResourceError
+            if self._error is not None:
+                raise self._error
+            self._arrived = anyio.Event()
+            await self._arrived.wait()
+        data = self._chunks.popleft()
+        while self._chunks and len(data) + len(self._chunks[0]) <= max_bytes:
+            data += self._chunks.popleft()
+        if len(data) > max_bytes:
+            data, rest = data[:max_bytes], data[max_bytes:]
+            self._chunks.appendleft(rest)
+        return data
+
+    def send_nowait(self, item: bytes) -> None:
+        """Issue one query per complete request frame in ``item`` (never suspends)."""
+        if self._closed:
+            raise anyio.ClosedResourceError
+        if self._error is not None:
+            raise self._error
+        frames = self._decoder.feed(item)
+        whole = len(frames) == 1 and not self._decoder.buffered
+        for frame in frames:
+            if isinstance(frame, p.Garbage):
+                # Only a request can reach the board through a query; a host sends none.
+                log.warning("%s: %d bytes are no request, not sent", self.port, len(frame.data))
+                continue
+            self._query(bytes(item) if whole else frame.encode())
+
+    async def send(self, item: bytes) -> None:
+        self.send_nowait(item)
+
+    async def send_eof(self) -> None:
+        await self.aclose()
+
+    async def aclose(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self._arrived.set()
+        # Undeclaring waits for running callbacks; ours only schedule, so it is quick.
+        undeclare(self._subscriber)
+        undeclare(self._querier)
+
+    # ---- internals -------------------------------------------------------------------
+
+    def _query(self, frame: bytes) -> None:
+        slot = _Slot(self, self._issued, self._loop)
+        self._issued += 1
+        try:
+            self._querier.get(
+                zenoh_callback(slot.on_reply, slot.on_done),
+                payload=frame,
+                attachment=self._attachment,
+            )
+        except zenoh.ZError as exc:
+            self._break(f"query failed: {exc}")
+
+    def _settle(self, number: int, result: bytes | RemoteFault) -> None:
+        """Record a slot's outcome (the first one wins) and deliver every slot now due."""
+        if number < self._next or number in self._settled:
+            return
+        self._settled[number] = result
+        while self._next in self._settled:
+            outcome = self._settled.pop(self._next)
+            self._next += 1
+            if isinstance(outcome, bytes):
+                self._push(outcome)
+            elif outcome.disconnected:
+                self._break(f"{outcome.message} ({outcome.error} on the server)")
+            else:
+                self.faults.append(outcome)
+                log.warning("%s: server link fault: %s", self.port, outcome.message)
+                self._push(LINK_FAULT_BYTE)
+
+    def _deliver_event(self, sample: zenoh.Sample) -> None:
+        self._push(sample.payload.to_bytes())
+
+    def _push(self, data: bytes) -> None:
+        if self._closed or self._error is not None:
+            return
+        self._chunks.append(data)
+        self._arrived.set()
+
+    def _break(self, reason: str) -> None:
+        if self._error is None and not self._closed:
+            self._error = anyio.BrokenResourceError(f"{self.port}: {reason}")
+            self._arrived.set()

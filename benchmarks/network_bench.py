@@ -1,0 +1,284 @@
+"""Remote round trip against local, next to Zenoh's own get/queryable floor (issue 15).
+
+Two virtual Unos with the same firmware and baud rate: board 1 is served by
+``arduinoio serve`` in a process of its own and reached over Zenoh (loopback TCP); board
+2 is opened on its port by this process.  A third process is a bare Zenoh queryable that
+answers every query in its callback with the query's payload: the *floor*, what a
+get/queryable round trip costs with nothing of ours in it.  In rounds, interleaved, the
+bench measures batches of sequential round trips of
+
+* ``local``: ``board.read_id()`` on the local port;
+* ``remote``: ``board.read_id()`` on the remote board (the same typed API);
+* ``floor``: a 3-byte get on the echo queryable from this event loop (a callback handler
+  handing the reply to the loop, the way any asyncio program receives it);
+* ``floor_blocking``: the same get from a plain thread, blocking on Zenoh's channel;
+* ``floor_server_loop``: the get on a queryable that answers from its event loop (the
+  one thread-to-loop hop any asyncio server adds);
+
+then the pipelined throughput (many concurrent tasks) of the remote and the local board.
+The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  As the
+machine's load drifts, the ratio is also taken round by round (medians of each batch) and
+reported as the median over rounds with its quartiles.
+
+    .venv/bin/python benchmarks/network_bench.py --json benchmarks/results/network.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import socket
+import statistics
+import sys
+import time
+from collections.abc import Awaitable, Callable
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import anyio
+import anyio.abc
+import zenoh
+from anyio.streams.buffered import BufferedByteReceiveStream
+
+from arduinoio_async.bench.stats import summarize
+from arduinoio_async.board import Board
+from arduinoio_async.network import open_remote_board, zenoh_config
+from arduinoio_async.network._keys import undeclare
+from arduinoio_async.network._loop import LoopHandle, zenoh_callback
+from arduinoio_async.sim import VirtualUno
+
+ECHO_KEY = "arduinoio/bench/echo"
+ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
+PAYLOAD = bytes((0x01, 0x01, 0x00))
+
+
+def free_endpoint() -> str:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{sock.getsockname()[1]}"
+
+
+async def run_echo(endpoint: str) -> None:
+    """The floor's peer: ``echo`` answers in Zenoh's thread, nothing else; ``echo_loop``
+    answers from this process's event loop (one thread-to-loop hop, as a server has)."""
+    session = zenoh.open(zenoh_config(listen=[endpoint]))
+
+    def answer(query: zenoh.Query) -> None:
+        with query:
+            query.reply(query.key_expr, query.payload.to_bytes() if query.payload else b"")
+
+    direct = session.declare_queryable(ECHO_KEY, zenoh_callback(answer))
+    looped = session.declare_queryable(ECHO_LOOP_KEY, LoopHandle().forward(answer))
+    print("ready", flush=True)
+    await anyio.to_thread.run_sync(sys.stdin.read)  # until the bench closes our stdin
+    undeclare(direct)
+    undeclare(looped)
+    session.close()  # type: ignore[no-untyped-call]
+
+
+async def start(command: list[str]) -> tuple[anyio.abc.Process, bytes]:
+    process = await anyio.open_process(command)
+    assert process.stdout is not None
+    with anyio.fail_after(30):
+        line = await BufferedByteReceiveStream(process.stdout).receive_until(b"\n", 4096)
+    return process, line
+
+
+async def batch(call: Callable[[], Awaitable[object]], count: int) -> list[float]:
+    samples = []
+    for _ in range(count):
+        begin = time.perf_counter()
+        await call()
+        samples.append((time.perf_counter() - begin) * 1000)
+    return samples
+
+
+def blocking_batch(querier: zenoh.Querier, count: int) -> list[float]:
+    samples = []
+    for _ in range(count):
+        begin = time.perf_counter()
+        for reply in querier.get(payload=PAYLOAD):
+            assert reply.ok is not None
+        samples.append((time.perf_counter() - begin) * 1000)
+    return samples
+
+
+async def throughput(board: Board, seconds: float, tasks: int) -> float:
+    done = 0
+    end = anyio.current_time() + seconds
+
+    async def worker() -> None:
+        nonlocal done
+        while anyio.current_time() < end:
+            await board.read_id()
+            done += 1
+
+    begin = anyio.current_time()
+    async with anyio.create_task_group() as tg:
+        for _ in range(tasks):
+            tg.start_soon(worker)
+    return done / (anyio.current_time() - begin)
+
+
+async def bench(args: argparse.Namespace) -> dict[str, Any]:
+    serve_ep, echo_ep = free_endpoint(), free_endpoint()
+    async with (
+        VirtualUno(board_id=1, baud=args.baud) as served,
+        VirtualUno(board_id=2, baud=args.baud) as local_uno,
+    ):
+        server, _ = await start(
+            [
+                sys.executable,
+                "-m",
+                "arduinoio_async",
+                "serve",
+                "--no-usb",
+                "--ports",
+                served.port,
+                "--baud",
+                str(args.baud),
+                "--listen",
+                serve_ep,
+            ]
+        )
+        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep])
+        try:
+            session = await anyio.to_thread.run_sync(
+                zenoh.open, zenoh_config(connect=[serve_ep, echo_ep])
+            )
+            loop = LoopHandle()
+            querier = session.declare_querier(ECHO_KEY, consolidation=zenoh.ConsolidationMode.NONE)
+
+            looped_querier = session.declare_querier(
+                ECHO_LOOP_KEY, consolidation=zenoh.ConsolidationMode.NONE
+            )
+
+            async def get(on: zenoh.Querier) -> None:
+                arrived = anyio.Event()
+                got: list[bytes] = []
+
+                def on_reply(reply: zenoh.Reply) -> None:
+                    assert reply.ok is not None
+                    got.append(reply.ok.payload.to_bytes())
+                    arrived.set()
+
+                on.get(loop.forward(on_reply), payload=PAYLOAD)
+                await arrived.wait()
+                assert got == [PAYLOAD]
+
+            floor = partial(get, querier)
+            floor_looped = partial(get, looped_querier)
+
+            samples: dict[str, list[float]] = {
+                "local": [],
+                "remote": [],
+                "floor": [],
+                "floor_blocking": [],
+                "floor_server_loop": [],
+            }
+            async with (
+                Board.open(local_uno.port, baudrate=args.baud) as local,
+                open_remote_board(1, session=session) as remote,
+            ):
+                for _kind, call in (
+                    ("local", local.read_id),
+                    ("remote", remote.read_id),
+                    ("floor", floor),
+                ):
+                    await batch(call, 20)  # warm-up
+                for _ in range(args.rounds):
+                    samples["local"] += await batch(local.read_id, args.batch)
+                    samples["remote"] += await batch(remote.read_id, args.batch)
+                    samples["floor"] += await batch(floor, args.batch)
+                    samples["floor_server_loop"] += await batch(floor_looped, args.batch)
+                    samples["floor_blocking"] += await anyio.to_thread.run_sync(
+                        blocking_batch, querier, args.batch
+                    )
+                rates: dict[str, list[float]] = {"local": [], "remote": []}
+                for _ in range(3):
+                    rates["local"].append(await throughput(local, args.seconds, args.tasks))
+                    rates["remote"].append(await throughput(remote, args.seconds, args.tasks))
+            undeclare(querier)
+            undeclare(looped_querier)
+            await anyio.to_thread.run_sync(session.close)
+        finally:
+            for process in (server, echo):
+                if process is echo and process.stdin is not None:
+                    await process.stdin.aclose()
+                process.terminate()
+                await process.wait()
+    summary = {kind: summarize(values).as_dict() for kind, values in samples.items()}
+    # The machine's load drifts: each round's medians are compared within the round.
+    per_round = {
+        kind: [
+            statistics.median(values[i : i + args.batch]) for i in range(0, len(values), args.batch)
+        ]
+        for kind, values in samples.items()
+    }
+    ratios = {
+        floor: sorted(
+            (remote - local) / low
+            for remote, local, low in zip(
+                per_round["remote"], per_round["local"], per_round[floor], strict=True
+            )
+        )
+        for floor in ("floor", "floor_server_loop", "floor_blocking")
+    }
+    overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
+    return {
+        "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
+        "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
+        "zenoh": zenoh.__version__ if hasattr(zenoh, "__version__") else "1.x",
+        "baud": args.baud,
+        "rounds": args.rounds,
+        "batch": args.batch,
+        "round_trip_ms": summary,
+        "remote_overhead_ms": overhead,
+        "overhead_over_floor_per_round": {
+            floor: {
+                "median": round(statistics.median(values), 3),
+                "quartiles": [
+                    round(values[len(values) // 4], 3),
+                    round(values[-1 - len(values) // 4], 3),
+                ],
+            }
+            for floor, values in ratios.items()
+        },
+        "overhead_over_floor_p50": overhead["p50"] / summary["floor"]["p50"],
+        "overhead_over_blocking_floor_p50": overhead["p50"] / summary["floor_blocking"]["p50"],
+        "overhead_over_server_loop_floor_p50": overhead["p50"]
+        / summary["floor_server_loop"]["p50"],
+        "pipelined_requests_per_s": {
+            kind: {"median": sorted(v)[1], "runs": [round(x, 1) for x in v]}
+            for kind, v in rates.items()
+        },
+        "pipelined_tasks": args.tasks,
+        "samples_ms": {k: [round(x, 4) for x in v] for k, v in samples.items()},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--echo", metavar="ENDPOINT", help=argparse.SUPPRESS)
+    parser.add_argument("--baud", type=int, default=115200)
+    parser.add_argument("--rounds", type=int, default=20)
+    parser.add_argument("--batch", type=int, default=50)
+    parser.add_argument("--seconds", type=float, default=2.0, help="per throughput run")
+    parser.add_argument("--tasks", type=int, default=16, help="concurrent tasks (pipelining)")
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    if args.echo:
+        anyio.run(run_echo, args.echo)
+        return
+    result = anyio.run(bench, args)
+    shown = {k: v for k, v in result.items() if k != "samples_ms"}
+    print(json.dumps(shown, indent=2))
+    if args.json:
+        args.json.write_text(json.dumps(result, separators=(",", ":")) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,221 @@
+"""The Zenoh-backed byte stream under a normal Transport, against a scripted queryable.
+
+No simulator: a queryable in this process answers request frames the way a test wants
+(out of order, with a link fault, not at all), and the transport on the client's end
+must still deliver every reply to the caller it was verified for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator, Callable
+
+import anyio
+import pytest
+import zenoh
+
+from arduinoio_async import protocol as p
+from arduinoio_async.errors import (
+    BoardDisconnectedError,
+    BoardError,
+    BoardTimeoutError,
+    LinkResyncError,
+)
+from arduinoio_async.network import RemoteByteStream, zenoh_config
+from arduinoio_async.network._keys import encode_fault, events_key, request_key
+from arduinoio_async.network._loop import LoopHandle
+from arduinoio_async.transport import Transport
+
+BOARD = 0x0009
+
+
+class ScriptedBoard:
+    """A queryable for board 9 whose answers the test releases (``answer``)."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self.session = session
+        self.queries: list[zenoh.Query] = []
+        self.arrived = anyio.Event()
+        self.queryable = session.declare_queryable(
+            request_key(BOARD), LoopHandle().forward(self._on_query)
+        )
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        self.queries.append(query)
+        self.arrived.set()
+        self.arrived = anyio.Event()
+
+    async def wait_queries(self, count: int) -> None:
+        with anyio.fail_after(5):
+            while len(self.queries) < count:
+                await self.arrived.wait()
+
+    @staticmethod
+    def request_of(query: zenoh.Query) -> p.Request[p.Reply]:
+        assert query.payload is not None
+        (frame,) = p.Decoder.from_host().feed(query.payload.to_bytes())
+        assert isinstance(frame, p.Request)
+        return frame
+
+    def answer(self, index: int, how: Callable[[zenoh.Query], None] | None = None) -> None:
+        query = self.queries[index]
+        with query:
+            if how is not None:
+                how(query)
+                return
+            request = self.request_of(query)
+            if isinstance(request, p.ReadId):
+                query.reply(request_key(BOARD), p.ReadIdReply(BOARD).encode())
+            elif isinstance(request, p.AnalogRead):
+                reply = p.AnalogReadReply(request.channel, 100 * request.channel)
+                query.reply(request_key(BOARD), reply.encode())
+
+    def answer_all_from(self, start: int) -> None:
+        for index in range(start, len(self.queries)):
+            self.answer(index)
+
+
+@pytest.fixture
+async def session() -> AsyncIterator[zenoh.Session]:
+    opened = await anyio.to_thread.run_sync(zenoh.open, zenoh_config())
+    try:
+        yield opened
+    finally:
+        await anyio.to_thread.run_sync(opened.close)
+
+
+async def test_replies_are_delivered_in_request_order(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    results: dict[int, int] = {}
+    async with Transport(stream, name="remote") as link:
+
+        async def read(channel: int) -> None:
+            results[channel] = (await link.request(p.AnalogRead(channel))).value
+
+        async with anyio.create_task_group() as tg:
+            for channel in range(6):
+                tg.start_soon(read, channel)
+            await board.wait_queries(6)
+            for index in reversed(range(6)):  # the network delivers them backwards
+                board.answer(index)
+    assert results == {channel: 100 * channel for channel in range(6)}
+
+
+async def test_events_reach_subscribers_between_replies(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    seen: list[p.Event | p.Reply] = []
+    got = anyio.Event()
+
+    def on_event(event: p.Event) -> None:
+        seen.append(event)
+        got.set()
+
+    async with Transport(stream, name="remote") as link:
+        link.subscribe(on_event)
+        session.put(events_key(BOARD), p.FailsafeTripped().encode())
+        with anyio.fail_after(5):
+            await got.wait()
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(board.wait_queries, 1)
+
+            async def answer() -> None:
+                await board.wait_queries(1)
+                board.answer(0)
+
+            tg.start_soon(answer)
+            seen.append(await link.request(p.ReadId()))
+    assert seen == [p.FailsafeTripped(), p.ReadIdReply(BOARD)]
+
+
+async def test_an_error_reply_frame_is_the_boards_refusal(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    descriptor = p.AnalogRead.LAYOUT.descriptor
+    refusal = p.ErrorReply(p.ClassTag.ANALOG, descriptor, p.ErrorCode.PIN_NOT_CAPABLE)
+
+    async def refuse() -> None:
+        await board.wait_queries(1)
+        board.answer(0, lambda q: q.reply(request_key(BOARD), refusal.encode()))
+
+    async with Transport(stream, name="remote") as link, anyio.create_task_group() as tg:
+        tg.start_soon(refuse)
+        with pytest.raises(BoardError) as refused:
+            await link.request(p.AnalogRead(3))
+        assert refused.value.code is p.ErrorCode.PIN_NOT_CAPABLE
+        assert link.state.value == "ready"  # a refusal is no link fault
+
+
+async def test_a_server_link_fault_resyncs_the_client(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    errors: list[BaseException] = []
+    fault = encode_fault(BoardTimeoutError("the server's link timed out"))
+    async with Transport(stream, name="remote") as link:
+
+        async def read(channel: int) -> None:
+            try:
+                await link.request(p.AnalogRead(channel))
+            except LinkResyncError as exc:
+                errors.append(exc)
+
+        async with anyio.create_task_group() as tg:
+            for channel in range(3):
+                tg.start_soon(read, channel)
+            await board.wait_queries(3)
+            board.answer(0, lambda q: q.reply_err(fault))
+            await board.wait_queries(4)  # the transport's resync probe: an ID request
+            assert isinstance(board.request_of(board.queries[3]), p.ReadId)
+            board.answer_all_from(1)
+        assert len(errors) == 3  # the fate of everything in flight is unknown
+        assert [f.error for f in stream.faults] == ["BoardTimeoutError"]
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(board.wait_queries, 5)
+            reply = None
+
+            async def later() -> None:
+                nonlocal reply
+                reply = await link.request(p.AnalogRead(2))
+
+            tg.start_soon(later)
+            await board.wait_queries(5)
+            board.answer(4)
+        assert reply == p.AnalogReadReply(2, 200)
+
+
+async def test_a_vanished_board_disconnects(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    async with Transport(stream, name="remote") as link:
+        async with anyio.create_task_group() as tg:
+
+            async def drop_it() -> None:
+                await board.wait_queries(1)
+                board.answer(0, lambda q: None)  # finalised without a reply
+
+            tg.start_soon(drop_it)
+            with pytest.raises(BoardDisconnectedError):
+                await link.request(p.ReadId())
+        with pytest.raises(BoardDisconnectedError):
+            await link.request(p.ReadId())
+
+
+async def test_a_cancelled_callers_reply_is_consumed_in_order(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    async with Transport(stream, name="remote") as link:
+        with anyio.move_on_after(0.05) as scope:  # gives up before its reply comes
+            await link.request(p.AnalogRead(1))
+        assert scope.cancelled_caught
+        results: list[p.AnalogReadReply] = []
+
+        async def read() -> None:
+            results.append(await link.request(p.AnalogRead(2)))
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(read)
+            await board.wait_queries(2)
+            board.answer(1)  # the later reply first: it must wait for the abandoned one
+            board.answer(0)
+        assert results == [p.AnalogReadReply(2, 200)]
+        assert link.stats.dropped_late_replies == 1
