@@ -20,6 +20,7 @@ from ..board import Board
 from ..cli._target import add_scan_options, board_id
 from ..errors import ArduinoIOError, UsageError
 from ..manager import BoardManager
+from ..network.options import add_remote_options, remote_board
 
 __all__ = ["build_parser", "main"]
 
@@ -31,14 +32,9 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
         prog=prog,
         description="Serve a live page of the boards: every pin, live plots, controls.",
     )
-    target = parser.add_mutually_exclusive_group()
-    target.add_argument("--port", help="serial port or pyserial URL of the board")
-    target.add_argument(
-        "--remote",
-        action="store_true",
-        help="boards served on the network by `arduinoio serve` (with --id: that one)",
-    )
+    parser.add_argument("--port", help="serial port or pyserial URL of the board")
     parser.add_argument("--id", type=board_id, help="board ID to look for on all ports")
+    add_remote_options(parser)  # --remote --id N: a board served by `arduinoio serve`
     parser.add_argument(
         "--http",
         default="127.0.0.1:8000",
@@ -58,11 +54,12 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
 @asynccontextmanager
 async def _boards(args: argparse.Namespace) -> AsyncIterator[list[Board]]:
     if args.remote:
-        # Remote boards are Board objects too: the network module's client hands them over
-        # here and the rest of the monitor is unchanged.
-        if importlib.util.find_spec("arduinoio_async.network") is None:
-            raise UsageError("--remote needs the network module, which this install lacks")
-        raise UsageError("--remote is not wired to the network module yet")
+        # Remote boards are Board objects too: the rest of the monitor is unchanged.
+        if args.port:
+            raise UsageError("--remote and --port name a board twice: give --remote --id N")
+        async with remote_board(args) as board:
+            yield [board]
+        return
     if args.port and args.id is not None:
         raise UsageError("--port and --id name a board twice: give one of them")
     if args.port:

@@ -49,7 +49,8 @@ def test_the_page_loads_nothing_from_outside() -> None:
     ("argv", "message"),
     [
         (["--port", "loop://", "--http", "nowhere"], "HOST:PORT"),
-        (["--remote", "--id", "7"], "network module"),
+        (["--remote"], "--remote needs --id"),
+        (["--remote", "--id", "7", "--port", "loop://"], "name a board twice"),
         (["--port", "loop://", "--id", "7"], "give one of them"),
     ],
 )
