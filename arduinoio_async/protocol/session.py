@@ -225,6 +225,8 @@ class Session:
         self._flight: collections.deque[Exchange] = collections.deque()
         self._flight_bytes = 0
         self._suspect = False
+        #: Garbage bytes since the last frame that was placed (to place the next one).
+        self._noise = 0
         self._marker: Exchange | None = None
         self._candidate_ids: set[int] = set()
         self._aligned = True
@@ -358,7 +360,9 @@ class Session:
                     return
             self._locate(item, out)
         elif isinstance(item, ErrorReply):
-            if item.framing:
+            if item.framing and self._suspect:
+                self._noise += item.SIZE  # right after noise, more likely noise than news
+            elif item.framing:
                 self._lose_sync(f"board reported {item.code.name}", out)
             elif flight and not self._suspect and item.answers(flight[0].request):
                 head = flight[0]
@@ -371,6 +375,7 @@ class Session:
             if not flight:
                 return  # noise between replies costs nothing
             self._suspect = True
+            self._noise += len(item.data)
             if self._marker is None:
                 marker = Exchange(ReadCapabilities(), ReadCapabilities().encode(), internal=True)
                 self._marker = marker
@@ -402,22 +407,37 @@ class Session:
                 self._lose_sync("reply mismatch", out, head, error)
             return
         if len(matches) > 1:
-            # The frame may answer a later request whose predecessors all lost replies.
-            self._lose_sync(f"{type(item).__name__} after line noise is ambiguous", out)
-            return
+            # The frame may answer a later request whose predecessors all lost replies:
+            # keep the positions whose lost replies explain the noise seen.
+            matches = [k for k in matches if self._explains_noise(k)]
+            if len(matches) != 1:
+                self._lose_sync(f"{type(item).__name__} after line noise is ambiguous", out)
+                return
         retries: list[Exchange] = []
         for _ in range(matches[0]):
             self._lose_head(out, retries)
         self._queue.extendleft(reversed(retries))
         self._suspect = False
+        self._noise = 0
         self.stats.resyncs += 1
         if isinstance(item, Reply):
             self._complete_head(item, None, out)
         else:
             self._complete_head(None, board_error(item, flight[0].request), out)
 
+    def _explains_noise(self, k: int) -> bool:
+        """Could the replies of the first ``k`` requests in flight have become the garbage
+        seen (each damaged reply loses or gains at most a byte or two)?"""
+        low = high = 0
+        for exchange in list(self._flight)[:k]:
+            layout = exchange.request.REPLY.LAYOUT
+            low += min(layout.base_size, ErrorReply.SIZE) - 1
+            high += layout.max_size + 2
+        return low <= self._noise <= high + 2
+
     def _complete_head(self, reply: Reply | None, error: BoardError | None, out: Received) -> None:
         exchange = self._flight.popleft()
+        self._noise = 0
         self._flight_bytes -= exchange.size
         self.stats.replies += 1
         if exchange is self._marker:
@@ -505,6 +525,7 @@ class Session:
         self._flight.clear()
         self._flight_bytes = 0
         self._suspect = False
+        self._noise = 0
         self._marker = None
         retries: list[Exchange] = []
         for index, exchange in enumerate(flight):

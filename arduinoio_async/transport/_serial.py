@@ -145,10 +145,13 @@ class SerialByteStream(anyio.abc.ByteStream):
     async def receive(self, max_bytes: int = 65536) -> bytes:
         while True:
             self._check_open()
+            # Wait first: with VMIN = VTIME = 0 (pyserial's timeout=0) a tty's read
+            # returns b"" when empty, which only after readiness means "gone".
+            await anyio.wait_readable(self._fd)
+            self._check_open()
             try:
                 data = os.read(self._fd, max_bytes)
             except (BlockingIOError, InterruptedError):
-                await anyio.wait_readable(self._fd)
                 continue
             except OSError as exc:
                 self._lost = exc
