@@ -23,6 +23,7 @@ from __future__ import annotations
 import glob
 import os
 from collections.abc import Callable, Iterable, Sequence
+from contextlib import AsyncExitStack
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Literal
@@ -152,25 +153,38 @@ class BoardManager:
     _listeners: list[Callable[[ManagerEvent], None]] = field(default_factory=list, init=False)
     _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
     _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
+    _exit_stack: AsyncExitStack | None = field(default=None, init=False)
     _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
     #: Board ID -> the port whose supervisor owns it (set the moment a probe finds it).
     _claims: dict[int, str] = field(default_factory=dict, init=False)
 
     async def __aenter__(self) -> BoardManager:
-        self._task_group = anyio.create_task_group()
-        await self._task_group.__aenter__()
-        await self.scan()
-        if self.rescan_interval is not None:
-            self._task_group.start_soon(
-                self._rescan_forever, self.rescan_interval, name="arduinoio manager scan"
-            )
+        # Through an exit stack: if the first scan raises, the task group is still
+        # exited in this task (trio insists: "Nursery stack corrupted" otherwise).
+        stack = AsyncExitStack()
+        try:
+            self._task_group = await stack.enter_async_context(anyio.create_task_group())
+            await self.scan()
+            if self.rescan_interval is not None:
+                self._task_group.start_soon(
+                    self._rescan_forever, self.rescan_interval, name="arduinoio manager scan"
+                )
+        except BaseException:
+            if self._task_group is not None:
+                self._task_group.cancel_scope.cancel()
+            self._task_group = None
+            await stack.aclose()
+            raise
+        self._exit_stack = stack
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
-        if self._task_group is not None:
-            self._task_group.cancel_scope.cancel()
-            group, self._task_group = self._task_group, None
-            await group.__aexit__(None, None, None)
+        stack, self._exit_stack = self._exit_stack, None
+        if stack is not None:
+            if self._task_group is not None:
+                self._task_group.cancel_scope.cancel()
+            self._task_group = None
+            await stack.aclose()
         for board in self._boards.values():
             board.detach()
 

@@ -52,6 +52,7 @@ from typing import Any, Literal, TypeVar
 
 import anyio
 import anyio.abc
+import anyio.lowlevel
 
 from .. import protocol as p
 from ..errors import BoardDisconnectedError
@@ -296,7 +297,9 @@ class Transport:
         if data:
             self.last_send = self._now()
             self._write(data)
-        if not exchange.done:
+        if exchange.done:  # refused at once (closed link): still a checkpoint for loops
+            await anyio.lowlevel.checkpoint()
+        else:
             limit = self.timeout if timeout is None else timeout
             loop = self._loop
             if loop is not None:
