@@ -56,7 +56,7 @@ from ..errors import (
     LinkResyncError,
     ReplyMismatchError,
 )
-from ._constants import RX_FIFO_SIZE, ErrorCode
+from ._constants import ERROR_FLAG, RX_FIFO_SIZE, ErrorCode
 from ._decoder import Decoded, Decoder, Garbage
 from ._messages import ErrorReply, Event, ReadCapabilities, ReadId, ReadIdReply, Reply, Request
 from ._messages import WriteId as _WriteId
@@ -330,10 +330,18 @@ class Session:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
         trace = self.trace
-        for item in self._decoder.feed(data):
+        items = self._decoder.feed(data)
+        for index, item in enumerate(items):
             if trace is not None:
                 trace("rx", item)
             state = self.state
+            if (
+                index + 1 < len(items)
+                and isinstance(items[index + 1], Garbage)
+                and not isinstance(item, Garbage)
+                and self._may_have_stolen_a_byte(item)
+            ):
+                item = Garbage(item.encode())
             if isinstance(item, Event):
                 self.stats.events += 1
                 out.events.append(item)
@@ -349,6 +357,13 @@ class Session:
         if self.state is SessionState.READY and self._queue:
             self._admit(out)
         return out
+
+    def _may_have_stolen_a_byte(self, frame: Decoded) -> bool:
+        """A frame that lost byte ``b`` still passes the XOR when the next frame starts with
+        ``b``: it ends with that first byte, and what follows is garbage.  Such a frame is
+        treated as noise (its request fails or is retried; never a wrong answer)."""
+        last = frame.encode()[-1]  # type: ignore[union-attr]
+        return bool(last & ERROR_FLAG) or last in self._decoder.first_bytes
 
     def _dispatch(self, item: Decoded, out: Received) -> None:
         flight = self._flight
