@@ -56,8 +56,9 @@ from ..errors import (
     LinkResyncError,
     ReplyMismatchError,
 )
-from ._constants import ERROR_FLAG, RX_FIFO_SIZE, ErrorCode
+from ._constants import RX_FIFO_SIZE, ErrorCode
 from ._decoder import Decoded, Decoder, Garbage
+from ._layout import Frame
 from ._messages import ErrorReply, Event, ReadCapabilities, ReadId, ReadIdReply, Reply, Request
 from ._messages import WriteId as _WriteId
 
@@ -227,6 +228,8 @@ class Session:
         self._suspect = False
         #: Garbage bytes since the last frame that was placed (to place the next one).
         self._noise = 0
+        #: The last frame of a chunk, kept until the next chunk vouches for it.
+        self._held: Frame | None = None
         self._marker: Exchange | None = None
         self._candidate_ids: set[int] = set()
         self._aligned = True
@@ -316,6 +319,7 @@ class Session:
             return out
         self.state = SessionState.CLOSED
         self.close_error = error
+        self._held = None
         for exchange in [*self._flight, *self._queue]:
             self._finish(exchange, None, BoardDisconnectedError(str(error)), out)
         self._flight.clear()
@@ -331,17 +335,24 @@ class Session:
         out = Received()
         trace = self.trace
         items = self._decoder.feed(data)
-        for index, item in enumerate(items):
-            if trace is not None:
+        if trace is not None:
+            for item in items:
                 trace("rx", item)
+        if self._held is not None:
+            items.insert(0, self._held)
+            self._held = None
+        last = len(items) - 1
+        for index, item in enumerate(items):
             state = self.state
-            if (
-                index + 1 < len(items)
-                and isinstance(items[index + 1], Garbage)
-                and not isinstance(item, Garbage)
-                and self._may_have_stolen_a_byte(item)
-            ):
-                item = Garbage(item.encode())
+            if not isinstance(item, Garbage | Event):
+                if index < last:
+                    if isinstance(items[index + 1], Garbage):
+                        item = Garbage(item.encode())  # not trusted: see _dispatch
+                elif state is SessionState.READY and len(self._flight) > 1 and not self._suspect:
+                    # The next reply is on its way: decide when its bytes show whether
+                    # garbage follows this frame.
+                    self._held = item
+                    continue
             if isinstance(item, Event):
                 self.stats.events += 1
                 out.events.append(item)
@@ -358,14 +369,11 @@ class Session:
             self._admit(out)
         return out
 
-    def _may_have_stolen_a_byte(self, frame: Decoded) -> bool:
-        """A frame that lost byte ``b`` still passes the XOR when the next frame starts with
-        ``b``: it ends with that first byte, and what follows is garbage.  Such a frame is
-        treated as noise (its request fails or is retried; never a wrong answer)."""
-        last = frame.encode()[-1]  # type: ignore[union-attr]
-        return bool(last & ERROR_FLAG) or last in self._decoder.first_bytes
-
     def _dispatch(self, item: Decoded, out: Received) -> None:
+        """Match one frame (a frame followed by garbage arrives here as garbage: an 8-bit
+        XOR passes a frame that lost its byte b when the next frame starts with b, or
+        that gained a byte equal to its checksum, and either way garbage follows at once;
+        so the request fails or is retried instead of getting a wrong answer)."""
         flight = self._flight
         if isinstance(item, Reply):
             if flight and not self._suspect:
@@ -536,6 +544,7 @@ class Session:
         out.lost = reason
         self.state = SessionState.DRAINING
         self._aligned = False
+        self._held = None
         flight = list(self._flight)
         self._flight.clear()
         self._flight_bytes = 0

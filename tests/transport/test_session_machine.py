@@ -219,7 +219,7 @@ def test_an_idempotent_request_whose_reply_was_damaged_is_sent_again() -> None:
     damaged = bytearray(p.ReadTemperatureReply(300).encode())
     damaged[1] ^= 0x01
     out = session.receive_data(bytes(damaged) + p.AnalogReadReply(1, 107).encode())
-    assert out.done == [second]
+    assert out.done == [second]  # after noise, placed by the noise its predecessor explains
     assert not first.done and p.ReadTemperature().encode() in out.outgoing
     board = p.Decoder.from_host()
     replies = b"".join(answer(r).encode() for r in board.feed(out.outgoing))  # type: ignore[arg-type]

@@ -402,14 +402,14 @@ async def test_a_queued_request_that_expires_unsent_costs_no_resync() -> None:
     async with (
         make_fake(Faults(lose_reply=1.0)) as fake,
         Transport(fake.host_stream, window_bytes=3, timeout=5.0, quiet_time=0.005) as link,
+        anyio.create_task_group() as tg,
     ):
-        async with anyio.create_task_group() as tg:
-            tg.start_soon(link.request, p.ReadId())  # fills the window, never answered
-            with anyio.fail_after(5):
-                while link.in_flight == 0:
-                    await anyio.wait_all_tasks_blocked()
-            with pytest.raises(BoardTimeoutError, match="unsent"):
-                await link.request(p.ReadId(), timeout=0.01)
-            assert link.stats.resyncs == 0 and link.state is LinkState.READY
-            assert link.in_flight == 1
-            tg.cancel_scope.cancel()
+        tg.start_soon(link.request, p.ReadId())  # fills the window, never answered
+        with anyio.fail_after(5):
+            while link.in_flight == 0:
+                await anyio.wait_all_tasks_blocked()
+        with pytest.raises(BoardTimeoutError, match="unsent"):
+            await link.request(p.ReadId(), timeout=0.01)
+        assert link.stats.resyncs == 0 and link.state is LinkState.READY
+        assert link.in_flight == 1
+        tg.cancel_scope.cancel()
