@@ -348,7 +348,7 @@ class Session:
                 if index < last:
                     if isinstance(items[index + 1], Garbage):
                         item = Garbage(item.encode())  # not trusted: see _dispatch
-                elif state is SessionState.READY and len(self._flight) > 1 and not self._suspect:
+                elif state is SessionState.READY and self._reply_due_after(item):
                     # The next reply is on its way: decide when its bytes show whether
                     # garbage follows this frame.
                     self._held = item
@@ -368,6 +368,18 @@ class Session:
         if self.state is SessionState.READY and self._queue:
             self._admit(out)
         return out
+
+    def _reply_due_after(self, frame: Frame) -> bool:
+        """Is another reply on its way after the one ``frame`` answers?"""
+        flight = self._flight
+        if len(flight) < 2:
+            return False
+        if not self._suspect:
+            return True  # the frame answers the head
+        last = flight[-1].request
+        if isinstance(frame, Reply):
+            return not last.matches(frame)
+        return isinstance(frame, ErrorReply) and not frame.answers(last)
 
     def _dispatch(self, item: Decoded, out: Received) -> None:
         """Match one frame (a frame followed by garbage arrives here as garbage: an 8-bit
@@ -450,13 +462,14 @@ class Session:
 
     def _explains_noise(self, k: int) -> bool:
         """Could the replies of the first ``k`` requests in flight have become the garbage
-        seen (each damaged reply loses or gains at most a byte or two)?"""
+        seen?  A damaged reply of L bytes leaves L - 1 (a byte dropped), L (flipped) or
+        L + 1 (one inserted) bytes of garbage; one stray byte more is allowed."""
         low = high = 0
         for exchange in list(self._flight)[:k]:
             layout = exchange.request.REPLY.LAYOUT
-            low += min(layout.base_size, ErrorReply.SIZE) - 1
-            high += layout.max_size + 2
-        return low <= self._noise <= high + 2
+            low += layout.base_size - 1
+            high += layout.max_size + 1
+        return low <= self._noise <= high + 1
 
     def _complete_head(self, reply: Reply | None, error: BoardError | None, out: Received) -> None:
         exchange = self._flight.popleft()
