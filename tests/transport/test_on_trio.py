@@ -15,6 +15,10 @@ from typing import Any
 import anyio
 import pytest
 
+from arduinoio_async import D2
+from arduinoio_async.board import Board
+from arduinoio_async.errors import BoardDisconnectedError
+from arduinoio_async.sim import SimulatorNotAvailable, VirtualUno
 from tests import test_board
 from tests.transport import test_serial_urls, test_transport
 
@@ -37,3 +41,36 @@ def coroutine_tests() -> list[Any]:
 @pytest.mark.parametrize("test", coroutine_tests())
 def test_on_trio(test: Callable[[], Coroutine[Any, Any, None]]) -> None:
     anyio.run(test, backend="trio")
+
+
+@pytest.mark.sim
+def test_a_serial_board_on_trio() -> None:
+    """The landed serial stream used asyncio internals: ``RuntimeError: no running event
+    loop`` on trio.  A virtual Uno on its pty, with concurrent calls and an unplug."""
+
+    async def scenario() -> None:
+        try:
+            uno = await VirtualUno(board_id=7, baud=1_000_000).start()
+        except SimulatorNotAvailable as exc:
+            pytest.skip(f"virtual Uno not available: {exc}")
+        try:
+            async with Board.open(uno.port, baudrate=1_000_000) as board:
+                await board.gpio(D2).write(True)
+                assert (await uno.pin(2)).level == 1
+                ids: list[int] = []
+
+                async def read() -> None:
+                    ids.append(await board.read_id())
+
+                async with anyio.create_task_group() as tg:
+                    for _ in range(16):
+                        tg.start_soon(read)
+                assert ids == [7] * 16
+                await uno.unplug()
+                with pytest.raises(BoardDisconnectedError):
+                    await board.read_id()
+        finally:
+            with anyio.CancelScope(shield=True):
+                await uno.stop()
+
+    anyio.run(scenario, backend="trio")
