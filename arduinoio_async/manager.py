@@ -21,6 +21,7 @@ any port, the *same* ``Board`` and its handles are re-attached after the restore
 from __future__ import annotations
 
 import glob
+import logging
 import os
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import AsyncExitStack
@@ -50,6 +51,8 @@ __all__ = [
     "ProbeResult",
     "candidate_ports",
 ]
+
+logger = logging.getLogger(__name__)
 
 #: Deployments list ports here: paths or glob patterns separated by ``os.pathsep`` or ",".
 ENV_PORTS = "ARDUINOIO_PORTS"
@@ -259,10 +262,20 @@ class BoardManager:
             raise DuplicateBoardError(board_id, ports)
 
     def _emit(self, event: ManagerEvent) -> None:
+        logger.info(
+            "board 0x%04X %s on %s%s",
+            event.board_id,
+            event.kind,
+            event.port,
+            f" ({event.detail})" if event.detail else "",
+        )
         changed, self._changed = self._changed, anyio.Event()
         changed.set()
         for callback in list(self._listeners):
-            callback(event)
+            try:
+                callback(event)
+            except Exception:  # a listener's bug must not stop the supervisor
+                logger.exception("manager listener %r failed on %r", callback, event)
 
     async def _rescan_forever(self, interval: float) -> None:
         while True:

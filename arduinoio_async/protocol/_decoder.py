@@ -66,11 +66,6 @@ class Decoder:
         return cls(_layouts(REQUEST_TYPES), accept_errors=False)
 
     @property
-    def first_bytes(self) -> frozenset[int]:
-        """Bytes a frame of this direction can start with (besides error replies)."""
-        return self._first_bytes
-
-    @property
     def buffered(self) -> int:
         """Bytes held back because they may be the start of a frame."""
         return len(self._buffer)

@@ -196,6 +196,8 @@ class Received:
 
 TraceFn = Callable[[str, "Decoded"], None]
 
+_NOT_A_REPLY = (Garbage, Event)
+
 
 class Session:
     """Pending FIFO, byte window, in-order matching and loss of sync for one link."""
@@ -341,10 +343,23 @@ class Session:
         if self._held is not None:
             items.insert(0, self._held)
             self._held = None
+        elif len(items) == 1 and len(self._flight) == 1 and self.state is SessionState.READY:
+            # The common case, one request in flight and its reply in one chunk.
+            item = items[0]
+            request = self._flight[0].request
+            if (
+                not self._suspect
+                and type(item) is request.REPLY
+                and (not request.ECHO or request.matches(item))
+            ):
+                self._complete_head(item, None, out)
+                if self._queue:
+                    self._admit(out)
+                return out
         last = len(items) - 1
         for index, item in enumerate(items):
             state = self.state
-            if not isinstance(item, Garbage | Event):
+            if not isinstance(item, _NOT_A_REPLY):
                 if index < last:
                     if isinstance(items[index + 1], Garbage):
                         item = Garbage(item.encode())  # not trusted: see _dispatch
@@ -390,7 +405,8 @@ class Session:
         if isinstance(item, Reply):
             if flight and not self._suspect:
                 head = flight[0]
-                if head.request.matches(item):
+                request = head.request
+                if type(item) is request.REPLY and (not request.ECHO or request.matches(item)):
                     self._complete_head(item, None, out)
                     return
             self._locate(item, out)

@@ -260,8 +260,9 @@ UNDETECTED: list[tuple[p.Request[p.Reply], p.Reply]] = []
         max_size=12,
     ),
 )
+@pytest.mark.parametrize("backend", ["asyncio", "trio"])
 def test_every_call_gets_its_own_answer_or_a_documented_error(
-    faults: Faults, calls: list[tuple[p.Request[p.Reply], float | None]]
+    backend: str, faults: Faults, calls: list[tuple[p.Request[p.Reply], float | None]]
 ) -> None:
     """Concurrent calls over a faulty link; some are cancelled after a random delay."""
 
@@ -305,7 +306,7 @@ def test_every_call_gets_its_own_answer_or_a_documented_error(
                     except LinkError:
                         continue
 
-    anyio.run(scenario)
+    anyio.run(scenario, backend=backend)
 
 
 # ---- the link core (issue 11) ------------------------------------------------------------
