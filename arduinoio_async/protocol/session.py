@@ -28,6 +28,13 @@ whose deadline passed while in flight make the session *lose sync*: everything i
 fails, and the shell drains the line and probes the board with an ID request
 (:meth:`Session.start_probe`) before the queue moves again.
 
+*Checksum blind spots.*  An 8-bit XOR passes a reply that lost byte ``b`` when the
+next frame starts with ``b`` (the candidate steals it), or that gained a byte equal to its
+checksum; either way garbage follows the bad frame at once.  So a frame followed by
+garbage is not trusted (it counts as noise), and the last frame of a chunk waits for the
+next chunk while another reply is due.  A lone request's reply cannot be checked this way:
+that residual (about one corrupt frame in 256 faults) is the checksum's, not the session's.
+
 *Retries.*  A request whose reply was lost is re-sent at the head of the queue -- before
 anything queued later -- when it is idempotent (``Request.IDEMPOTENT``), has attempts
 left, and no request sent after it could make the repeat observable (a request with side
@@ -50,14 +57,12 @@ from ..errors import (
     BoardDisconnectedError,
     BoardError,
     BoardTimeoutError,
-    FailsafeTrippedError,
-    I2CError,
-    LinkCapacityError,
     LinkResyncError,
     ReplyMismatchError,
 )
-from ._constants import RX_FIFO_SIZE, ErrorCode
+from ._constants import RX_FIFO_SIZE
 from ._decoder import Decoded, Decoder, Garbage
+from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
 from ._layout import Frame
 from ._messages import ErrorReply, Event, ReadCapabilities, ReadId, ReadIdReply, Reply, Request
 from ._messages import WriteId as _WriteId
@@ -77,122 +82,6 @@ __all__ = [
 MAX_IN_FLIGHT = 64
 #: Sends of one idempotent request (the first and the retries).
 MAX_ATTEMPTS = 3
-
-_ERROR_CLASSES: dict[ErrorCode, type[BoardError]] = {
-    ErrorCode.I2C_NACK_ADDRESS: I2CError,
-    ErrorCode.I2C_NACK_DATA: I2CError,
-    ErrorCode.I2C_TIMEOUT: I2CError,
-    ErrorCode.I2C_NOT_CONFIGURED: I2CError,
-    ErrorCode.LINK_CAPACITY: LinkCapacityError,
-    ErrorCode.FAILSAFE_TRIPPED: FailsafeTrippedError,
-}
-
-
-def board_error(reply: ErrorReply, request: Request[Any]) -> BoardError:
-    """The exception for an error reply to ``request``."""
-    return _ERROR_CLASSES.get(reply.code, BoardError)(reply.code, request)
-
-
-class SessionState:
-    """Where the session is; plain strings keep the hot path cheap."""
-
-    READY = "ready"
-    #: Sync lost: the shell drains the line (feeding what it reads), then probes.
-    DRAINING = "draining"
-    #: An ID request is on its way; the queue waits for its answer.
-    PROBING = "probing"
-    CLOSED = "closed"
-
-
-class LinkStats:
-    """Counters for diagnostics and benchmarks."""
-
-    __slots__ = (
-        "dropped_late_replies",
-        "events",
-        "garbage_bytes",
-        "lost_replies",
-        "probes",
-        "replies",
-        "requests",
-        "resyncs",
-        "retries",
-        "timeouts",
-    )
-
-    def __init__(self) -> None:
-        self.requests = 0
-        self.replies = 0
-        self.events = 0
-        self.timeouts = 0
-        #: Times the link regained sync (on the reply stream or by a probe).
-        self.resyncs = 0
-        #: Of those, the ones that needed a drain and an ID probe.
-        self.probes = 0
-        self.garbage_bytes = 0
-        self.dropped_late_replies = 0
-        #: Requests whose reply line noise destroyed.
-        self.lost_replies = 0
-        #: Re-sends of idempotent requests.
-        self.retries = 0
-
-    def as_dict(self) -> dict[str, int]:
-        return {name: getattr(self, name) for name in self.__slots__}
-
-
-class Exchange:
-    """One request's life: queued, in flight, done (with ``reply`` or ``error``).
-
-    ``waiter`` belongs to the shell (what its caller waits on); the session never looks
-    at it.
-    """
-
-    __slots__ = (
-        "abandoned",
-        "attempts",
-        "done",
-        "error",
-        "frame",
-        "internal",
-        "queued",
-        "reply",
-        "request",
-        "size",
-        "waiter",
-    )
-
-    def __init__(self, request: Request[Any], frame: bytes, internal: bool = False) -> None:
-        self.request = request
-        self.frame = frame
-        self.size = len(frame)
-        self.queued = True
-        self.done = False
-        self.abandoned = False
-        self.internal = internal
-        self.attempts = 0
-        self.reply: Reply | None = None
-        self.error: ArduinoIOError | None = None
-        self.waiter: Any = None
-
-    def __repr__(self) -> str:
-        state = "done" if self.done else "queued" if self.queued else "in flight"
-        return f"<Exchange {self.request!r} {state}>"
-
-
-class Received:
-    """What one call into the session produced."""
-
-    __slots__ = ("done", "events", "lost", "outgoing")
-
-    def __init__(self) -> None:
-        #: Exchanges that finished (in FIFO order); each appears once in a session's life.
-        self.done: list[Exchange] = []
-        self.events: list[Event] = []
-        #: Bytes to write now (admitted requests, a marker or a probe).
-        self.outgoing = b""
-        #: Why sync was lost during the call, or None.
-        self.lost: str | None = None
-
 
 TraceFn = Callable[[str, "Decoded"], None]
 
