@@ -9,6 +9,7 @@ it on the fresh board and hand back the same ``Board`` and the same handles.
 
 from __future__ import annotations
 
+import logging
 import random
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
@@ -17,11 +18,13 @@ from typing import Any, TypeVar
 
 import anyio
 import anyio.abc
+import anyio.lowlevel
 
 from . import protocol as p
 from .errors import (
     ArduinoIOError,
     BoardDisconnectedError,
+    BoardTimeoutError,
     FailsafeTrippedError,
     LinkCapacityError,
     LinkError,
@@ -56,6 +59,8 @@ from .transport import (
 from .transport._ready import wait_ready
 
 __all__ = ["READY_TIMEOUT", "Board"]
+
+logger = logging.getLogger(__name__)
 
 #: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
 #: opens and answers 1.6-2 s later.
@@ -178,6 +183,10 @@ class Board:
         name = name or getattr(stream, "port", "") or "board"
         try:
             await wait_ready(stream, deadline=anyio.current_time() + ready_timeout, name=name)
+        except (anyio.BrokenResourceError, anyio.ClosedResourceError, anyio.EndOfStream) as exc:
+            with anyio.CancelScope(shield=True):
+                await stream.aclose()
+            raise BoardDisconnectedError(f"{name}: port lost while waiting for the board") from exc
         except BaseException:
             with anyio.CancelScope(shield=True):
                 await stream.aclose()
@@ -231,8 +240,12 @@ class Board:
         if self.failsafe_tripped:
             return
         self.failsafe_tripped = True
+        logger.warning("%r: the failsafe fired", self)
         for callback in list(self._failsafe_listeners):
-            callback(self)
+            try:
+                callback(self)
+            except Exception:  # a listener's bug must not hurt the link or the caller
+                logger.exception("%r: on_failsafe callback %r failed", self, callback)
 
     # ---- plumbing ---------------------------------------------------------------------------
 
@@ -365,13 +378,36 @@ class Board:
     async def read_id(self) -> int:
         return (await self.request(p.ReadId())).board_id
 
-    async def write_id(self, board_id: int) -> None:
-        """Store a new board ID in EEPROM; it survives resets."""
+    async def write_id(self, board_id: int, *, deadline: float = READY_TIMEOUT) -> None:
+        """Store a new board ID in EEPROM; it survives resets.
+
+        If the reply is lost, the write may or may not have happened: the link accepts
+        either ID when it resyncs, and this method reads the ID back (within
+        ``deadline``) to settle it; it raises only if the board kept the old one.
+        """
         if not 0 <= board_id <= 0xFFFF:
             raise ValueRangeError("board ID", board_id, "0x0000-0xFFFF")
-        await self.request(p.WriteId(board_id))
+        link = self.link
+        try:
+            await link.request(p.WriteId(board_id))
+        except LinkError as exc:
+            if isinstance(exc, BoardDisconnectedError):
+                raise
+            found = await self._read_id_retrying(link, deadline)
+            if found != board_id:
+                raise
         self.board_id = board_id
-        self.link.expected_id = board_id
+        link.expected_id = board_id
+
+    async def _read_id_retrying(self, link: Transport, deadline: float) -> int:
+        with anyio.fail_after(deadline):
+            while True:
+                try:
+                    return (await link.request(p.ReadId())).board_id
+                except BoardDisconnectedError:
+                    raise
+                except LinkError:
+                    await anyio.lowlevel.checkpoint()
 
     async def temperature(self) -> float:
         """Chip temperature in degrees C (datasheet-typical calibration)."""
@@ -394,14 +430,24 @@ class Board:
     async def wait_rebooted(self, *, deadline: float = READY_TIMEOUT) -> None:
         """Poll until the board answers with a fresh boot's session 0, then tag it again."""
         link = self.link
-        with anyio.fail_after(deadline):
-            while True:
-                try:
-                    status = await link.request(p.ReadStatus(), timeout=0.1)
-                except LinkError:
-                    continue
-                if status.session != self.session:
-                    break
+        try:
+            with anyio.fail_after(deadline):
+                while True:
+                    try:
+                        status = await link.request(p.ReadStatus(), timeout=0.1)
+                    except BoardDisconnectedError:
+                        raise  # a closed link never answers: no busy loop
+                    except LinkError:
+                        await anyio.lowlevel.checkpoint()
+                        continue
+                    if status.session != self.session:
+                        break
+        except TimeoutError as exc:
+            if isinstance(exc, BoardTimeoutError):
+                raise
+            raise BoardTimeoutError(
+                f"{self!r} did not come back from its reboot within {deadline:g} s"
+            ) from None
         await self._handshake(link)
 
     # ---- streaming (extension) ---------------------------------------------------------------
@@ -538,6 +584,7 @@ class Board:
             try:
                 status = await link.request(p.ReadStatus())
             except LinkError:
+                await anyio.lowlevel.checkpoint()
                 continue
             if status.session != self.session:
                 if on_reset is not None:

@@ -21,8 +21,10 @@ any port, the *same* ``Board`` and its handles are re-attached after the restore
 from __future__ import annotations
 
 import glob
+import logging
 import os
 from collections.abc import Callable, Iterable, Sequence
+from contextlib import AsyncExitStack
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Literal
@@ -49,6 +51,8 @@ __all__ = [
     "ProbeResult",
     "candidate_ports",
 ]
+
+logger = logging.getLogger(__name__)
 
 #: Deployments list ports here: paths or glob patterns separated by ``os.pathsep`` or ",".
 ENV_PORTS = "ARDUINOIO_PORTS"
@@ -152,25 +156,38 @@ class BoardManager:
     _listeners: list[Callable[[ManagerEvent], None]] = field(default_factory=list, init=False)
     _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
     _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
+    _exit_stack: AsyncExitStack | None = field(default=None, init=False)
     _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
     #: Board ID -> the port whose supervisor owns it (set the moment a probe finds it).
     _claims: dict[int, str] = field(default_factory=dict, init=False)
 
     async def __aenter__(self) -> BoardManager:
-        self._task_group = anyio.create_task_group()
-        await self._task_group.__aenter__()
-        await self.scan()
-        if self.rescan_interval is not None:
-            self._task_group.start_soon(
-                self._rescan_forever, self.rescan_interval, name="arduinoio manager scan"
-            )
+        # Through an exit stack: if the first scan raises, the task group is still
+        # exited in this task (trio insists: "Nursery stack corrupted" otherwise).
+        stack = AsyncExitStack()
+        try:
+            self._task_group = await stack.enter_async_context(anyio.create_task_group())
+            await self.scan()
+            if self.rescan_interval is not None:
+                self._task_group.start_soon(
+                    self._rescan_forever, self.rescan_interval, name="arduinoio manager scan"
+                )
+        except BaseException:
+            if self._task_group is not None:
+                self._task_group.cancel_scope.cancel()
+            self._task_group = None
+            await stack.aclose()
+            raise
+        self._exit_stack = stack
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
-        if self._task_group is not None:
-            self._task_group.cancel_scope.cancel()
-            group, self._task_group = self._task_group, None
-            await group.__aexit__(None, None, None)
+        stack, self._exit_stack = self._exit_stack, None
+        if stack is not None:
+            if self._task_group is not None:
+                self._task_group.cancel_scope.cancel()
+            self._task_group = None
+            await stack.aclose()
         for board in self._boards.values():
             board.detach()
 
@@ -250,10 +267,20 @@ class BoardManager:
             raise DuplicateBoardError(board_id, ports)
 
     def _emit(self, event: ManagerEvent) -> None:
+        logger.info(
+            "board 0x%04X %s on %s%s",
+            event.board_id,
+            event.kind,
+            event.port,
+            f" ({event.detail})" if event.detail else "",
+        )
         changed, self._changed = self._changed, anyio.Event()
         changed.set()
         for callback in list(self._listeners):
-            callback(event)
+            try:
+                callback(event)
+            except Exception:  # a listener's bug must not stop the supervisor
+                logger.exception("manager listener %r failed on %r", callback, event)
 
     async def _rescan_forever(self, interval: float) -> None:
         while True:

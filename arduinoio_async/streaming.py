@@ -114,6 +114,8 @@ class SampleStream:
     """Async iterator over the samples of a running stream (see the module docstring)."""
 
     def __init__(self, link: Transport, request: p.StreamStart, buffer: int) -> None:
+        if buffer < 1:
+            raise ValueRangeError("stream buffer (samples)", buffer, "1 and up")
         self.request = request
         self.buffer_size = buffer
         self.received = 0

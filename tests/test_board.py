@@ -5,10 +5,12 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 
+import anyio
 import pytest
 
 from arduinoio_async import (
@@ -24,10 +26,14 @@ from arduinoio_async import (
     PinRoleError,
     ValueRangeError,
 )
+from arduinoio_async import manager as manager_module
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.errors import BoardDisconnectedError
 from arduinoio_async.handles import PinState
+from arduinoio_async.manager import BoardManager
 from arduinoio_async.testing import FakeBoard
+from arduinoio_async.transport import memory_link
 
 
 @asynccontextmanager
@@ -205,3 +211,98 @@ def test_mypy_rejects_a_servo_on_a_pin_table_iii_forbids(tmp_path: Path) -> None
     errors = [line for line in result.stdout.splitlines() if ": error:" in line]
     assert len(errors) == 2, result.stdout
     assert "misuse.py:7" in errors[0] and "misuse.py:8" in errors[1]
+
+
+# ---- defects of the landed link core (issue 11) --------------------------------------------
+
+
+def test_a_reboot_wait_on_a_closing_link_ends_instead_of_freezing() -> None:
+    """``except LinkError: continue`` on a closed link was a busy loop no timeout could stop
+    (it never reached a checkpoint); run in a thread so a freeze fails the test."""
+    outcome: list[str] = []
+
+    async def scenario() -> None:
+        async with connected() as (board, fake):
+            fake.faults.lose_reply = 1.0
+
+            async def unplug_when_waiting() -> None:
+                await anyio.wait_all_tasks_blocked()
+                await board.link.aclose()
+
+            async with anyio.create_task_group() as tg:
+                tg.start_soon(unplug_when_waiting)
+                with pytest.raises(BoardDisconnectedError):
+                    await board.wait_rebooted(deadline=3)
+        outcome.append("raised")
+
+    thread = threading.Thread(target=anyio.run, args=(scenario,), daemon=True)
+    thread.start()
+    thread.join(20)
+    assert not thread.is_alive(), "wait_rebooted() froze the event loop"
+    assert outcome == ["raised"]
+
+
+async def test_a_failing_failsafe_listener_is_logged_and_isolated(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    async with connected() as (board, fake):
+        seen: list[Board] = []
+
+        def buggy(_board: Board) -> None:
+            raise RuntimeError("listener bug")
+
+        board.on_failsafe(buggy)
+        board.on_failsafe(seen.append)
+        await fake.push(p.FailsafeTripped())
+        assert await board.read_id() == 0x0042  # the event was handled before this reply
+        assert seen == [board]
+        assert board.failsafe_tripped
+        assert "listener bug" in caplog.text
+
+
+async def test_a_stream_without_buffer_is_refused_before_anything_is_sent() -> None:
+    async with connected() as (board, fake):
+        seen = fake.requests_seen
+        with pytest.raises(ValueRangeError):
+            async with board.stream(analog=[A0], buffer=0):
+                pass
+        assert fake.requests_seen == seen
+        assert await board.read_id() == 0x0042
+
+
+async def test_write_id_whose_reply_is_lost_keeps_the_link() -> None:
+    async with connected() as (board, fake):
+        fake.faults.lose_reply = 1.0
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(board.write_id, 0x0043)
+            while fake.board_id != 0x0043:  # the board took the new ID; its reply is lost
+                await anyio.wait_all_tasks_blocked()
+            fake.faults.lose_reply = 0.0
+        assert board.board_id == 0x0043
+        assert board.link.expected_id == 0x0043
+        assert await board.read_id() == 0x0043
+        assert board.connected
+
+
+async def test_a_port_lost_during_the_boot_wait_is_a_disconnect() -> None:
+    host, peer = memory_link()
+    await peer.aclose()
+    with pytest.raises(BoardDisconnectedError):
+        async with Board.connect(host, ready_timeout=1):
+            pass
+
+
+def test_a_manager_whose_first_scan_fails_exits_its_task_group_on_trio(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    def broken_scan(*args: object, **kwargs: object) -> list[str]:
+        raise OSError("port listing failed")
+
+    monkeypatch.setattr(manager_module, "candidate_ports", broken_scan)
+
+    async def scenario() -> None:
+        with pytest.raises(OSError, match="port listing failed"):
+            async with BoardManager(usb=False, env=False, rescan_interval=None):
+                pass
+
+    anyio.run(scenario, backend="trio")

@@ -28,7 +28,7 @@ from .. import protocol as p
 from ..board import Board
 from ..manager import BoardManager
 from ..sim import VirtualUno
-from ..transport import Transport, open_serial_stream
+from ..transport import Transport, backend_options, open_serial_stream
 from .commands import COMMANDS, BenchCommand, prepare
 from .model import LinkModel, predict_ms
 from .responder import InstantStream
@@ -272,19 +272,73 @@ async def host_overhead(n: int, progress: Progress | None = None) -> ScenarioRes
     return result
 
 
-async def _pty_floor(n: int) -> dict[str, float]:
-    """Read ID round trips on a pty to a responder process: bare pyserial vs the library."""
+#: Interleaved rounds of the pty comparison (bare pyserial, library on asyncio, on uvloop).
+HOST_ROUNDS = 12
+
+
+async def _pty_floor(n: int, rounds: int = HOST_ROUNDS) -> dict[str, Any]:
+    """Read ID round trips on a pty to a responder process: bare pyserial vs the library.
+
+    The variants run interleaved, ``rounds`` times each with ``n`` round trips, so a
+    noisy neighbour hits them alike; each round gives one CPU ratio per variant, and the
+    median and spread of those ratios are reported.
+    """
+    return await anyio.to_thread.run_sync(_pty_rounds, n, rounds)
+
+
+def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
     master, slave = os.openpty()
     path = os.ttyname(slave)
-    child = subprocess.Popen(  # noqa: ASYNC220 - the floor is a plain blocking loop
+    child = subprocess.Popen(
         [sys.executable, "-m", "arduinoio_async.bench.responder", str(master)],
         pass_fds=(master,),
     )
     os.close(master)
-    request = p.ReadId().encode()
+    variants = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
+    cpu: dict[str, list[float]] = {"bare": [], **{v: [] for v in variants}}
+    rtts: dict[str, list[float]] = {"bare": [], **{v: [] for v in variants}}
     try:
-        port = serial.Serial(path, timeout=1)
-        for _ in range(200):
+        for _ in range(rounds):
+            bare_cpu, bare_rtts = _bare_round(path, n)
+            cpu["bare"].append(bare_cpu)
+            rtts["bare"] += bare_rtts
+            for variant in variants:
+                lib_cpu, lib_rtts = anyio.run(
+                    _library_round,
+                    path,
+                    n,
+                    backend="asyncio",
+                    backend_options={"use_uvloop": variant == "uvloop"},
+                )
+                cpu[variant].append(lib_cpu)
+                rtts[variant] += lib_rtts
+    finally:
+        os.close(slave)
+        child.terminate()
+        child.wait()
+    out: dict[str, Any] = {
+        "rounds": rounds,
+        "round_trips_per_round": n,
+        "bare_pyserial_rtt_us_p50": statistics.median(rtts["bare"]),
+        "bare_pyserial_cpu_us": statistics.median(cpu["bare"]),
+        "library_rtt_us_p50": statistics.median(rtts["asyncio"]),
+        "library_cpu_us": statistics.median(cpu["asyncio"]),
+    }
+    for variant in variants:
+        ratios = sorted(lib / bare for lib, bare in zip(cpu[variant], cpu["bare"], strict=True))
+        out[f"{variant}_cpu_us"] = statistics.median(cpu[variant])
+        out[f"{variant}_rtt_us_p50"] = statistics.median(rtts[variant])
+        out[f"{variant}_ratio_median"] = statistics.median(ratios)
+        out[f"{variant}_ratio_spread"] = [ratios[0], ratios[-1]]
+        out[f"{variant}_ratios"] = ratios
+    return out
+
+
+def _bare_round(path: str, n: int) -> tuple[float, list[float]]:
+    request = p.ReadId().encode()
+    port = serial.Serial(path, timeout=1)
+    try:
+        for _ in range(50):
             port.write(request)
             port.read(5)
         rtts = []
@@ -294,26 +348,20 @@ async def _pty_floor(n: int) -> dict[str, float]:
             port.write(request)
             port.read(5)
             rtts.append((time.perf_counter_ns() - start) / 1e3)
-        bare_cpu = (time.process_time() - cpu) / n * 1e6
-        port.close()
-        stream = await open_serial_stream(path)
-        async with Transport(stream, name=path) as link:
-            for _ in range(200):
-                await link.request(p.ReadId())
-            lib_rtts = []
-            cpu = time.process_time()
-            for _ in range(n):
-                start = time.perf_counter_ns()
-                await link.request(p.ReadId())
-                lib_rtts.append((time.perf_counter_ns() - start) / 1e3)
-            lib_cpu = (time.process_time() - cpu) / n * 1e6
+        return (time.process_time() - cpu) / n * 1e6, rtts
     finally:
-        os.close(slave)
-        child.terminate()
-        child.wait()
-    return {
-        "bare_pyserial_rtt_us_p50": statistics.median(rtts),
-        "bare_pyserial_cpu_us": bare_cpu,
-        "library_rtt_us_p50": statistics.median(lib_rtts),
-        "library_cpu_us": lib_cpu,
-    }
+        port.close()
+
+
+async def _library_round(path: str, n: int) -> tuple[float, list[float]]:
+    stream = await open_serial_stream(path)
+    async with Transport(stream, name=path) as link:
+        for _ in range(50):
+            await link.request(p.ReadId())
+        rtts = []
+        cpu = time.process_time()
+        for _ in range(n):
+            start = time.perf_counter_ns()
+            await link.request(p.ReadId())
+            rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return (time.process_time() - cpu) / n * 1e6, rtts

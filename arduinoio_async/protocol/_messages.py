@@ -42,6 +42,8 @@ from ._layout import U8, U16, U32, Array, Blob, Frame, frame
 
 __all__ = [
     "EVENT_TYPES",
+    "IDEMPOTENT_WRITES",
+    "READ_ONLY_REQUESTS",
     "REPLY_TYPES",
     "REQUEST_TYPES",
     "AnalogRead",
@@ -134,6 +136,11 @@ class Request(Frame, Generic[R_co]):
     ECHO: ClassVar[tuple[str, ...]]
     #: Extension beyond the paper.
     EXTENSION: ClassVar[bool] = False
+    #: Sending it twice has the effect of sending it once, so a request whose reply was
+    #: lost may be sent again (docs/protocol.md, "Idempotency and retries").
+    IDEMPOTENT: ClassVar[bool] = False
+    #: It changes nothing on the board (implies IDEMPOTENT).
+    READS_ONLY: ClassVar[bool] = False
 
     def matches(self, reply: Reply) -> bool:
         """True when ``reply`` is this request's reply and echoes what identifies it."""
@@ -773,3 +780,38 @@ class ErrorReply(Frame):
     def framing(self) -> bool:
         """The board lost the frame boundaries and discards input until the line is quiet."""
         return self.code in FRAMING_ERRORS
+
+
+# ---- idempotency (docs/protocol.md, "Idempotency and retries") --------------------------------
+
+#: Requests that only read.  Not here: GpioRead (clears the latched edges), CounterReset.
+READ_ONLY_REQUESTS: tuple[type[Request[Any]], ...] = (
+    ReadId,
+    ReadTemperature,
+    ReadCapabilities,
+    ReadStatus,
+    AnalogRead,
+    AnalogReadAll,
+    I2CRead,
+    CounterRead,
+)
+#: Requests that set a state: a repeat sets the same state again.  Not here: Reset,
+#: WriteId (EEPROM wear, and the board answers with its new ID), I2CWrite (a device may
+#: count or queue writes), CounterConfig (restarts the count), StreamStart (restarts the
+#: sequence), StreamStop and FailsafeArm (a repeat can hide what happened in between).
+IDEMPOTENT_WRITES: tuple[type[Request[Any]], ...] = (
+    SetSession,
+    GpioConfig,
+    GpioWrite,
+    PinRelease,
+    I2CConfig,
+    PwmConfig,
+    PwmSet,
+    FailsafeSafeState,
+    FailsafeDisarm,
+)
+for _cls in READ_ONLY_REQUESTS:
+    _cls.READS_ONLY = True
+    _cls.IDEMPOTENT = True
+for _cls in IDEMPOTENT_WRITES:
+    _cls.IDEMPOTENT = True

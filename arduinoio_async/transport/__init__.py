@@ -5,6 +5,7 @@ and pyserial URLs (``/dev/ttyACM0``, ``socket://host:port``, ``rfc2217://...``),
 pseudo-terminal of the virtual Uno, or :func:`memory_link` in tests.
 """
 
+from ._backend import backend_options, run
 from ._link import (
     DEFAULT_TIMEOUT,
     QUIET_TIME,
@@ -28,7 +29,9 @@ __all__ = [
     "TraceHook",
     "TraceRecord",
     "Transport",
+    "backend_options",
     "board_error",
     "memory_link",
     "open_serial_stream",
+    "run",
 ]

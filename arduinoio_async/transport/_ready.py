@@ -14,7 +14,7 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
-from ..errors import BoardTimeoutError
+from ..errors import BoardDisconnectedError, BoardTimeoutError
 
 __all__ = ["wait_ready"]
 
@@ -33,8 +33,18 @@ async def wait_ready(
     """Poll with ID requests until the board answers; return its ID.
 
     Raises :class:`BoardTimeoutError` naming what arrived instead when ``deadline``
-    (an ``anyio.current_time()`` value) passes.
+    (an ``anyio.current_time()`` value) passes, and :class:`BoardDisconnectedError` when
+    the port goes away meanwhile.
     """
+    try:
+        return await _wait_ready(stream, deadline, poll_interval, settle, name)
+    except (anyio.BrokenResourceError, anyio.ClosedResourceError, anyio.EndOfStream) as exc:
+        raise BoardDisconnectedError(f"{name}: port lost while waiting for the board") from exc
+
+
+async def _wait_ready(
+    stream: anyio.abc.ByteStream, deadline: float, poll_interval: float, settle: float, name: str
+) -> int:
     decoder = p.Decoder.from_board()
     request = p.ReadId().encode()
     heard = bytearray()

@@ -1,138 +1,195 @@
 """Serial ports (device paths and pyserial URLs) as anyio byte streams.
 
-Theory of operation: for ports with a file descriptor (device paths such as
-``/dev/ttyACM0``, pseudo-terminals, ``socket://``) pyserial-asyncio's ``SerialTransport``
-registers the descriptor with the event loop and hands received bytes to a protocol that
-buffers them for :meth:`SerialByteStream.receive`.  Its stock ``write`` defers every write
-to the next loop iteration; :class:`_EagerSerialTransport` writes at once when nothing is
-queued, which removes one loop iteration from every request's round trip.  URL forms with
-no descriptor (``rfc2217://``, ``loop://``) fall back to blocking reads in a worker
-thread.
+Theory of operation: pyserial opens the port (exclusively) and configures it; after that
+the descriptor of a port that has one (device paths such as ``/dev/ttyACM0``,
+pseudo-terminals, ``socket://``) is read and written with plain non-blocking
+``os.read``/``os.write`` -- pyserial's own ``read``/``write`` run a ``select()`` per call,
+which costs more than the rest of a request.  Waiting uses anyio's portable
+``wait_readable``/``wait_writable``, so the same stream runs on asyncio, uvloop and trio;
+on asyncio it can also push received bytes from the loop's fd-readable callback (see
+:class:`SerialByteStream`).  URL forms with no descriptor (``rfc2217://``, ``loop://``)
+fall back to blocking reads in a worker thread.
 """
 
 from __future__ import annotations
 
 import asyncio
-import collections
 import contextlib
 import os
+from collections.abc import Callable
 from typing import Any
 
 import anyio
 import anyio.abc
+import anyio.lowlevel
 import serial
-import serial_asyncio
 
 from ..errors import BoardDisconnectedError, PortBusyError
 
 __all__ = ["SerialByteStream", "open_serial_stream"]
 
 
-class _EagerSerialTransport(serial_asyncio.SerialTransport):  # type: ignore[misc]
-    """SerialTransport that writes immediately when its buffer is empty, and reads and
-    writes the descriptor with plain ``os.read``/``os.write``: pyserial's own ``read`` and
-    ``write`` run a ``select()`` per call even on a non-blocking port, which costs more
-    than the rest of a request."""
+class SerialByteStream(anyio.abc.ByteStream):
+    """A serial port with a file descriptor as an anyio ``ByteStream``, on any backend.
+
+    ``receive``/``send`` wait with anyio's portable ``wait_readable``/``wait_writable``
+    (asyncio, uvloop, trio).  On asyncio the stream can also *push*: :meth:`attach` has
+    the loop call ``on_data`` from its fd-readable callback, and ``send_nowait`` writes at
+    once (queueing the rest behind a writability callback), so a round trip needs no task
+    switch.  A lost port surfaces as ``anyio.BrokenResourceError`` (pull) or ``on_lost``
+    (push), never as a traceback from the event loop.
+    """
+
+    #: Present only where writing without suspending is possible (asyncio).
+    send_nowait: Callable[[bytes], None] | None
+
+    def __init__(self, port: serial.SerialBase) -> None:
+        self._serial = port
+        self._fd: int = port.fd
+        self.port: str = str(port.port or "")
+        self._closed = False
+        self._lost: BaseException | None = None
+        self._pending = bytearray()
+        self._on_data: Callable[[bytes], None] | None = None
+        self._on_lost: Callable[[BaseException | None], None] | None = None
+        try:
+            self._loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()
+        except RuntimeError:
+            self._loop = None
+        self.send_nowait = self._send_nowait if self._loop is not None else None
+
+    # ---- push mode (asyncio) -------------------------------------------------------------
+
+    def attach(
+        self, on_data: Callable[[bytes], None], on_lost: Callable[[BaseException | None], None]
+    ) -> bool:
+        """Deliver received bytes to ``on_data`` from the loop's callback; False if this
+        backend cannot (then use :meth:`receive`)."""
+        if self._loop is None or self._closed:
+            return False
+        self._on_data = on_data
+        self._on_lost = on_lost
+        self._loop.add_reader(self._fd, self._read_ready)
+        return True
+
+    def detach(self) -> None:
+        """Stop pushing (the port stays open)."""
+        if self._on_data is not None and self._loop is not None and not self._closed:
+            self._loop.remove_reader(self._fd)
+        self._on_data = None
 
     def _read_ready(self) -> None:
         try:
-            data = os.read(self._serial.fd, self._max_read_size)
+            data = os.read(self._fd, 65536)
         except (BlockingIOError, InterruptedError):
             return
         except OSError as exc:
-            self._close(exc=serial.SerialException(f"read failed: {exc}"))
+            self._port_lost(exc)
             return
-        if data:
-            self._protocol.data_received(data)
-        else:  # a pseudo-terminal whose other end went away, or an unplugged USB device
-            self._close(exc=serial.SerialException("device disconnected"))
-
-    def write(self, data: bytes) -> None:
-        if self._closing:
+        if not data:  # a pseudo-terminal whose other end went away, or an unplugged device
+            self._port_lost(None)
             return
-        if not self._write_buffer:
-            try:
-                written = os.write(self._serial.fd, data)
-            except (BlockingIOError, InterruptedError):
-                written = 0
-            except OSError as exc:
-                self._fatal_error(
-                    serial.SerialException(f"write failed: {exc}"),
-                    "Fatal write error on serial transport",
-                )
-                return
-            if written == len(data):
-                return
-            data = data[written:]
-        super().write(data)
+        on_data = self._on_data
+        if on_data is not None:
+            on_data(data)
 
+    def _port_lost(self, exc: BaseException | None) -> None:
+        self._lost = exc or anyio.EndOfStream()
+        if self._loop is not None and not self._closed:
+            self._loop.remove_reader(self._fd)
+            self._loop.remove_writer(self._fd)
+        self._on_data = None
+        on_lost, self._on_lost = self._on_lost, None
+        if on_lost is not None:
+            on_lost(exc)
 
-class _BufferingProtocol(asyncio.Protocol):
-    def __init__(self) -> None:
-        self.chunks: collections.deque[bytes] = collections.deque()
-        self.waiter: asyncio.Future[None] | None = None
-        self.lost: BaseException | None = None
-        self.closed = False
+    def _send_nowait(self, item: bytes) -> None:
+        self._check_open()
+        if self._pending:
+            self._pending += item
+            return
+        try:
+            written = os.write(self._fd, item)
+        except (BlockingIOError, InterruptedError):
+            written = 0
+        except OSError as exc:
+            self._port_lost(exc)
+            raise anyio.BrokenResourceError(
+                f"serial port {self.port}: write failed: {exc}"
+            ) from exc
+        if written < len(item):
+            self._pending += item[written:]
+            assert self._loop is not None
+            self._loop.add_writer(self._fd, self._write_ready)
 
-    def data_received(self, data: bytes) -> None:
-        self.chunks.append(data)
-        self._wake()
+    def _write_ready(self) -> None:
+        try:
+            written = os.write(self._fd, self._pending)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError as exc:
+            self._port_lost(exc)
+            return
+        del self._pending[:written]
+        if not self._pending and self._loop is not None:
+            self._loop.remove_writer(self._fd)
 
-    def connection_lost(self, exc: Exception | None) -> None:
-        self.closed = True
-        self.lost = exc
-        self._wake()
+    # ---- pull mode (any backend) ---------------------------------------------------------
 
-    def _wake(self) -> None:
-        waiter = self.waiter
-        if waiter is not None and not waiter.done():
-            waiter.set_result(None)
-
-
-class SerialByteStream(anyio.abc.ByteStream):
-    """A serial port as an anyio ``ByteStream`` (asyncio backend)."""
-
-    def __init__(self, transport: _EagerSerialTransport, protocol: _BufferingProtocol) -> None:
-        self._transport = transport
-        self._protocol = protocol
-        self.port: str = transport.serial.port or ""
+    def _check_open(self) -> None:
+        if self._closed:
+            raise anyio.ClosedResourceError
+        if self._lost is not None:
+            raise anyio.BrokenResourceError(f"serial port {self.port} lost: {self._lost!r}")
 
     async def receive(self, max_bytes: int = 65536) -> bytes:
-        protocol = self._protocol
-        while not protocol.chunks:
-            if protocol.closed:
-                if self._transport.is_closing() and protocol.lost is None:
-                    raise anyio.ClosedResourceError
-                raise anyio.BrokenResourceError(f"serial port {self.port} lost: {protocol.lost}")
-            waiter = asyncio.get_running_loop().create_future()
-            protocol.waiter = waiter
+        while True:
+            self._check_open()
+            # Wait first: with VMIN = VTIME = 0 (pyserial's timeout=0) a tty's read
+            # returns b"" when empty, which only after readiness means "gone".
+            await anyio.wait_readable(self._fd)
+            self._check_open()
             try:
-                await waiter
-            finally:
-                protocol.waiter = None
-        data = protocol.chunks.popleft()
-        while protocol.chunks and len(data) < max_bytes:
-            data += protocol.chunks.popleft()
-        if len(data) > max_bytes:
-            protocol.chunks.appendleft(data[max_bytes:])
-            data = data[:max_bytes]
-        return data
-
-    def send_nowait(self, item: bytes) -> None:
-        """Write without suspending (eagerly, or queued in the transport)."""
-        if self._protocol.closed or self._transport.is_closing():
-            raise anyio.BrokenResourceError(f"serial port {self.port} is closed")
-        self._transport.write(item)
+                data = os.read(self._fd, max_bytes)
+            except (BlockingIOError, InterruptedError):
+                continue
+            except OSError as exc:
+                self._lost = exc
+                raise anyio.BrokenResourceError(f"serial port {self.port} lost: {exc}") from exc
+            if not data:
+                self._lost = anyio.EndOfStream()
+                raise anyio.BrokenResourceError(f"serial port {self.port} disconnected")
+            return data
 
     async def send(self, item: bytes) -> None:
-        self.send_nowait(item)
+        view = memoryview(item)
+        while view:
+            self._check_open()
+            try:
+                written = os.write(self._fd, view)
+            except (BlockingIOError, InterruptedError):
+                await anyio.wait_writable(self._fd)
+                continue
+            except OSError as exc:
+                self._lost = exc
+                raise anyio.BrokenResourceError(
+                    f"serial port {self.port}: write failed: {exc}"
+                ) from exc
+            view = view[written:]
 
     async def send_eof(self) -> None:
         raise NotImplementedError("serial ports have no end-of-file")
 
     async def aclose(self) -> None:
-        self._transport.close()
-        self._protocol._wake()
+        if self._closed:
+            return
+        self.detach()
+        if self._loop is not None and self._pending:
+            self._loop.remove_writer(self._fd)
+        self._closed = True
+        anyio.notify_closing(self._fd)
+        with contextlib.suppress(OSError, serial.SerialException):
+            self._serial.close()
         await anyio.lowlevel.checkpoint()
 
 
@@ -143,13 +200,21 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
         self._serial = port
         self._serial.timeout = 0.05
         self.port = str(port.port)
+        self._closed = False
+
+    def _broken(self, exc: BaseException) -> Exception:
+        if self._closed:  # closed under a read still running in its thread
+            return anyio.ClosedResourceError()
+        return anyio.BrokenResourceError(f"serial port {self.port} lost: {exc}")
 
     async def receive(self, max_bytes: int = 65536) -> bytes:
         while True:
+            if self._closed:
+                raise anyio.ClosedResourceError
             try:
                 data: bytes = await anyio.to_thread.run_sync(self._read, max_bytes)
-            except serial.SerialException as exc:
-                raise anyio.BrokenResourceError(str(exc)) from exc
+            except (serial.SerialException, OSError, AttributeError, TypeError) as exc:
+                raise self._broken(exc) from exc
             if data:
                 return data
 
@@ -158,15 +223,20 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
         return bytes(self._serial.read(min(max(waiting, 1), max_bytes)))
 
     async def send(self, item: bytes) -> None:
+        if self._closed:
+            raise anyio.ClosedResourceError
         try:
             await anyio.to_thread.run_sync(self._serial.write, item)
-        except serial.SerialException as exc:
-            raise anyio.BrokenResourceError(str(exc)) from exc
+        except (serial.SerialException, OSError, AttributeError, TypeError) as exc:
+            raise self._broken(exc) from exc
 
     async def send_eof(self) -> None:
         raise NotImplementedError("serial ports have no end-of-file")
 
     async def aclose(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
         await anyio.to_thread.run_sync(self._serial.close)
 
 
@@ -197,11 +267,4 @@ async def open_serial_stream(
         raise BoardDisconnectedError(f"cannot open {url}: {exc}") from exc
     if not _has_fileno(port):
         return _ThreadedSerialStream(port)
-    loop = asyncio.get_running_loop()
-    protocol = _BufferingProtocol()
-    transport = _EagerSerialTransport(loop, protocol, port)
-    # connection_made and the reader registration are scheduled with call_soon.
-    await asyncio.sleep(0)
-    with contextlib.suppress(Exception):
-        transport.set_write_buffer_limits(high=1 << 20)
-    return SerialByteStream(transport, protocol)
+    return SerialByteStream(port)

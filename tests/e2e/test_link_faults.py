@@ -62,6 +62,8 @@ async def test_a_board_reset_mid_command(virtual_uno_factory: VirtualUnoFactory)
             tg.start_soon(hammer)
             await anyio.sleep(0.2)
             await uno.reset()
-        assert errors, "the reset should have cost at least one request"
+        # A read in flight at the reset may fail, or be retried transparently (ReadId is
+        # idempotent); either way the board is back and the host can tell it rebooted.
+        assert all(isinstance(e, LinkError) for e in errors)
         assert await board.read_id() == 0x0078
         assert (await board.status()).session == 0  # a fresh boot: the host can tell

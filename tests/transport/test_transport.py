@@ -6,6 +6,8 @@ exception, and nothing hangs.
 
 from __future__ import annotations
 
+import logging
+import os
 from typing import Any
 
 import anyio
@@ -22,7 +24,7 @@ from arduinoio_async.errors import (
     LinkError,
 )
 from arduinoio_async.testing import FakeBoard, Faults
-from arduinoio_async.transport import LinkState, TraceRecord, Transport
+from arduinoio_async.transport import LinkState, TraceRecord, Transport, open_serial_stream
 
 FAST: dict[str, Any] = {"timeout": 0.2, "quiet_time": 0.005}
 
@@ -258,8 +260,9 @@ UNDETECTED: list[tuple[p.Request[p.Reply], p.Reply]] = []
         max_size=12,
     ),
 )
+@pytest.mark.parametrize("backend", ["asyncio", "trio"])
 def test_every_call_gets_its_own_answer_or_a_documented_error(
-    faults: Faults, calls: list[tuple[p.Request[p.Reply], float | None]]
+    backend: str, faults: Faults, calls: list[tuple[p.Request[p.Reply], float | None]]
 ) -> None:
     """Concurrent calls over a faulty link; some are cancelled after a random delay."""
 
@@ -303,4 +306,111 @@ def test_every_call_gets_its_own_answer_or_a_documented_error(
                     except LinkError:
                         continue
 
-    anyio.run(scenario)
+    anyio.run(scenario, backend=backend)
+
+
+# ---- the link core (issue 11) ------------------------------------------------------------
+
+
+async def test_wire_order_is_call_order_across_many_tasks() -> None:
+    """32 tasks toggle one pin; every call takes the next level when it is made.  The
+    board must see the levels in call order (the landed code let queued callers race for
+    the window and reordered some)."""
+    async with (
+        make_fake(Faults(delay=(0.0, 0.0005), seed=5)) as fake,
+        Transport(fake.host_stream, **FAST) as link,
+    ):
+        await link.request(p.GpioConfig(2, p.GpioFlags.OUTPUT))
+        called: list[bool] = []
+        on_wire: list[bool] = []
+
+        def watch(record: TraceRecord) -> None:
+            if record.direction == "tx" and isinstance(record.item, p.GpioWrite):
+                on_wire.append(record.item.value)
+
+        link.trace = watch
+        level = False
+
+        async def toggler() -> None:
+            nonlocal level
+            for _ in range(20):
+                level = not level
+                called.append(level)
+                await link.request(p.GpioWrite(2, level))
+
+        async with anyio.create_task_group() as tg:
+            for _ in range(32):
+                tg.start_soon(toggler)
+        assert on_wire == called
+        assert len(called) == 640
+
+
+async def test_a_failing_subscriber_is_logged_and_the_link_keeps_working(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    async with make_fake() as fake, Transport(fake.host_stream, **FAST) as link:
+        seen: list[p.Event] = []
+
+        def buggy(event: p.Event) -> None:
+            raise IndexError("consumer bug")
+
+        link.subscribe(buggy)
+        link.subscribe(seen.append)
+        sample = p.StreamSample(1, p.StreamFlags.NONE, 5, 1000, b"\x01\x02")
+        await fake.push(sample)
+        assert await link.request(p.ReadId()) == p.ReadIdReply(0x0102)
+        assert seen == [sample]
+        assert link.state is LinkState.READY
+        assert "consumer bug" in caplog.text
+
+
+async def test_losing_sync_is_logged_with_its_reason(caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="arduinoio_async")
+    async with (
+        make_fake(Faults(lose_reply=1.0)) as fake,
+        Transport(fake.host_stream, **FAST) as link,
+    ):
+        with pytest.raises(BoardTimeoutError):
+            await link.request(p.AnalogRead(1))
+        fake.faults.lose_reply = 0.0
+        assert await link.request(p.AnalogRead(2)) == p.AnalogReadReply(2, 207)
+    warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("AnalogRead timed out" in r.getMessage() for r in warnings)
+    assert any("in sync again" in r.getMessage() for r in caplog.records)
+
+
+async def test_an_unplugged_serial_port_fails_requests_quietly(
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    try:
+        stream = await open_serial_stream(path)
+        async with Transport(stream, timeout=2.0, name=path) as link:
+            os.close(master)  # the cable is pulled
+            with anyio.fail_after(5):
+                for _ in range(3):
+                    with pytest.raises(BoardDisconnectedError):
+                        await link.request(p.ReadId())
+            assert link.state is LinkState.CLOSED
+    finally:
+        os.close(slave)
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and "Fatal" not in err, err
+
+
+async def test_a_queued_request_that_expires_unsent_costs_no_resync() -> None:
+    async with (
+        make_fake(Faults(lose_reply=1.0)) as fake,
+        Transport(fake.host_stream, window_bytes=3, timeout=5.0, quiet_time=0.005) as link,
+        anyio.create_task_group() as tg,
+    ):
+        tg.start_soon(link.request, p.ReadId())  # fills the window, never answered
+        with anyio.fail_after(5):
+            while link.in_flight == 0:
+                await anyio.wait_all_tasks_blocked()
+        with pytest.raises(BoardTimeoutError, match="unsent"):
+            await link.request(p.ReadId(), timeout=0.01)
+        assert link.stats.resyncs == 0 and link.state is LinkState.READY
+        assert link.in_flight == 1
+        tg.cancel_scope.cancel()
