@@ -42,13 +42,14 @@ from __future__ import annotations
 import json
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import anyio
 import anyio.abc
 import zenoh
-from anyio.streams.memory import MemoryObjectReceiveStream
+from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
 
 from .. import protocol as p
 from ..board import Board
@@ -69,6 +70,9 @@ from ._loop import LoopHandle
 __all__ = ["BoardServer"]
 
 log = logging.getLogger(__name__)
+
+#: A function and its arguments, to start in the server's task group.
+_Spawn = tuple[Callable[..., Any], tuple[Any, ...]]
 
 #: After the failsafe owner is gone the board is starved this much beyond its timeout at
 #: most (a trip report normally ends the starvation sooner).
@@ -334,6 +338,7 @@ class BoardServer:
         self.session = session
         self.served: dict[int, _ServedBoard] = {}
         self._task_group: anyio.abc.TaskGroup | None = None
+        self._spawn: MemoryObjectSendStream[_Spawn] | None = None
         self._loop: LoopHandle | None = None
 
     @property
@@ -342,8 +347,21 @@ class BoardServer:
         return self._loop
 
     def start_soon(self, func: Any, *args: Any) -> None:
-        if self._task_group is not None:
-            self._task_group.start_soon(func, *args)
+        """Start ``func(*args)`` in the server's task group, from any code in the loop.
+
+        Zenoh's callbacks reach the loop as plain callbacks (``call_soon_threadsafe``),
+        outside any task, where a task group cannot spawn; so spawning goes through a
+        queue that a task of the group serves.
+        """
+        if self._spawn is not None:
+            self._spawn.send_nowait((func, args))
+
+    async def _spawner(
+        self, tg: anyio.abc.TaskGroup, requests: MemoryObjectReceiveStream[_Spawn]
+    ) -> None:
+        async with requests:
+            async for func, args in requests:
+                tg.start_soon(func, *args)
 
     async def run(
         self, *, task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED
@@ -359,12 +377,17 @@ class BoardServer:
         try:
             async with anyio.create_task_group() as tg:
                 self._task_group = tg
+                self._spawn, requests = anyio.create_memory_object_stream[_Spawn](math.inf)
+                tg.start_soon(self._spawner, tg, requests)
                 for board in self.manager.present().values():
                     self._serve(board)
                 task_status.started()
                 await anyio.sleep_forever()
         finally:
             self._task_group = None
+            if self._spawn is not None:
+                self._spawn.close()
+                self._spawn = None
             unsubscribe()
             for served in self.served.values():
                 served.close()
