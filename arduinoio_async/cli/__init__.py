@@ -11,10 +11,10 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-import anyio
 from rich.console import Console
 
 from ..errors import ArduinoIOError
+from ..transport import run as run_event_loop  # uvloop when installed
 from . import _board_commands, _discovery, _flash
 
 __all__ = ["main", "run"]
@@ -69,7 +69,7 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
     parser = build_parser()
     args = parser.parse_args(args_list)
     try:
-        result: int = anyio.run(args.handler, args, console)
+        result: int = run_event_loop(args.handler, args, console)
     except ArduinoIOError as exc:
         errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 1

@@ -21,6 +21,7 @@ from ..cli._target import add_scan_options, board_id
 from ..errors import ArduinoIOError, UsageError
 from ..manager import BoardManager
 from ..network.options import add_remote_options, remote_board
+from ..transport import run as run_event_loop  # uvloop when installed
 
 __all__ = ["build_parser", "main"]
 
@@ -113,7 +114,7 @@ def main(argv: Sequence[str], *, console: Console | None = None) -> int:
         errors.print(f"[red]error:[/] {INSTALL_HINT}", highlight=False)
         return 2
     try:
-        return anyio.run(_monitor, args, console)
+        return run_event_loop(_monitor, args, console)
     except ArduinoIOError as exc:
         errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 1

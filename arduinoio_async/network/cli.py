@@ -23,6 +23,7 @@ import zenoh
 from ..errors import ArduinoIOError
 from ..manager import BoardManager, ManagerEvent
 from ..protocol import DEFAULT_BAUD
+from ..transport import run as run_event_loop  # uvloop when installed
 from ._keys import DEFAULT_ENDPOINT, zenoh_config
 from ._server import BoardServer
 
@@ -104,7 +105,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         stream=sys.stderr,
     )
     try:
-        anyio.run(serve, args)
+        run_event_loop(serve, args)
     except ArduinoIOError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
