@@ -36,12 +36,7 @@ void app_init(void)
     misc_init();
 }
 
-void app_tick(void)
-{
-    pwm_tick();
-    stream_tick();
-    failsafe_tick();
-}
+void app_tick(void) { failsafe_tick(); }
 
 /* A parser event: build the reply and queue it at once (the transmitter
  * usually takes its first byte right away); if the buffer is full it stays
@@ -59,7 +54,8 @@ static void handle(uint8_t event)
 uint8_t app_step(void)
 {
     int16_t c;
-    uint8_t event;
+    uint8_t event, n;
+    hal_rx_view_t rx;
 
     failsafe_poll();
     if (pending_len) {
@@ -78,23 +74,27 @@ uint8_t app_step(void)
         parser_discard(&parser, hal_ticks());
         return 1;
     }
-    c = hal_rx_get();
-    if (c >= 0) {
-        /* A burst: feed the bytes straight from the FIFO until a frame ends
-         * or the FIFO is empty (at most a FIFO's worth, so the watchdog and
-         * the checks above still come round).  The parser's quiet-period
-         * reference is the arrival of the newest byte, as if each byte had
-         * been fed with its own tick. */
-        uint8_t n = AIO_RX_FIFO_SIZE;
-        do {
+    rx = hal_rx_view();
+    if (rx.count) {
+        n = parser_take(&parser, rx.ring, rx.tail, rx.count);
+        if (n) {
+            hal_rx_consume(n);
+            handle(PARSER_REQUEST);
+            return 1;
+        }
+        /* Part of a frame, or something the parser must see byte by byte:
+         * feed the bytes straight from the FIFO until a frame ends or the
+         * FIFO is empty (at most a FIFO's worth, so the watchdog and the
+         * checks above still come round).  The quiet period counts from
+         * now. */
+        n = AIO_RX_FIFO_SIZE;
+        event = PARSER_NONE;
+        while (n-- && (c = hal_rx_get()) >= 0) {
             event = parser_feed(&parser, (uint8_t)c, 0);
             if (event != PARSER_NONE)
                 break;
-            if (!--n)
-                break;
-            c = hal_rx_get();
-        } while (c >= 0);
-        parser.last_tick = hal_rx_last_tick();
+        }
+        parser.last_tick = hal_ticks();
         if (event != PARSER_NONE)
             handle(event);
         return 1;

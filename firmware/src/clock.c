@@ -1,8 +1,12 @@
 /*
  * clock.c - timebase on Timer2: CTC, prescaler 8 (0.5 us), OCR2A = 199, so
  * one compare interrupt every 100 us.  The interrupt keeps the tick and
- * millisecond counts, runs the software PWM first (timing-critical), then
- * with interrupts enabled again the stream sampling and the failsafe check.
+ * millisecond counts and, while armed, runs the failsafe check.  It runs
+ * with interrupts enabled (only the multi-byte stores are atomic), so it
+ * never delays a software PWM edge.
+ *
+ * Timer0 runs free at 0.5 us a count for the edge and stream alarms
+ * (hal_avr.c).
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -10,8 +14,6 @@
 #include "app.h"
 #include "clock.h"
 #include "hal.h"
-#include "pwm.h"
-#include "stream.h"
 #include "failsafe.h"
 
 #define TICK_COUNTS 200u /* timer counts per tick */
@@ -31,24 +33,21 @@ void clock_init(void)
     TIFR2 = _BV(OCF2A);
     TIMSK2 = _BV(OCIE2A);
     TCCR2B = _BV(CS21);
+    TCCR0A = 0; /* normal mode, no output compare pins */
+    TCCR0B = _BV(CS01);
 }
 
-/* The slow part (stream sampling, failsafe check) runs with interrupts
- * enabled again, and only while a stream runs or the failsafe is armed.  It
+/* The slow part (failsafe check) runs only while the failsafe is armed.  It
  * is reached through clock_slow_call, which saves the registers the C ABI
  * lets clock_slow() clobber: the interrupt itself then makes no C call and
- * saves only the registers it uses (about 110 cycles instead of 160 per
- * tick, every 100 us, measured in simavr). */
+ * saves only the registers it uses. */
 void clock_slow(void) __attribute__((used, externally_visible, noinline));
 void clock_slow(void)
 {
     if (in_slow)
         return;
     in_slow = 1;
-    sei();
-    stream_tick();
     failsafe_tick();
-    cli();
     in_slow = 0;
 }
 
@@ -65,24 +64,25 @@ __asm__(".section .text.clock_slow_call,\"ax\",@progbits\n"
         "\tret\n"
         "\t.text\n");
 
-ISR(TIMER2_COMPA_vect)
+/* Interrupts are enabled from the first instruction; the counts are stored
+ * with them disabled for a few cycles, so an interrupt that reads them (a
+ * stream sample's time stamp) never sees half an update.  No other
+ * TIMER2_COMPA can come within 100 us. */
+ISR(TIMER2_COMPA_vect, ISR_NOBLOCK)
 {
-    clock_ticks++;
+    uint32_t t = clock_ticks + 1u;
+    cli();
+    clock_ticks = t;
+    sei();
     if (++ms_div >= 10u) {
+        uint16_t m = millis + 1u;
         ms_div = 0;
-        millis++;
+        cli();
+        millis = m;
+        sei();
     }
-    pwm_tick();
-    if (stream_running() || failsafe_armed())
+    if (failsafe_armed())
         __asm__ volatile("call clock_slow_call" ::: "memory"); /* r1 is 0 here */
-}
-
-/* Only the low half (little-endian): reading all of a volatile uint32_t would
- * cost the receive interrupt four loads and four more saved registers. */
-uint16_t clock_ticks_isr(void)
-{
-    const volatile uint8_t *p = (const volatile uint8_t *)&clock_ticks;
-    return (uint16_t)(p[0] | (uint16_t)p[1] << 8);
 }
 
 uint16_t hal_ticks(void)

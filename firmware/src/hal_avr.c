@@ -84,7 +84,8 @@ void hal_pin_mode(uint8_t pin, uint8_t mode)
     hal_irq_restore(s);
 }
 
-void hal_pin_write(uint8_t pin, uint8_t level)
+/* Inlined into the GPIO WRITE handler (LTO): the hot request. */
+__attribute__((always_inline)) inline void hal_pin_write(uint8_t pin, uint8_t level)
 {
     volatile uint8_t *port = port_of(pin);
     uint8_t bit = bit_of(pin), s = hal_irq_save();
@@ -108,13 +109,6 @@ void hal_edge_watch(uint16_t mask)
 
 ISR(PCINT0_vect) { gpio_pin_change(hal_pin_levels()); }
 ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
-
-void hal_softpwm_high(uint8_t mask)
-{
-    uint8_t s = hal_irq_save();
-    PORTD |= mask;
-    hal_irq_restore(s);
-}
 
 void hal_softpwm_low(uint8_t mask)
 {
@@ -151,10 +145,10 @@ uint16_t hal_adc_convert(uint8_t channel)
     return convert();
 }
 
-void hal_adc_start(uint8_t channel)
+void hal_adc_start(uint8_t channel, uint8_t clock_shift)
 {
     ADMUX = (uint8_t)(ADMUX_AVCC | (channel & 7u));
-    ADCSRA = _BV(ADEN) | _BV(ADIF) | _BV(ADIE) | ADC_PRESCALE | _BV(ADSC);
+    ADCSRA = (uint8_t)(_BV(ADEN) | _BV(ADIF) | _BV(ADIE) | (clock_shift & 7u) | _BV(ADSC));
 }
 
 /* Interrupts stay enabled while the sample is completed so the UART
@@ -383,6 +377,97 @@ ISR(TIMER1_COMPB_vect)
 {
     TCCR1A = (uint8_t)((TCCR1A & ~_BV(COM1B1)) | (servo_want & _BV(COM1B1)));
     TIMSK1 &= (uint8_t)~_BV(OCIE1B);
+}
+
+/* ---------------------------------------------------------------- Timer0 alarms */
+/*
+ * Timer0 counts freely at 0.5 us (clock.c); an alarm is its compare unit
+ * plus a count of whole timer periods (128 us) still to wait: after
+ * OCR0x += d the next match comes d counts later (256 if d is 0), then every
+ * 256.  The compare pins stay disconnected (COM0x = 0).
+ */
+#include "pwm.h"
+
+/* Matches of a delay of d >= 1 counts after the first one. */
+#define WRAPS(d) ((uint16_t)((d) - 1u) >> 8)
+/* An edge due this close to the running alarm is waited for in it. */
+#define SPIN_COUNTS 6u
+
+static uint8_t pwm_wraps;
+
+void hal_softpwm_start(uint16_t delay)
+{
+    uint8_t s = hal_irq_save();
+    OCR0A = (uint8_t)(TCNT0 + delay);
+    pwm_wraps = (uint8_t)WRAPS(delay);
+    TIFR0 = _BV(OCF0A);
+    TIMSK0 |= _BV(OCIE0A);
+    hal_irq_restore(s);
+}
+
+/* The edge goes out first, at a fixed distance from the match; then the next
+ * one is scheduled from this match (OCR0A), not from now.  An edge due
+ * within SPIN_COUNTS of the time this takes is waited for here. */
+ISR(TIMER0_COMPA_vect)
+{
+    uint16_t delay;
+    uint8_t base;
+
+    if (pwm_wraps) {
+        pwm_wraps--;
+        return;
+    }
+    for (;;) {
+        PORTD = (uint8_t)((PORTD | pwm_soft_set) & pwm_soft_keep);
+        delay = pwm_soft_edge();
+        if (!delay) {
+            TIMSK0 &= (uint8_t)~_BV(OCIE0A);
+            return;
+        }
+        base = OCR0A;
+        OCR0A = (uint8_t)(base + delay);
+        pwm_wraps = (uint8_t)WRAPS(delay);
+        if (delay >= 256u || (uint8_t)(TCNT0 - base) + SPIN_COUNTS < delay)
+            return;
+        while ((uint8_t)(TCNT0 - base) < (uint8_t)delay) {
+        }
+        TIFR0 = _BV(OCF0A); /* its match is this very edge */
+    }
+}
+
+static uint8_t stream_lo;
+static uint16_t stream_wraps, stream_left;
+
+void hal_stream_timer_start(uint32_t period)
+{
+    uint8_t s = hal_irq_save();
+    stream_lo = (uint8_t)period;
+    stream_wraps = (uint16_t)((period - 1u) >> 8);
+    stream_left = stream_wraps;
+    OCR0B = (uint8_t)(TCNT0 + stream_lo);
+    TIFR0 = _BV(OCF0B);
+    TIMSK0 |= _BV(OCIE0B);
+    hal_irq_restore(s);
+}
+
+void hal_stream_timer_stop(void)
+{
+    uint8_t s = hal_irq_save();
+    TIMSK0 &= (uint8_t)~_BV(OCIE0B);
+    hal_irq_restore(s);
+}
+
+/* Interrupts enabled from the first instruction (a PWM edge must not wait);
+ * no other COMPB can come for 128 us, and the sample takes far less. */
+ISR(TIMER0_COMPB_vect, ISR_NOBLOCK)
+{
+    if (stream_left) {
+        stream_left--;
+        return;
+    }
+    OCR0B = (uint8_t)(OCR0B + stream_lo);
+    stream_left = stream_wraps;
+    stream_alarm();
 }
 
 /* ---------------------------------------------------------------- INT0/INT1 */

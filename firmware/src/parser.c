@@ -127,6 +127,43 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
     }
 }
 
+_Static_assert((AIO_RX_FIFO_SIZE & (AIO_RX_FIFO_SIZE - 1u)) == 0, "the FIFO index is masked");
+
+/* The pipelined case: while the host keeps requests in flight the FIFO holds
+ * whole frames, and checking one in place costs a table lookup and a loop
+ * over its bytes instead of a state transition per byte. */
+uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t count)
+{
+    const uint8_t mask = AIO_RX_FIFO_SIZE - 1u;
+    uint8_t ct, dt, e, data_len, i, b, sum;
+
+    if (p->state != ST_IDLE || count < 3u)
+        return 0;
+    ct = ring[tail & mask];
+    dt = ring[(uint8_t)(tail + 1u) & mask];
+    if (ct >= FR_ROWS || (uint8_t)(dt - 1u) >= FR_COLS - 1u)
+        return 0;
+    e = frame_table[ct][dt];
+    if (!e || (e & 0x70u)) /* unknown, or with a variable part: byte by byte */
+        return 0;
+    data_len = e & 0x0Fu;
+    if (count < (uint8_t)(data_len + 3u))
+        return 0;
+    sum = (uint8_t)(ct ^ dt);
+    tail = (uint8_t)(tail + 2u);
+    for (i = 0; i < data_len; i++) {
+        b = ring[(uint8_t)(tail + i) & mask];
+        p->rq.data[i] = b;
+        sum ^= b;
+    }
+    if (sum != ring[(uint8_t)(tail + data_len) & mask])
+        return 0;
+    p->rq.ct = ct;
+    p->rq.dt = dt;
+    p->rq.len = data_len;
+    return (uint8_t)(data_len + 3u);
+}
+
 uint8_t parser_poll(parser_t *p, uint16_t now)
 {
     if (p->state == ST_IDLE || (uint16_t)(now - p->last_tick) < PARSER_GAP_TICKS)

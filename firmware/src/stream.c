@@ -1,11 +1,19 @@
 /*
  * stream.c - STREAM class (CT 0x07) and the STREAM_SAMPLE event.
  *
- * The timebase interrupt counts down the period; at the sampling instant it
- * latches the timestamp, levels, edges and counters into the frame, then an
- * ADC conversion chain (one interrupt per channel) fills in the analog
- * values, and the last step queues the frame if it fits the transmit buffer
- * (else the sample is dropped; its sequence number is used up either way).
+ * A Timer0 alarm (hal_stream_timer_start) marks the sampling instants, exact
+ * to 0.5 us; there the alarm latches the timestamp, levels, edges and
+ * counters into the frame, then an ADC conversion chain (one interrupt per
+ * channel) fills in the analog values, and the last step queues the frame if
+ * it fits the transmit buffer (else the sample is dropped; its sequence
+ * number is used up either way).
+ *
+ * The chain's ADC clock is chosen at START: the slowest (most accurate) one
+ * whose conversions for all channels take at most 3/4 of the period.  At
+ * 125 kHz (prescaler 128) a conversion takes 104 us with full 10-bit
+ * accuracy; each halving of the prescaler halves the time and costs
+ * accuracy (the datasheet's 10 bits need 50-200 kHz; at 1 MHz, 13 us, expect
+ * about 8 bits).  Periods of 1 ms and more with up to 6 channels keep 125 kHz.
  * Blocking conversions of the main loop wait for a running chain; a sampling
  * instant that finds the main loop converting starts its chain when the main
  * loop releases the ADC.
@@ -25,8 +33,7 @@
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
-static uint16_t period_ticks;
-static uint16_t countdown;
+static uint8_t adc_shift;            /* ADC clock of the chain: 16 MHz >> adc_shift */
 static uint16_t seq;                 /* sequence number of the next sample */
 static volatile uint8_t busy;        /* a sample is being assembled */
 static volatile uint8_t pending;     /* its ADC chain waits for the main loop */
@@ -83,7 +90,7 @@ static void next_channel(void)
     if (channel >= AIO_ANALOG_CHANNELS)
         finish();
     else
-        hal_adc_start(channel);
+        hal_adc_start(channel, adc_shift);
 }
 
 void stream_adc_done(uint16_t value)
@@ -132,11 +139,10 @@ static void sample(void)
         next_channel();
 }
 
-void stream_tick(void)
+void stream_alarm(void)
 {
-    if (!running || --countdown)
+    if (!running)
         return;
-    countdown = period_ticks;
     if (busy)
         seq++; /* the previous sample is still converting: drop this one */
     else
@@ -173,9 +179,23 @@ void stream_adc_release(void)
     hal_irq_restore(s);
 }
 
+/* 16 MHz >> shift for the chain: the slowest ADC clock whose conversions
+ * (13 ADC clocks each) for `channels` fit in 3/4 of the period, or 0 if none
+ * does. */
+uint8_t stream_adc_clock(uint8_t channels, uint16_t period_us)
+{
+    uint8_t shift;
+    for (shift = HAL_ADC_SHIFT_ACCURATE; shift >= HAL_ADC_SHIFT_FASTEST; shift--)
+        /* one conversion: 13 << shift cycles = (13 << shift) / 16 us */
+        if ((uint32_t)channels * (13u << shift) * 4u <= (uint32_t)period_us * 16u * 3u)
+            return shift;
+    return 0;
+}
+
 static void stop(void)
 {
     uint8_t s = hal_irq_save();
+    hal_stream_timer_stop();
     running = 0;
     if (busy) {
         busy = 0; /* cancel the sample being assembled: it was never sent */
@@ -187,7 +207,7 @@ static void stop(void)
 
 uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
-    uint8_t m, f, s;
+    uint8_t m, f, s, shift;
     uint16_t period, r;
 
     if (rq->dt == AIO_DT_STREAM_STOP) {
@@ -208,15 +228,18 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_PIN_BUSY;
     if (!stream_admit(value_bytes(m, f), period, BAUD))
         return AIO_ERR_LINK_CAPACITY;
+    shift = stream_adc_clock((uint8_t)(value_bytes(m, 0) / 2u), period);
+    if (!shift)
+        return AIO_ERR_VALUE_OUT_OF_RANGE; /* not reached: 6 channels take 78 us at 1 MHz */
     stop();
     gpio_take_stream_edges(&r, &r); /* start the edges afresh */
     s = hal_irq_save();
     mask = m;
     flags = f;
-    period_ticks = (uint16_t)(period / 100u);
-    countdown = period_ticks;
+    adc_shift = shift;
     seq = 0;
     running = 1;
+    hal_stream_timer_start((uint32_t)period * HAL_FINE_PER_US);
     hal_irq_restore(s);
     return aio_echo(rq, rp);
 }
