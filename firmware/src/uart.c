@@ -61,8 +61,8 @@ void uart_init(void)
     UCSR0B = _BV(RXCIE0) | _BV(RXEN0) | _BV(TXEN0);
 }
 
-/* Hand-written: ~52 cycles a byte including entry and exit (the compiled
- * version took ~87): five registers saved, no r0/r1 set-up.  Status before
+/* Hand-written: ~53 cycles a byte including entry and exit (the compiled
+ * version took ~87): four registers saved, no r0/r1 set-up.  Status before
  * data (DOR0 belongs to the byte in UDR0).  No time stamp: the main loop
  * stamps bytes when it takes them (a later stamp only lengthens the quiet
  * period it measures, never shortens it). */
@@ -72,22 +72,20 @@ ISR(USART_RX_vect, ISR_NAKED)
         "push r24\n\t"
         "in r24, __SREG__\n\t"
         "push r24\n\t"
-        "push r25\n\t"
         "push r30\n\t"
         "push r31\n\t"
-        "lds r25, %[ucsra]\n\t"
+        "lds r31, %[ucsra]\n\t"
         "lds r24, %[udr]\n\t"
-        "sbrc r25, %[dor]\n\t"
-        "sts %[ovf], r25\n\t"
+        "sbrc r31, %[dor]\n\t"
+        "sts %[ovf], r31\n\t"
         "lds r30, %[head]\n\t"
-        "lds r25, %[tail]\n\t"
+        "lds r31, %[tail]\n\t"
+        "sub r31, r30\n\t"         /* tail - head = -count */
+        "cpi r31, 0x80\n\t"        /* count 128: full */
+        "breq 1f\n\t"
         "mov r31, r30\n\t"
-        "sub r31, r25\n\t"
-        "sbrc r31, 7\n\t"          /* head - tail >= 128: full */
-        "rjmp 1f\n\t"
-        "mov r25, r30\n\t"
-        "subi r25, 0xFF\n\t"
-        "sts %[head], r25\n\t"
+        "subi r31, 0xFF\n\t"
+        "sts %[head], r31\n\t"
         "andi r30, 0x7F\n\t"
         "ldi r31, 0\n\t"
         "subi r30, lo8(-(%[buf]))\n\t"
@@ -96,19 +94,16 @@ ISR(USART_RX_vect, ISR_NAKED)
         "2:\n\t"
         "pop r31\n\t"
         "pop r30\n\t"
-        "pop r25\n\t"
         "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
         "reti\n\t"
         "1:\n\t"
-        "ldi r25, 1\n\t"
-        "sts %[ovf], r25\n\t"
+        "sts %[ovf], r31\n\t"      /* r31 = 0x80: nonzero */
         "rjmp 2b\n\t"
         :
         : [ucsra] "n"(_SFR_MEM_ADDR(UCSR0A)), [udr] "n"(_SFR_MEM_ADDR(UDR0)), [dor] "n"(DOR0),
-          [ovf] "i"(&rx_overflow),
-          [head] "i"(&rx_head), [tail] "i"(&rx_tail), [buf] "i"(rx_buf));
+          [ovf] "i"(&rx_overflow), [head] "i"(&rx_head), [tail] "i"(&rx_tail), [buf] "i"(rx_buf));
 }
 
 uint8_t uart_rx_available(void) { return rx_head != rx_tail || rx_overflow; }
