@@ -382,24 +382,30 @@ ISR(TIMER1_COMPB_vect)
 /* ---------------------------------------------------------------- Timer0 alarms */
 /*
  * Timer0 counts freely at 0.5 us (clock.c); an alarm is its compare unit
- * plus a count of whole timer periods (128 us) still to wait: after
- * OCR0x += d the next match comes d counts later (256 if d is 0), then every
- * 256.  The compare pins stay disconnected (COM0x = 0).
+ * plus a count of half timer periods still to wait: a delay d is a first
+ * step of 1-128 counts (OCR0x += step) and then WRAPS(d) steps of 128, so
+ * OCR0x always changes (simavr 1.6 fires at once when OCR0x is rewritten
+ * with the count it holds).  The compare pins stay disconnected (COM0x = 0).
  */
 #include "pwm.h"
 
-/* Matches of a delay of d >= 1 counts after the first one. */
-#define WRAPS(d) ((uint16_t)((d) - 1u) >> 8)
-/* An edge due this close to the running alarm is waited for in it. */
-#define SPIN_COUNTS 6u
+#define HALF 128u
+/* The first step of a delay of d >= 1 counts, and the 128-count steps after it. */
+#define FIRST(d) ((uint8_t)((((d) - 1u) & (HALF - 1u)) + 1u))
+#define WRAPS(d) ((uint16_t)((d) - 1u) >> 7)
+/* An edge due this close to the running alarm is waited for in it (the
+ * interrupt's exit and entry take about that long) ... */
+#define SPIN_COUNTS 12u
+/* ... and goes out as many cycles after its count as through the interrupt. */
+#define SPIN_ALIGN 20u
 
-static uint8_t pwm_wraps;
+static uint16_t pwm_wraps;
 
 void hal_softpwm_start(uint16_t delay)
 {
     uint8_t s = hal_irq_save();
-    OCR0A = (uint8_t)(TCNT0 + delay);
-    pwm_wraps = (uint8_t)WRAPS(delay);
+    OCR0A = (uint8_t)(TCNT0 + FIRST(delay));
+    pwm_wraps = WRAPS(delay);
     TIFR0 = _BV(OCF0A);
     TIMSK0 |= _BV(OCIE0A);
     hal_irq_restore(s);
@@ -415,6 +421,7 @@ ISR(TIMER0_COMPA_vect)
 
     if (pwm_wraps) {
         pwm_wraps--;
+        OCR0A = (uint8_t)(OCR0A + HALF);
         return;
     }
     for (;;) {
@@ -425,26 +432,32 @@ ISR(TIMER0_COMPA_vect)
             return;
         }
         base = OCR0A;
-        OCR0A = (uint8_t)(base + delay);
-        pwm_wraps = (uint8_t)WRAPS(delay);
-        if (delay >= 256u || (uint8_t)(TCNT0 - base) + SPIN_COUNTS < delay)
+        OCR0A = (uint8_t)(base + FIRST(delay));
+        pwm_wraps = WRAPS(delay);
+        if (delay >= 256u) {
+            sei(); /* no match for 128 us: plan ahead with interrupts on */
+            pwm_soft_plan();
+            return; /* the epilogue's RETI ends the nesting */
+        }
+        if ((uint8_t)(TCNT0 - base) + SPIN_COUNTS < delay)
             return;
         while ((uint8_t)(TCNT0 - base) < (uint8_t)delay) {
         }
         TIFR0 = _BV(OCF0A); /* its match is this very edge */
+        __builtin_avr_delay_cycles(SPIN_ALIGN);
     }
 }
 
-static uint8_t stream_lo;
+static uint8_t stream_first;
 static uint16_t stream_wraps, stream_left;
 
 void hal_stream_timer_start(uint32_t period)
 {
     uint8_t s = hal_irq_save();
-    stream_lo = (uint8_t)period;
-    stream_wraps = (uint16_t)((period - 1u) >> 8);
+    stream_first = FIRST(period);
+    stream_wraps = (uint16_t)WRAPS(period);
     stream_left = stream_wraps;
-    OCR0B = (uint8_t)(TCNT0 + stream_lo);
+    OCR0B = (uint8_t)(TCNT0 + stream_first);
     TIFR0 = _BV(OCF0B);
     TIMSK0 |= _BV(OCIE0B);
     hal_irq_restore(s);
@@ -458,15 +471,18 @@ void hal_stream_timer_stop(void)
 }
 
 /* Interrupts enabled from the first instruction (a PWM edge must not wait);
- * no other COMPB can come for 128 us, and the sample takes far less. */
+ * no other COMPB can come for a step (at least one count after the OCR0B
+ * write; a stream period is 500 counts or more, and the sample takes far
+ * less than a step of 128). */
 ISR(TIMER0_COMPB_vect, ISR_NOBLOCK)
 {
     if (stream_left) {
         stream_left--;
+        OCR0B = (uint8_t)(OCR0B + HALF);
         return;
     }
-    OCR0B = (uint8_t)(OCR0B + stream_lo);
-    stream_left = stream_wraps;
+    stream_left = stream_wraps; /* before the match it schedules */
+    OCR0B = (uint8_t)(OCR0B + stream_first);
     stream_alarm();
 }
 

@@ -9,8 +9,9 @@
  * alarm of the free-running Timer0 (0.5 us counts) scheduled from the
  * previous edge's compare match, so rise and fall have the same interrupt
  * latency and the width is exact to the count; pins with equal widths fall
- * together.  Widths are latched 128 us before a frame starts, so a running
- * pulse is never cut short or stretched.
+ * together.  Widths are latched 128 us before a frame starts (so a running
+ * pulse is never cut short or stretched) and put in time order in that gap,
+ * with interrupts enabled, so the alarm itself only looks up the next edge.
  */
 #include "pwm.h"
 
@@ -31,6 +32,12 @@ static volatile uint16_t soft_next[SOFT_COUNT]; /* width in counts for the next 
 static uint16_t soft_active[SOFT_COUNT];         /* width in counts in this frame (alarm only) */
 static uint16_t soft_at;                         /* frame time of the pending edge (alarm only) */
 static volatile uint8_t soft_running;            /* the edge alarm runs */
+/* This frame's edges after the rise, in time order: frame time and the pins
+ * that stay (keep mask); the last one is the latch (alarm only). */
+static uint16_t fall_at[SOFT_COUNT + 1];
+static uint8_t fall_keep[SOFT_COUNT + 1];
+static uint8_t fall_next;
+static uint8_t plan_due; /* the latched widths wait for pwm_soft_plan() */
 volatile uint8_t pwm_soft_set, pwm_soft_keep;
 
 void pwm_init(void)
@@ -39,6 +46,7 @@ void pwm_init(void)
     for (i = 0; i < SOFT_COUNT; i++)
         soft_next[i] = soft_active[i] = 0;
     soft_running = 0;
+    plan_due = 0;
     pwm_soft_set = 0;
     pwm_soft_keep = 0xFF;
 }
@@ -58,13 +66,14 @@ uint8_t pwm_check_pulse(uint8_t pin, uint16_t us)
 
 uint16_t pwm_soft_edge(void)
 {
-    uint16_t now = soft_at, next = FRAME_COUNTS, w;
+    uint16_t now = soft_at, w;
     uint8_t i, bit = 1u << SOFT_FIRST, mask = 0;
 
     pwm_soft_set = 0;
-    pwm_soft_keep = 0xFF;
     if (now == LATCH_AT) {
-        /* the next edge starts a frame: latch its widths */
+        /* the next edge starts a frame: latch its widths (ordered later, by
+         * pwm_soft_plan(), in the 128 us before the frame starts) */
+        pwm_soft_keep = 0xFF;
         for (i = 0; i < SOFT_COUNT; i++, bit = (uint8_t)(bit << 1)) {
             w = soft_active[i] = soft_next[i];
             if (w)
@@ -76,25 +85,46 @@ uint16_t pwm_soft_edge(void)
         }
         pwm_soft_set = mask;
         soft_at = 0;
+        fall_next = 0;
+        plan_due = 1;
         return LATCH_LEAD;
     }
-    /* the next fall: the shortest width still running */
-    for (i = 0; i < SOFT_COUNT; i++, bit = (uint8_t)(bit << 1)) {
-        w = soft_active[i];
-        if (w <= now || w > next)
-            continue;
-        if (w < next) {
-            next = w;
-            mask = 0;
+    /* a rise or a fall went out: the next edge is planned already */
+    i = fall_next++;
+    pwm_soft_keep = fall_keep[i];
+    soft_at = fall_at[i];
+    return (uint16_t)(soft_at - now);
+}
+
+void pwm_soft_plan(void)
+{
+    uint16_t next, w, now = 0;
+    uint8_t i, n = 0, bit, mask;
+
+    if (!plan_due)
+        return;
+    plan_due = 0;
+    /* the falls in time order: repeatedly the shortest width still ahead */
+    for (;;) {
+        next = LATCH_AT;
+        mask = 0;
+        for (i = 0, bit = 1u << SOFT_FIRST; i < SOFT_COUNT; i++, bit = (uint8_t)(bit << 1)) {
+            w = soft_active[i];
+            if (w <= now || w > next)
+                continue;
+            if (w < next) {
+                next = w;
+                mask = 0;
+            }
+            mask |= bit;
         }
-        mask |= bit;
+        fall_at[n] = next;
+        fall_keep[n] = (uint8_t)~mask; /* the latch: mask 0, nothing changes */
+        n++;
+        if (!mask)
+            return;
+        now = next;
     }
-    if (mask)
-        pwm_soft_keep = (uint8_t)~mask;
-    else
-        next = LATCH_AT; /* all down: the next edge is the latch (no pin changes) */
-    soft_at = next;
-    return (uint16_t)(next - now);
 }
 
 void pwm_set_pulse(uint8_t pin, uint16_t us)

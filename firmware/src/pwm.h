@@ -21,5 +21,9 @@ extern volatile uint8_t pwm_soft_set, pwm_soft_keep;
  * alarm counts (HAL_FINE_PER_US a microsecond) from the one just applied to
  * it, or 0 when no pin has a pulse any more (the alarm stops). */
 uint16_t pwm_soft_edge(void);
+/* Called by the alarm, with interrupts enabled, after it scheduled an edge
+ * 128 us or more ahead: the slow part of the schedule (ordering a frame's
+ * falls) happens here. */
+void pwm_soft_plan(void);
 
 #endif

@@ -114,6 +114,8 @@ static void pwm_alarm(void)
     }
     delay = pwm_soft_edge();
     pwm_due = delay ? pwm_due + delay : 0;
+    if (delay >= 256u)
+        pwm_soft_plan();
 }
 
 void fake_advance(uint32_t ticks)

@@ -123,7 +123,7 @@ ERRORS: list[tuple[str, tuple[int, ...], bytes]] = [
     ("i2c not configured", (4, 2, 0x50, 0, 1), err(4, 2, 0x0D)),
     ("pwm not configured", (5, 2, 9, 0x05, 0xDC), err(5, 2, 0x07)),
     ("pwm out of range", (5, 1, 9, 0x03, 0xE7), err(5, 1, 0x09)),
-    ("soft pwm step", (5, 1, 2, 0x05, 0xDD), err(5, 1, 0x09)),
+    ("soft pwm out of range", (5, 1, 2, 0x03, 0xE7), err(5, 1, 0x09)),
     ("counter not capable", (6, 1, 4, 0), err(6, 1, 0x06)),
     ("stream empty", (7, 1, 0, 0, 0x03, 0xE8), err(7, 1, 0x09)),
     ("stream link capacity", (7, 1, 0x3F, 7, 0x03, 0xE8), err(7, 1, 0x0E)),
