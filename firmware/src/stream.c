@@ -9,11 +9,10 @@
  * number is used up either way).
  *
  * The chain's ADC clock is chosen at START: the slowest (most accurate) one
- * whose conversions for all channels take at most 3/4 of the period.  At
+ * whose chain for all channels ends within 7/8 of the period.  At
  * 125 kHz (prescaler 128) a conversion takes 104 us with full 10-bit
  * accuracy; each halving of the prescaler halves the time and costs
- * accuracy (the datasheet's 10 bits need 50-200 kHz; at 1 MHz, 13 us, expect
- * about 8 bits).  Periods of 1 ms and more with up to 6 channels keep 125 kHz.
+ * accuracy (the datasheet gives full accuracy only at 50-200 kHz).  Periods of 1 ms and more with up to 6 channels keep 125 kHz.
  * Blocking conversions of the main loop wait for a running chain; a sampling
  * instant that finds the main loop converting starts its chain when the main
  * loop releases the ADC.
@@ -38,7 +37,9 @@ static uint16_t seq;                 /* sequence number of the next sample */
 static volatile uint8_t busy;        /* a sample is being assembled */
 static volatile uint8_t pending;     /* its ADC chain waits for the main loop */
 static volatile uint8_t main_owns;   /* the main loop converts */
-static uint8_t channel;              /* channel being converted */
+static uint8_t channels[AIO_ANALOG_CHANNELS]; /* the mask's channels, in order */
+static uint8_t channel_count;
+static uint8_t channel;              /* index in channels[] of the next conversion */
 static uint8_t pos;                  /* next analog value position in frame */
 static uint8_t frame[AIO_FRAME_MAX];
 static uint8_t frame_len;
@@ -85,12 +86,10 @@ static void finish(void)
 
 static void next_channel(void)
 {
-    while (channel < AIO_ANALOG_CHANNELS && !(mask >> channel & 1u))
-        channel++;
-    if (channel >= AIO_ANALOG_CHANNELS)
+    if (channel >= channel_count)
         finish();
     else
-        hal_adc_start(channel, adc_shift);
+        hal_adc_start(channels[channel], adc_shift);
 }
 
 void stream_adc_done(uint16_t value)
@@ -179,15 +178,20 @@ void stream_adc_release(void)
     hal_irq_restore(s);
 }
 
-/* 16 MHz >> shift for the chain: the slowest ADC clock whose conversions
- * (13 ADC clocks each) for `channels` fit in 3/4 of the period, or 0 if none
- * does. */
+/* Cycles a chain costs besides the conversions: per channel (the ADC
+ * interrupt and the next start) and per sample (latching, checksum, queueing),
+ * measured in simavr with margin. */
+#define CHAIN_CYCLES_PER_CHANNEL 160u
+#define CHAIN_CYCLES_PER_SAMPLE 960u
+
 uint8_t stream_adc_clock(uint8_t channels, uint16_t period_us)
 {
     uint8_t shift;
+    /* a conversion is 13 ADC clocks = 13 << shift CPU cycles; the chain must
+     * end within 7/8 of the period (16 cycles a microsecond) */
     for (shift = HAL_ADC_SHIFT_ACCURATE; shift >= HAL_ADC_SHIFT_FASTEST; shift--)
-        /* one conversion: 13 << shift cycles = (13 << shift) / 16 us */
-        if ((uint32_t)channels * (13u << shift) * 4u <= (uint32_t)period_us * 16u * 3u)
+        if ((uint32_t)channels * ((13u << shift) + CHAIN_CYCLES_PER_CHANNEL) + CHAIN_CYCLES_PER_SAMPLE <=
+            (uint32_t)period_us * 14u)
             return shift;
     return 0;
 }
@@ -237,6 +241,10 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     mask = m;
     flags = f;
     adc_shift = shift;
+    channel_count = 0;
+    for (r = 0; r < AIO_ANALOG_CHANNELS; r++)
+        if (m >> r & 1u)
+            channels[channel_count++] = (uint8_t)r;
     seq = 0;
     running = 1;
     hal_stream_timer_start((uint32_t)period * HAL_FINE_PER_US);

@@ -16,8 +16,8 @@ void stream_adc_done(uint16_t value);
 /* Blocking conversions in the main loop take the ADC between these two. */
 void stream_adc_acquire(void);
 void stream_adc_release(void);
-/* The chain's ADC clock, 16 MHz >> shift: the slowest whose conversions for
- * `channels` take at most 3/4 of the period (0: none). */
+/* The chain's ADC clock, 16 MHz >> shift: the slowest whose chain for
+ * `channels` ends within 7/8 of the period (0: none). */
 uint8_t stream_adc_clock(uint8_t channels, uint16_t period_us);
 /* Bytes per second a stream needs vs the link: nonzero if admitted. */
 uint8_t stream_admit(uint8_t value_bytes, uint16_t period_us, uint32_t baud);

@@ -382,7 +382,7 @@ static void test_stream(void)
     /* the chain's ADC clock: 125 kHz (104 us a conversion) wherever it fits */
     EXPECT(stream_adc_clock(6, 1000) == 7 && stream_adc_clock(1, 250) == 7);
     EXPECT(stream_adc_clock(4, 250) == 5 && stream_adc_clock(6, 500) == 6);
-    EXPECT(stream_adc_clock(6, 250) == 5 && stream_adc_clock(6, 100) == 0);
+    EXPECT(stream_adc_clock(6, 250) == 4 && stream_adc_clock(6, 100) == 0);
     CHECK(B(7, 1, 1, 0, 0xEA, 0x61), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 60001 */
     CHECK(B(7, 1, 1, 0, 0x04, 0x4D), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 1101 */
     CHECK(B(7, 1, 1, 0, 0x06, 0x40), B(0x87, 1, AIO_ERR_LINK_CAPACITY));     /* 1600 */

@@ -16,6 +16,7 @@ import serial
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.protocol.pins import SoftPwmPin
 from arduinoio_async.sim import PulseStats, VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -23,7 +24,7 @@ pytestmark = pytest.mark.sim
 
 #: Distinct, equal and close widths (edges of different pins 8 us apart; closer than ~6 us
 #: the later one can be late by up to that, docs/protocol.md).
-WIDTHS = {D2: 1000, D3: 1008, D4: 1500, D5: 1500, D6: 1991, D7: 2000}
+WIDTHS: dict[SoftPwmPin, int] = {D2: 1000, D3: 1008, D4: 1500, D5: 1500, D6: 1991, D7: 2000}
 
 
 async def fresh_pulses(uno: VirtualUno, pins: list[int], count: int) -> dict[int, PulseStats]:
@@ -33,8 +34,8 @@ async def fresh_pulses(uno: VirtualUno, pins: list[int], count: int) -> dict[int
     stats: dict[int, PulseStats] = {}
     with anyio.fail_after(10):
         for pin in pins:
-            while (stat := await uno.pulse_stats(pin)).highs < count:
-                await anyio.sleep(0.02)  # remote state: the fixture counts simulated pulses
+            while (stat := await uno.pulse_stats(pin)).highs < count:  # noqa: ASYNC110 - remote
+                await anyio.sleep(0.02)
             stats[pin] = stat
     return stats
 
@@ -76,7 +77,7 @@ async def test_one_microsecond_steps_and_stop(virtual_uno_factory: VirtualUnoFac
         # No rise for three frames (60 ms of simulated time) once the width is 0.
         start = (await uno.status())["sim_us"]
         with anyio.fail_after(10):
-            while (await uno.status())["sim_us"] - start < 3 * p.SERVO_PERIOD_US:
+            while (await uno.status())["sim_us"] - start < 3 * p.SERVO_PERIOD_US:  # noqa: ASYNC110
                 await anyio.sleep(0.01)  # remote state: simulated time
         assert (await uno.pulse_stats(D4)).count == 0
         assert (await uno.pin(D4)).level == 0
