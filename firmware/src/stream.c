@@ -2,7 +2,9 @@
  * stream.c - STREAM class (CT 0x07) and the STREAM_SAMPLE event.
  *
  * A Timer0 alarm (hal_stream_timer_start) marks the sampling instants, exact
- * to 0.5 us; there the alarm latches the timestamp, levels, edges and
+ * to 0.5 us, so a sample's timestamp is the start time plus whole periods
+ * (read from the clock it could be torn by a tick interrupt the alarm
+ * preempted); there the alarm latches the timestamp, levels, edges and
  * counters into the frame, then an ADC conversion chain (one interrupt per
  * channel) fills in the analog values, and the last step queues the frame if
  * it fits the transmit buffer (else the sample is dropped; its sequence
@@ -34,6 +36,8 @@ static volatile uint8_t running;
 static uint8_t mask, flags;
 static uint8_t adc_shift;            /* ADC clock of the chain: 16 MHz >> adc_shift */
 static uint16_t seq;                 /* sequence number of the next sample */
+static uint32_t instant;             /* its sampling instant, board microseconds */
+static uint16_t stream_period;          /* the stream's period */
 static volatile uint8_t busy;        /* a sample is being assembled */
 static volatile uint8_t pending;     /* its ADC chain waits for the main loop */
 static volatile uint8_t main_owns;   /* the main loop converts */
@@ -114,7 +118,7 @@ static void sample(void)
     *p++ = flags;
     p = aio_put16(p, seq);
     seq++;
-    p = aio_put32(p, hal_micros());
+    p = aio_put32(p, instant);
     *p++ = len;
     pos = (uint8_t)(p - frame);
     p += (uint8_t)(len - value_bytes(0, flags)); /* analog values come from the chain */
@@ -142,6 +146,7 @@ void stream_alarm(void)
 {
     if (!running)
         return;
+    instant += stream_period;
     if (busy)
         seq++; /* the previous sample is still converting: drop this one */
     else
@@ -247,6 +252,8 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
             channels[channel_count++] = (uint8_t)r;
     seq = 0;
     running = 1;
+    stream_period = period;
+    instant = hal_micros(); /* the alarm is a period from now: each instant adds one */
     hal_stream_timer_start((uint32_t)period * HAL_FINE_PER_US);
     hal_irq_restore(s);
     return aio_echo(rq, rp);

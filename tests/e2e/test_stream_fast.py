@@ -6,11 +6,15 @@ ADC is exact at any clock, so the values are checked against the fixture's volta
 
 from __future__ import annotations
 
+import functools
 import itertools
+import operator
 import statistics
 import time
 
+import anyio
 import pytest
+import serial
 
 from arduinoio_async import A0, A1, A2, A3, LinkCapacityError
 from arduinoio_async import protocol as p
@@ -24,16 +28,23 @@ pytestmark = pytest.mark.sim
 VOLTS_MV = {A0: 1000, A1: 2000, A2: 3000, A3: 4000}
 
 
+#: Samples per run: 2 s of simulated time at 250 us (the simulation may run slower than the
+#: wall clock on a loaded machine, so runs are counted in samples, not seconds).
+COUNT = 8000
+
+
 async def stream_for(
-    board: Board, channels: list[AnalogPin], period_us: int, seconds: float
+    board: Board, channels: list[AnalogPin], period_us: int, count: int
 ) -> tuple[list[Sample], int, int]:
     samples: list[Sample] = []
-    async with board.stream(analog=channels, period_ms=period_us / 1000, buffer=100_000) as stream:
-        end = time.monotonic() + seconds
-        async for sample in stream:
-            samples.append(sample)
-            if sample.host_time >= end:
-                break
+    with anyio.fail_after(60):
+        async with board.stream(
+            analog=channels, period_ms=period_us / 1000, buffer=100_000
+        ) as stream:
+            async for sample in stream:
+                samples.append(sample)
+                if len(samples) >= count:
+                    break
     return samples, stream.gaps, stream.dropped
 
 
@@ -54,22 +65,67 @@ def check(samples: list[Sample], channels: list[AnalogPin], period_us: int, labe
             assert abs(sample.analog[pin] - VOLTS_MV[pin] * 1024 / 5000) <= 3, (pin, sample)
 
 
-@pytest.mark.parametrize(
-    ("baud", "channels"),
-    [(2_000_000, [A0, A1, A2, A3]), (1_000_000, [A0, A1, A2])],
-    ids=["4ch-2Mbaud", "3ch-1Mbaud"],
-)
-async def test_stream_every_250us_without_gaps(
-    virtual_uno_factory: VirtualUnoFactory, baud: int, channels: list[AnalogPin]
+async def test_three_channels_every_250us_at_1mbaud_without_gaps(
+    virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
-    uno = await virtual_uno_factory(board_id=1, baud=baud)
+    channels = [A0, A1, A2]
+    uno = await virtual_uno_factory(board_id=1, baud=1_000_000)
     for pin, mv in VOLTS_MV.items():
         await uno.set_analog(int(pin), mv)
-    async with Board.open(uno.port, baudrate=baud) as board:
-        samples, gaps, dropped = await stream_for(board, channels, 250, 3.0)
-    check(samples, channels, 250, f"{baud} baud, {len(channels)} channels, 250 us")
-    assert len(samples) >= 3.0 * 4000 * 0.95
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        samples, gaps, dropped = await stream_for(board, channels, 250, COUNT)
+    check(samples, channels, 250, "1 Mbaud, 3 channels, 250 us")
     assert gaps == 0 and dropped == 0
+
+
+def _read_raw_samples(port: str, baud: int, start: bytes, size: int, count: int) -> list[bytes]:
+    """Start a stream and collect its sample frames with bare pyserial (a worker thread)."""
+    frames: list[bytes] = []
+    with serial.Serial(port, baud, timeout=1) as link:
+        link.write(start)
+        assert link.read(len(start)) == start  # the echo
+        buffer = b""
+        end = time.monotonic() + 60
+        while len(frames) < count and time.monotonic() < end:
+            buffer += link.read(max(1, link.in_waiting))
+            while len(buffer) >= size:
+                frames.append(buffer[:size])
+                buffer = buffer[size:]
+    return frames
+
+
+async def test_four_channels_every_250us_at_2mbaud_without_gaps(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """4,000 frames of 20 bytes a second: read with bare pyserial, so what is measured is the
+    board (a Python consumer that falls behind on a loaded machine fills the pty, and the
+    harness then drops bytes it cannot hand over)."""
+    uno = await virtual_uno_factory(board_id=1, baud=2_000_000)
+    for pin, mv in VOLTS_MV.items():
+        await uno.set_analog(int(pin), mv)
+    start = p.StreamStart(0b1111, p.StreamFlags.NONE, 250).encode()
+    frames = await anyio.to_thread.run_sync(
+        _read_raw_samples, uno.port, uno.baud, start, 12 + 8, COUNT
+    )
+    samples = []
+    four = [A0, A1, A2, A3]
+    for frame in frames:
+        # 40 01 MASK FLAGS SEQ(2) T(4) LEN VALUES(8) CS
+        assert frame[:4] == bytes([0x40, 0x01, 0x0F, 0x00]) and frame[10] == 8, frame.hex()
+        assert functools.reduce(operator.xor, frame) == 0, frame.hex()
+        samples.append(
+            Sample(
+                host_time=0.0,
+                board_time_us=int.from_bytes(frame[6:10], "big"),
+                sequence=int.from_bytes(frame[4:6], "big"),
+                analog={
+                    pin: int.from_bytes(frame[11 + 2 * i : 13 + 2 * i])
+                    for i, pin in enumerate(four)
+                },
+            )
+        )
+    assert len(samples) >= COUNT
+    check(samples, four, 250, "2 Mbaud, 4 channels, 250 us (bare pyserial)")
 
 
 async def test_four_channels_every_250us_is_more_than_1mbaud_carries(
@@ -86,6 +142,6 @@ async def test_four_channels_every_250us_is_more_than_1mbaud_carries(
         # The shortest period it admits runs without gaps.
         for pin, mv in VOLTS_MV.items():
             await uno.set_analog(int(pin), mv)
-        samples, gaps, dropped = await stream_for(board, [A0, A1, A2, A3], 300, 2.0)
+        samples, gaps, dropped = await stream_for(board, [A0, A1, A2, A3], 300, COUNT)
     check(samples, [A0, A1, A2, A3], 300, "1 Mbaud, 4 channels, 300 us")
     assert gaps == 0 and dropped == 0
