@@ -3,6 +3,11 @@
  *
  * A reply is queued only when the whole frame fits the transmit buffer; until
  * then the loop waits and takes no further byte from the receive FIFO.
+ *
+ * While the host keeps requests in flight the FIFO holds whole frames: up to
+ * BATCH_MAX of them are answered in one step and their replies queued with
+ * one transmit-buffer reservation (each reply waits at most for the requests
+ * that were already waiting behind it).
  */
 #include "app.h"
 
@@ -18,9 +23,13 @@
 #include "pwm.h"
 #include "stream.h"
 
+#define BATCH_MAX 4u
+
 static parser_t parser;
-static uint8_t pending[AIO_FRAME_MAX];
+static uint8_t pending[2u * AIO_FRAME_MAX]; /* replies not yet queued: whole frames */
 static uint8_t pending_len;
+
+_Static_assert(sizeof pending <= AIO_TX_BUFFER_SIZE, "a batch fits the empty transmit buffer");
 
 void app_init(void)
 {
@@ -78,8 +87,17 @@ uint8_t app_step(void)
     if (rx.count) {
         n = parser_take(&parser, rx.ring, rx.tail, rx.count);
         if (n) {
-            hal_rx_consume(n);
-            handle(PARSER_REQUEST);
+            uint8_t batch = BATCH_MAX;
+            do {
+                hal_rx_consume(n);
+                pending_len = (uint8_t)(pending_len + dispatch(&parser.rq, pending + pending_len));
+                if (!--batch || misc_reset_pending || sizeof pending - pending_len < AIO_FRAME_MAX)
+                    break;
+                rx = hal_rx_view();
+                n = parser_take(&parser, rx.ring, rx.tail, rx.count);
+            } while (n);
+            if (hal_tx_send(pending, pending_len))
+                pending_len = 0;
             return 1;
         }
         /* Part of a frame, or something the parser must see byte by byte:

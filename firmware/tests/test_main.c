@@ -636,8 +636,10 @@ static void test_pipelining(void)
                                0x01, 0x02, 0x00, 0x07, 0x04};
         EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
     }
-    /* replies wait for room in the transmit buffer; none is dropped */
-    fake_tx_capacity = 12;
+    /* replies wait for room in the transmit buffer; none is dropped (a
+     * batch of up to four replies must fit the emptied buffer: 24 bytes here,
+     * 192 on the board) */
+    fake_tx_capacity = 24;
     n = 0;
     for (i = 0; i < 40; i++) {
         memcpy(burst + n, "\x01\x02\x03", 3);
