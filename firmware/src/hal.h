@@ -25,9 +25,10 @@ uint32_t hal_micros(void);  /* microsecond timestamp, wraps */
 /* ---- UART ---- */
 int16_t hal_rx_get(void);            /* next received byte, or -1 */
 bool hal_rx_take_overflow(void);     /* true once after the RX FIFO overflowed (FIFO flushed) */
-/* The receive FIFO in place: its ring of AIO_RX_FIFO_SIZE bytes, the index of
- * the oldest byte (mask it with AIO_RX_FIFO_SIZE - 1) and how many wait;
- * hal_rx_consume() drops the oldest n of them. */
+/* The receive FIFO in place: its ring of HAL_RX_RING bytes (8-bit indices
+ * wrap with it; at most AIO_RX_FIFO_SIZE bytes wait), the index of the
+ * oldest byte and how many wait; hal_rx_consume() drops the oldest n. */
+#define HAL_RX_RING 256u
 typedef struct {
     const uint8_t *ring;
     uint8_t tail;

@@ -40,7 +40,7 @@ uint32_t fake_adc_shift;
 static uint64_t pwm_due, stream_due, stream_period;
 static uint64_t rise_at[8];
 
-#define RX_MAX 128u /* the board's FIFO: a ring the parser reads in place */
+#define RX_MAX HAL_RX_RING /* the board's FIFO: a ring the parser reads in place */
 static uint8_t rx[RX_MAX];
 static uint32_t rx_head, rx_tail;
 static bool rx_over;
