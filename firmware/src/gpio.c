@@ -65,7 +65,7 @@ static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp) __att
 
 /* WRITE, the hot request, stays in a small function that saves few
  * registers; the other requests go to gpio_handle_other. */
-uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp)
+__attribute__((optimize("O2"))) uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
     uint8_t pin = rq->data[0];
     uint8_t arg = rq->data[1];
