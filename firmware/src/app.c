@@ -5,9 +5,10 @@
  * then the loop waits and takes no further byte from the receive FIFO.
  *
  * While the host keeps requests in flight the FIFO holds whole frames: up to
- * BATCH_MAX of them are answered in one step and their replies queued with
- * one transmit-buffer reservation (each reply waits at most for the requests
- * that were already waiting behind it).
+ * BATCH_MAX of them are answered in one step and their replies queued at
+ * once (each reply waits at most for the requests that were already waiting
+ * behind it); replies of quick requests are built in the transmit buffer
+ * itself (no copy).
  */
 #include "app.h"
 
@@ -23,7 +24,7 @@
 #include "pwm.h"
 #include "stream.h"
 
-#define BATCH_MAX 4u
+#define BATCH_MAX 8u
 
 static parser_t parser;
 static uint8_t pending[2u * AIO_FRAME_MAX]; /* replies not yet queued: whole frames */
@@ -87,17 +88,28 @@ uint8_t app_step(void)
     if (rx.count) {
         n = parser_take(&parser, rx.ring, rx.tail, rx.count);
         if (n) {
-            uint8_t batch = BATCH_MAX;
+            /* Replies of quick requests are built straight in the transmit
+             * buffer when it has room there; the others go through
+             * `pending`, so interrupt frames are never held up by a slow
+             * request. */
+            uint8_t batch = BATCH_MAX, room = 0, len = 0, quick = dispatch_quick(parser.rq.ct);
+            uint8_t *out = quick ? hal_tx_claim(AIO_FRAME_MAX, sizeof pending, &room) : 0;
+            if (!out) {
+                out = pending;
+                room = sizeof pending;
+            }
             do {
                 hal_rx_consume(n);
-                pending_len = (uint8_t)(pending_len + dispatch(&parser.rq, pending + pending_len));
-                if (!--batch || misc_reset_pending || sizeof pending - pending_len < AIO_FRAME_MAX)
+                len = (uint8_t)(len + dispatch(&parser.rq, out + len));
+                if (!--batch || misc_reset_pending || (uint8_t)(room - len) < AIO_FRAME_MAX)
                     break;
                 rx = hal_rx_view();
                 n = parser_take(&parser, rx.ring, rx.tail, rx.count);
-            } while (n);
-            if (hal_tx_send(pending, pending_len))
-                pending_len = 0;
+            } while (n && dispatch_quick(parser.rq.ct) == quick);
+            if (out != pending)
+                hal_tx_publish(len);
+            else if (!hal_tx_send(pending, len))
+                pending_len = len;
             return 1;
         }
         /* Part of a frame, or something the parser must see byte by byte:

@@ -38,6 +38,13 @@ hal_rx_view_t hal_rx_view(void);
 void hal_rx_consume(uint8_t n);
 uint8_t hal_tx_free(void);           /* bytes free in the transmit buffer */
 bool hal_tx_send(const uint8_t *frame, uint8_t len); /* whole frame or nothing; ISR-safe */
+/* Main loop only: replies built in place.  hal_tx_claim() reserves the free,
+ * contiguous room at the end of the transmit buffer, at most `want` bytes
+ * (returns its size in *room; NULL when less than `need` is there);
+ * hal_tx_publish() queues the first len bytes of it (whole frames) and gives
+ * the rest back.  Interrupts may queue frames meanwhile: they go after. */
+uint8_t *hal_tx_claim(uint8_t need, uint8_t want, uint8_t *room);
+void hal_tx_publish(uint8_t len);
 bool hal_tx_idle(void);              /* transmit buffer and UART shift register empty */
 
 /* ---- system ---- */

@@ -252,4 +252,56 @@ bool hal_tx_send(const uint8_t *frame, uint8_t len)
     return true;
 }
 
+static uint8_t claim_start, claim_size;
+
+uint8_t *hal_tx_claim(uint8_t need, uint8_t want, uint8_t *room)
+{
+    uint8_t s = SREG, start, n, to_end;
+    cli();
+    start = tx_resv;
+    n = (uint8_t)(TX_SIZE - (uint8_t)(start - tx_tail));
+    to_end = (uint8_t)(0u - start); /* 0 = the whole ring */
+    if (to_end && to_end < n)
+        n = to_end;
+    if (n > want)
+        n = want;
+    if (tx_open || n < need) {
+        SREG = s;
+        return 0;
+    }
+    tx_resv = (uint8_t)(start + n);
+    tx_open++;
+    claim_start = start;
+    claim_size = n;
+    SREG = s;
+    *room = n;
+    return tx_buf + start;
+}
+
+void hal_tx_publish(uint8_t len)
+{
+    uint8_t s = SREG, from, to, after;
+    cli();
+    /* frames interrupts queued behind the claim (complete: an interrupt
+     * producer runs to its end before the main loop resumes) move down to
+     * follow the published bytes */
+    from = (uint8_t)(claim_start + claim_size);
+    to = (uint8_t)(claim_start + len);
+    for (after = (uint8_t)(tx_resv - from); after; after--)
+        tx_buf[to++] = tx_buf[from++];
+    tx_resv = to;
+    if (tx_resv != claim_start) {
+        UCSR0A = _BV(U2X0) | _BV(TXC0); /* clear TXC0: set again once all of it is out */
+        tx_started = 1;
+        if (tx_tail == claim_start && tx_commit == claim_start && (UCSR0A & _BV(UDRE0))) {
+            /* transmitter idle: the first byte straight into UDR0 */
+            UDR0 = tx_buf[claim_start];
+            tx_tail = (uint8_t)(claim_start + 1u);
+        }
+    }
+    tx_open--;
+    tx_commit_all();
+    SREG = s;
+}
+
 bool hal_tx_idle(void) { return tx_resv == tx_tail && (!tx_started || (UCSR0A & _BV(TXC0))); }

@@ -235,6 +235,31 @@ bool hal_tx_send(const uint8_t *frame, uint8_t len)
     return true;
 }
 
+/* The claimed room is reserved at the end of fake_tx; frames "interrupts"
+ * send meanwhile go after it and move down on publish, as on the board. */
+static uint32_t claim_at, claim_size;
+
+uint8_t *hal_tx_claim(uint8_t need, uint8_t want, uint8_t *room)
+{
+    uint32_t free_bytes = fake_tx_len >= fake_tx_capacity ? 0 : fake_tx_capacity - fake_tx_len;
+    if (free_bytes > want)
+        free_bytes = want;
+    if (free_bytes < need || fake_tx_len + free_bytes > FAKE_TX_MAX)
+        return 0;
+    claim_at = fake_tx_len;
+    claim_size = free_bytes;
+    fake_tx_len += free_bytes;
+    *room = (uint8_t)free_bytes;
+    return fake_tx + claim_at;
+}
+
+void hal_tx_publish(uint8_t len)
+{
+    uint32_t after = fake_tx_len - (claim_at + claim_size);
+    memmove(fake_tx + claim_at + len, fake_tx + claim_at + claim_size, after);
+    fake_tx_len = claim_at + len + after;
+}
+
 bool hal_tx_idle(void) { return true; }
 
 void hal_wait(void)

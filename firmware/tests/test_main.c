@@ -637,9 +637,9 @@ static void test_pipelining(void)
         EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
     }
     /* replies wait for room in the transmit buffer; none is dropped (a
-     * batch of up to four replies must fit the emptied buffer: 24 bytes here,
-     * 192 on the board) */
-    fake_tx_capacity = 24;
+     * batch of replies, at most 2 * AIO_FRAME_MAX bytes, must fit the emptied
+     * buffer: 76 bytes here, 192 on the board) */
+    fake_tx_capacity = 2u * AIO_FRAME_MAX;
     n = 0;
     for (i = 0; i < 40; i++) {
         memcpy(burst + n, "\x01\x02\x03", 3);
