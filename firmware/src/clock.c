@@ -5,7 +5,7 @@
  * with interrupts enabled (only the multi-byte stores are atomic), so it
  * never delays a software PWM edge.
  *
- * Timer0 runs free at 0.5 us a count for the edge and stream alarms
+ * Timer0 counts at 0.5 us for the edge and stream alarms while one runs
  * (hal_avr.c).
  */
 #include <avr/interrupt.h>
@@ -33,8 +33,7 @@ void clock_init(void)
     TIFR2 = _BV(OCF2A);
     TIMSK2 = _BV(OCIE2A);
     TCCR2B = _BV(CS21);
-    TCCR0A = 0; /* normal mode, no output compare pins */
-    TCCR0B = _BV(CS01);
+    TCCR0A = 0; /* normal mode, no output compare pins; started by an alarm */
 }
 
 /* The slow part (failsafe check) runs only while the failsafe is armed.  It

@@ -84,7 +84,7 @@ void hal_servo_attach(uint8_t pin, uint16_t pulse_us);
 void hal_servo_set(uint8_t pin, uint16_t pulse_us);
 void hal_servo_detach(uint8_t pin);
 
-/* ---- fine alarms: Timer0 free-running, 0.5 us a count ---- */
+/* ---- fine alarms: Timer0, 0.5 us a count, running while an alarm does ---- */
 #define HAL_FINE_PER_US 2u
 /* Software PWM on D2-D7 (port D bits): `delay` counts from now (at least 16)
  * the alarm applies the pending edge (PORTD |= pwm_soft_set, &= pwm_soft_keep)

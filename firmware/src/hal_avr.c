@@ -381,7 +381,7 @@ ISR(TIMER1_COMPB_vect)
 
 /* ---------------------------------------------------------------- Timer0 alarms */
 /*
- * Timer0 counts freely at 0.5 us (clock.c); an alarm is its compare unit
+ * Timer0 counts at 0.5 us while an alarm runs; an alarm is its compare unit
  * plus a count of half timer periods still to wait: a delay d is a first
  * step of 1-128 counts (OCR0x += step) and then WRAPS(d) steps of 128, so
  * OCR0x always changes (simavr 1.6 fires at once when OCR0x is rewritten
@@ -401,9 +401,24 @@ ISR(TIMER1_COMPB_vect)
 
 static uint16_t pwm_wraps;
 
+/* Timer0 runs only while an alarm does (simavr then has no timer events to
+ * serve for it).  Interrupts disabled. */
+static void fine_timer_run(void)
+{
+    if (!(TCCR0B & _BV(CS01)))
+        TCCR0B = _BV(CS01);
+}
+
+static void fine_timer_idle(void)
+{
+    if (!(TIMSK0 & (_BV(OCIE0A) | _BV(OCIE0B))))
+        TCCR0B = 0;
+}
+
 void hal_softpwm_start(uint16_t delay)
 {
     uint8_t s = hal_irq_save();
+    fine_timer_run();
     OCR0A = (uint8_t)(TCNT0 + FIRST(delay));
     pwm_wraps = WRAPS(delay);
     TIFR0 = _BV(OCF0A);
@@ -429,6 +444,7 @@ ISR(TIMER0_COMPA_vect)
         delay = pwm_soft_edge();
         if (!delay) {
             TIMSK0 &= (uint8_t)~_BV(OCIE0A);
+            fine_timer_idle();
             return;
         }
         base = OCR0A;
@@ -454,6 +470,7 @@ static uint16_t stream_wraps, stream_left;
 void hal_stream_timer_start(uint32_t period)
 {
     uint8_t s = hal_irq_save();
+    fine_timer_run();
     stream_first = FIRST(period);
     stream_wraps = (uint16_t)WRAPS(period);
     stream_left = stream_wraps;
@@ -467,6 +484,7 @@ void hal_stream_timer_stop(void)
 {
     uint8_t s = hal_irq_save();
     TIMSK0 &= (uint8_t)~_BV(OCIE0B);
+    fine_timer_idle();
     hal_irq_restore(s);
 }
 
