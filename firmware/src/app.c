@@ -5,10 +5,10 @@
  * then the loop waits and takes no further byte from the receive FIFO.
  *
  * While the host keeps requests in flight the FIFO holds whole frames: up to
- * BATCH_MAX of them are answered in one step and their replies queued at
- * once (each reply waits at most for the requests that were already waiting
- * behind it); replies of quick requests are built in the transmit buffer
- * itself (no copy).
+ * BATCH_MAX quick ones (dispatch_quick: requests that never wait) are
+ * answered in one step, their replies built in the transmit buffer itself
+ * (no copy) and queued at once, so each waits at most for a few quick
+ * requests that were already waiting behind it.
  */
 #include "app.h"
 
@@ -92,7 +92,8 @@ uint8_t app_step(void)
              * buffer when it has room there; the others go through
              * `pending`, so interrupt frames are never held up by a slow
              * request. */
-            uint8_t batch = BATCH_MAX, room = 0, len = 0, quick = dispatch_quick(parser.rq.ct);
+            uint8_t quick = dispatch_quick(parser.rq.ct), batch = quick ? BATCH_MAX : 1u;
+            uint8_t room = 0, len = 0;
             uint8_t *out = quick ? hal_tx_claim(AIO_FRAME_MAX, sizeof pending, &room) : 0;
             if (!out) {
                 out = pending;
@@ -105,7 +106,7 @@ uint8_t app_step(void)
                     break;
                 rx = hal_rx_view();
                 n = parser_take(&parser, rx.ring, rx.tail, rx.count);
-            } while (n && dispatch_quick(parser.rq.ct) == quick);
+            } while (n && dispatch_quick(parser.rq.ct));
             if (out != pending)
                 hal_tx_publish(len);
             else if (!hal_tx_send(pending, len))

@@ -663,6 +663,45 @@ static void test_pipelining(void)
     fake_tx_capacity = 192;
 }
 
+/* Frames parsed in place: at every position of the 256-byte receive ring,
+ * also across its end (those go byte by byte), whole bursts answered in
+ * order, a bad checksum in a burst answered as such. */
+static void test_ring_positions(void)
+{
+    int offset, i;
+    board();
+    CHECK(B(2, 1, 13, 1), B(2, 1, 13, 1));
+    for (offset = 0; offset < 300; offset++) {
+        uint8_t burst[20];
+        memcpy(burst, "\x02\x03\x0D\x01\x0D", 5);      /* GPIO WRITE 13 high */
+        memcpy(burst + 5, "\x01\x02\x03", 3);             /* READ ID */
+        memcpy(burst + 8, "\x02\x03\x0D\x00\xFF", 5);  /* bad checksum */
+        memcpy(burst + 13, "\x02\x03\x0D\x00\x0C", 5); /* GPIO WRITE 13 low */
+        fake_rx_push(burst, 18);
+        run();
+        take();
+        {
+            static const uint8_t exp[] = {0x02, 0x03, 0x0D, 0x01, 0x0D, 0x01, 0x02, 0xFF, 0xFF,
+                                          0x03, 0x82, 0x03, 0x01, 0x80};
+            EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
+            if (outn != sizeof exp || memcmp(out, exp, sizeof exp)) {
+                printf("  at offset %d\n", offset);
+                dump("got", out, outn);
+                return;
+            }
+        }
+        /* after the error the rest is discarded until 10 ms of quiet */
+        fake_advance(PARSER_GAP_TICKS + 1);
+        run();
+        /* one byte more each round moves the frames across the ring */
+        fake_rx_push(B(0x01, 0x02, 0x03));
+        for (i = 0; i < offset % 3; i++)
+            fake_rx_push(B(0x01, 0x02, 0x03));
+        run();
+        take();
+    }
+}
+
 /* 1,000,000 random bytes: no crash, no out-of-bounds access (ASan/UBSan),
  * and after 10 ms of quiet the board answers an ID request. */
 static void test_random(void)
@@ -739,6 +778,7 @@ int main(void)
     test_failsafe();
     test_framing();
     test_pipelining();
+    test_ring_positions();
     test_random();
     printf("%d checks, %d failures\n", checks, failures);
     return failures != 0;
