@@ -12,6 +12,11 @@
  *   firmware_cycles ELF writes N [WINDOW]   pipelined GPIO WRITE to D13
  *   firmware_cycles ELF pwm N WIDTH_US      soft PWM D2-D7 at WIDTH_US, N pipelined
  *                                           writes meanwhile (0: link idle, 200 ms)
+ *   firmware_cycles ELF seq N               one request at a time (READ ID, then GPIO
+ *                                           WRITE): cycles from reading the request's
+ *                                           last byte from UDR0 to writing the first
+ *                                           reply byte to UDR0 (the virtual Uno's
+ *                                           firmware_cycles), median and minimum
  *
  * Prints one JSON object.  Built by benchmarks/firmware_cycles.py.
  */
@@ -31,7 +36,62 @@ static int xoff;
 static unsigned long reply_bytes;
 static int measuring;
 
-static void on_out(avr_irq_t *irq, uint32_t v, void *p) { (void)irq, (void)v, (void)p, reply_bytes++; }
+static void send(const uint8_t *b, int n);
+
+/* seq mode: UDR0 reads are watched (the UART module's own read handler is
+ * wrapped, as the virtual Uno does) */
+static int seq_armed;         /* the request's last byte has been injected */
+static uint64_t seq_start;    /* cycle of its UDR0 read, 0 = not yet */
+static uint64_t seq_first;    /* cycle of the first reply byte's UDR0 write */
+static avr_io_read_t udr_read;
+static void *udr_read_param;
+
+static uint8_t on_udr_read(struct avr_t *a, avr_io_addr_t addr, void *param)
+{
+    uint8_t v = udr_read(a, addr, udr_read_param);
+    (void)param;
+    if (seq_armed && !seq_start)
+        seq_start = a->cycle;
+    return v;
+}
+
+static void on_out(avr_irq_t *irq, uint32_t v, void *p)
+{
+    (void)irq, (void)v, (void)p;
+    if (seq_start && !seq_first)
+        seq_first = avr->cycle;
+    reply_bytes++;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* One request at a time, the last byte injected alone (after the others were
+ * read), a varying pause before each so the timer tick lands anywhere. */
+static void seq_measure(const uint8_t *rq, int len, unsigned long n, uint64_t *out)
+{
+    for (unsigned long k = 0; k < n; k++) {
+        uint64_t until = avr->cycle + 16u * (20u + (k * 37u) % 150u);
+        while (avr->cycle < until)
+            avr_run(avr);
+        reply_bytes = 0;
+        send(rq, len - 1);
+        until = avr->cycle + 16u * 40u;
+        while (avr->cycle < until)
+            avr_run(avr);
+        seq_start = seq_first = 0;
+        seq_armed = 1;
+        send(rq + len - 1, 1);
+        while (reply_bytes < 5)
+            avr_run(avr);
+        seq_armed = 0;
+        out[k] = seq_first - seq_start;
+    }
+    qsort(out, n, sizeof *out, cmp_u64);
+}
 static void on_xon(avr_irq_t *irq, uint32_t v, void *p) { (void)irq, (void)v, (void)p, xoff = 0; }
 static void on_xoff(avr_irq_t *irq, uint32_t v, void *p) { (void)irq, (void)v, (void)p, xoff = 1; }
 
@@ -85,8 +145,8 @@ int main(int argc, char **argv)
     int window = 24, pwm = 0;
     uint64_t start, asleep = 0;
 
-    if (argc < 4 || (strcmp(argv[2], "writes") && strcmp(argv[2], "pwm"))) {
-        fprintf(stderr, "usage: %s ELF writes N [WINDOW] | ELF pwm N WIDTH_US\n", argv[0]);
+    if (argc < 4 || (strcmp(argv[2], "writes") && strcmp(argv[2], "pwm") && strcmp(argv[2], "seq"))) {
+        fprintf(stderr, "usage: %s ELF writes N [WINDOW] | ELF pwm N WIDTH_US | ELF seq N\n", argv[0]);
         return 2;
     }
     n = strtoul(argv[3], 0, 0);
@@ -136,6 +196,23 @@ int main(int argc, char **argv)
         return 1;
     }
     reply_bytes = 0;
+    if (!strcmp(argv[2], "seq")) {
+        static const uint8_t read_id[3] = {1, 2, 3};
+        uint64_t *c = calloc(n, sizeof *c);
+        avr_io_addr_t udr = AVR_DATA_TO_IO(0xC6);
+        udr_read = avr->io[udr].r.c;
+        udr_read_param = avr->io[udr].r.param;
+        avr->io[udr].r.c = on_udr_read;
+        printf("{\"elf\": \"%s\", \"mode\": \"seq\", \"n\": %lu", argv[1], n);
+        seq_measure(read_id, 3, n, c);
+        printf(", \"read_id_cycles_median\": %lu, \"read_id_cycles_min\": %lu", (unsigned long)c[n / 2],
+               (unsigned long)c[0]);
+        seq_measure(req[1], 5, n, c);
+        printf(", \"gpio_write_cycles_median\": %lu, \"gpio_write_cycles_min\": %lu}\n",
+               (unsigned long)c[n / 2], (unsigned long)c[0]);
+        free(c);
+        return 0;
+    }
     if (pwm && !n) { /* link idle: 10 frames */
         measuring = 1;
         start = avr->cycle;

@@ -10,6 +10,8 @@ Builds ``benchmarks/firmware_cycles.c`` against libsimavr and runs it on each EL
   interrupts, parsing, execution, reply, its share of the timer tick).
 * ``pwm``: soft PWM on D2-D7 at 1500 us, widths of every pulse from the simulated pin
   edges, with the link idle and under the pipelined writes.
+* ``seq``: one request at a time, the virtual Uno's ``firmware_cycles`` definition (last
+  request byte read from UDR0 to the first reply byte written), median and minimum.
 
 The virtual Uno (``benchmarks/firmware_wire_speed.py``) measures the same through a pty
 and pyserial, paced to the wall clock; on a loaded machine that measures the host.
@@ -77,6 +79,7 @@ def main() -> None:
                 "writes": run(binary, path, "writes", str(args.n)),
                 "pwm_idle": run(binary, path, "pwm", "0", str(args.pwm_us)),
                 "pwm_loaded": run(binary, path, "pwm", str(args.n), str(args.pwm_us)),
+                "sequential": run(binary, path, "seq", "300"),
             }
             print(name, json.dumps(results[name]), flush=True)
     if args.json:

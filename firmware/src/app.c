@@ -86,7 +86,9 @@ uint8_t app_step(void)
     }
     rx = hal_rx_view();
     if (rx.count) {
-        n = parser_take(&parser, rx.ring, rx.tail, rx.count);
+        /* (a request trickling in at the line rate goes byte by byte, and
+         * its last byte should not pay for a call that cannot succeed) */
+        n = rx.count >= 3u && parser_idle(&parser) ? parser_take(&parser, rx.ring, rx.tail, rx.count) : 0;
         if (n) {
             /* Replies of quick requests are built straight in the transmit
              * buffer when it has room there; the others go through
