@@ -40,6 +40,7 @@ static void send(const uint8_t *b, int n);
 
 /* seq mode: UDR0 reads are watched (the UART module's own read handler is
  * wrapped, as the virtual Uno does) */
+static unsigned long udr_reads; /* bytes the firmware took from UDR0 */
 static int seq_armed;         /* the request's last byte has been injected */
 static uint64_t seq_start;    /* cycle of its UDR0 read, 0 = not yet */
 static uint64_t seq_first;    /* cycle of the first reply byte's UDR0 write */
@@ -50,6 +51,7 @@ static uint8_t on_udr_read(struct avr_t *a, avr_io_addr_t addr, void *param)
 {
     uint8_t v = udr_read(a, addr, udr_read_param);
     (void)param;
+    udr_reads++;
     if (seq_armed && !seq_start)
         seq_start = a->cycle;
     return v;
@@ -78,9 +80,9 @@ static void seq_measure(const uint8_t *rq, int len, unsigned long n, uint64_t *o
         while (avr->cycle < until)
             avr_run(avr);
         reply_bytes = 0;
+        unsigned long before = udr_reads;
         send(rq, len - 1);
-        until = avr->cycle + 16u * 40u;
-        while (avr->cycle < until)
+        while (udr_reads < before + (unsigned long)(len - 1)) /* the others taken */
             avr_run(avr);
         seq_start = seq_first = 0;
         seq_armed = 1;

@@ -127,7 +127,8 @@ uint8_t app_step(void)
             if (event != PARSER_NONE)
                 break;
         }
-        parser.last_tick = hal_ticks();
+        if (event != PARSER_REQUEST) /* mid-frame or discarding: the quiet period matters */
+            parser.last_tick = hal_ticks();
         if (event != PARSER_NONE)
             handle(event);
         return 1;

@@ -125,10 +125,13 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
 
 uint16_t hal_ticks(void)
 {
+    /* the low half only (little-endian): loading all of a volatile uint32_t
+     * would read four bytes */
+    const volatile uint16_t *low = (const volatile uint16_t *)(const volatile void *)&clock_ticks;
     uint8_t s = SREG;
     uint16_t t;
     cli();
-    t = (uint16_t)clock_ticks;
+    t = *low;
     SREG = s;
     return t;
 }
