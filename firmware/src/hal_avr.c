@@ -17,6 +17,7 @@
 #include "aio_protocol.h"
 #include "hal.h"
 #include "pins.h"
+#include "pwm.h"
 #include "stream.h"
 
 #define TWI_STEP_TICKS 20u /* 2 ms */
@@ -387,12 +388,10 @@ ISR(TIMER1_COMPB_vect)
  * OCR0x always changes (simavr 1.6 fires at once when OCR0x is rewritten
  * with the count it holds).  The compare pins stay disconnected (COM0x = 0).
  */
-#include "pwm.h"
-
 #define HALF 128u
 /* The first step of a delay of d >= 1 counts, and the 128-count steps after it. */
 #define FIRST(d) ((uint8_t)((((d) - 1u) & (HALF - 1u)) + 1u))
-#define WRAPS(d) ((uint16_t)((d) - 1u) >> 7)
+#define WRAPS(d) ((uint16_t)(((d) - 1u) >> 7)) /* d up to 120,000 (60 ms) */
 /* An edge due this close to the running alarm is waited for in it (the
  * interrupt's exit and entry take about that long) ... */
 #define SPIN_COUNTS 12u
@@ -472,7 +471,7 @@ void hal_stream_timer_start(uint32_t period)
     uint8_t s = hal_irq_save();
     fine_timer_run();
     stream_first = FIRST(period);
-    stream_wraps = (uint16_t)WRAPS(period);
+    stream_wraps = WRAPS(period);
     stream_left = stream_wraps;
     OCR0B = (uint8_t)(TCNT0 + stream_first);
     TIFR0 = _BV(OCF0B);

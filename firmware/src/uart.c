@@ -1,19 +1,22 @@
 /*
  * uart.c - USART0 for the ATmega328P (implements the UART part of hal.h).
  *
- * RX: every byte goes from the interrupt into a 128-byte FIFO; a full FIFO
- * or a hardware data overrun sets the overflow flag.
- * TX: a ring of AIO_TX_BUFFER_SIZE bytes emptied by the UDRE interrupt.
- * Producers (main loop and interrupts) reserve room for a whole frame with
- * interrupts disabled for a few cycles, copy it with interrupts enabled and
- * commit; the UDRE interrupt sees the bytes once no reservation is open, so
- * frames never interleave and copying never blocks the receiver.
+ * RX: every byte goes from the interrupt into a FIFO of 128 bytes (a
+ * 256-aligned ring of 256, so the 8-bit indices are address bytes); a full
+ * FIFO or a hardware data overrun sets the overflow flag.  The parser reads
+ * whole frames in place (hal_rx_view).
+ * TX: a 256-aligned ring holding at most AIO_TX_BUFFER_SIZE bytes, emptied by
+ * the UDRE interrupt.  Producers (main loop and interrupts) reserve room for
+ * a whole frame with interrupts disabled for a few cycles, copy it with
+ * interrupts enabled and commit; the UDRE interrupt sees the bytes once no
+ * reservation is open, so frames never interleave and copying never blocks
+ * the receiver.  The main loop can also claim the free room and build its
+ * replies there (hal_tx_claim/hal_tx_publish): no copy at all.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
 #include "aio_protocol.h"
-#include "clock.h"
 #include "hal.h"
 #include "uart.h"
 

@@ -145,3 +145,25 @@ async def test_four_channels_every_250us_is_more_than_1mbaud_carries(
         samples, gaps, dropped = await stream_for(board, [A0, A1, A2, A3], 300, COUNT)
     check(samples, [A0, A1, A2, A3], 300, "1 Mbaud, 4 channels, 300 us")
     assert gaps == 0 and dropped == 0
+
+
+@pytest.mark.parametrize("period_us", [250, 1000, 40_000])
+async def test_samples_come_at_the_period_in_simulated_time(
+    virtual_uno_factory: VirtualUnoFactory, period_us: int
+) -> None:
+    """The timestamps are start + whole periods, so they cannot show a wrong period: the
+    oracle is the harness's simulated clock (40 ms: more than 65,536 timer counts)."""
+    uno = await virtual_uno_factory(board_id=1, baud=1_000_000)
+    count = max(20, 200_000 // period_us)
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        with anyio.fail_after(60):
+            async with board.stream(analog=[A0], period_ms=period_us / 1000) as stream:
+                first = await stream.__anext__()
+                start_us = (await uno.status())["sim_us"]
+                for _ in range(count):
+                    last = await stream.__anext__()
+                end_us = (await uno.status())["sim_us"]
+    assert (last.sequence - first.sequence) & 0xFFFF == count
+    # count periods passed between the two status reads, give or take the host's latency
+    elapsed = end_us - start_us
+    assert count * period_us - 2_000 <= elapsed <= count * period_us + 6_000 + period_us, elapsed
