@@ -6,12 +6,12 @@
  *
  * D2-D7: software PWM, 1 us resolution.  Every 20 ms frame all pins with a
  * pulse go high together and each goes low after its width.  Each edge is an
- * alarm of the free-running Timer0 (0.5 us counts) scheduled from the
- * previous edge's compare match, so rise and fall have the same interrupt
- * latency and the width is exact to the count; pins with equal widths fall
- * together.  Widths are latched 128 us before a frame starts (so a running
- * pulse is never cut short or stretched) and put in time order in that gap,
- * with interrupts enabled, so the alarm itself only looks up the next edge.
+ * alarm of Timer0 (0.5 us counts) scheduled from the previous edge's compare
+ * match, so rise and fall have the same interrupt latency and the width is
+ * exact to the count; pins with equal widths fall together.  Widths are
+ * latched 128 us before a frame starts (so a running pulse is never cut short
+ * or stretched) and put in time order in that gap, with interrupts enabled,
+ * so the alarm itself only looks up the next edge.
  */
 #include "pwm.h"
 
