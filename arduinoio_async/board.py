@@ -358,7 +358,7 @@ class Board:
         return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us)
 
     async def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> SoftPwm:
-        """Software servo PWM on D2-D7 (100 us resolution)."""
+        """Software servo PWM on D2-D7 (1 us resolution)."""
         return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us)
 
     async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
@@ -463,7 +463,7 @@ class Board:
         period_ms: float = 10.0,
         buffer: int = DEFAULT_BUFFER,
     ) -> AsyncIterator[SampleStream]:
-        """Samples taken by the board's timer every ``period_ms`` (1 ms and up).
+        """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
         ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
         async for s in samples: ...``.  Commands keep working meanwhile.  A period the

@@ -209,7 +209,7 @@ class Servo(PulseOutput):
 
 
 class SoftPwm(PulseOutput):
-    """Software servo PWM on D2-D7: 100 us resolution."""
+    """Software servo PWM on D2-D7: 1 us resolution (edges by timer compare match)."""
 
     ROLE = "software PWM"
     STEP_US = p.SOFT_PWM_STEP_US

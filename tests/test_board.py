@@ -136,7 +136,7 @@ async def test_analog_a4_a5_are_busy_while_i2c_is_on() -> None:
         lambda b: b.counter(D4),
         lambda b: b.servo(D9, pulse_us=2500),
         lambda b: b.servo(D10, pulse_us=999),
-        lambda b: b.soft_pwm(D2, pulse_us=1550),
+        lambda b: b.soft_pwm(D2, pulse_us=2001),
         lambda b: b.write_id(0x10000),
     ],
 )

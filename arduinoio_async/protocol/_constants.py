@@ -157,7 +157,9 @@ TX_BUFFER_SIZE: Final = 192
 
 PULSE_MIN_US: Final = 1000
 PULSE_MAX_US: Final = 2000
-SOFT_PWM_STEP_US: Final = 100
+#: Software PWM widths (D2-D7) are set in steps of this many microseconds; each edge is a
+#: timer compare match on the board (protocol extension: the paper's firmware had 100).
+SOFT_PWM_STEP_US: Final = 1
 SERVO_PERIOD_US: Final = 20000
 
 ANALOG_MAX: Final = 1023
@@ -170,9 +172,10 @@ TEMP_REFERENCE_MV: Final = 1100
 TEMP_MV_AT_25C: Final = 314
 TEMP_MV_PER_C: Final = 1.0
 
-STREAM_MIN_PERIOD_US: Final = 1000
+#: Below 1 ms the board converts with a faster ADC clock (docs/protocol.md, STREAM).
+STREAM_MIN_PERIOD_US: Final = 250
 STREAM_MAX_PERIOD_US: Final = 60000
-STREAM_PERIOD_STEP_US: Final = 100
+STREAM_PERIOD_STEP_US: Final = 50
 
 #: A sample frame is 12 bytes plus its values; a stream may use at most 3/4 of the link's
 #: byte rate (10 bit times per byte), leaving room for command replies.

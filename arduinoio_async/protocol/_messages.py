@@ -538,8 +538,8 @@ class PwmConfigReply(Reply):
 class PwmConfig(Request[PwmConfigReply]):
     """Attach a servo output: hardware PWM on D9/D10, software PWM on D2-D7.
 
-    ``pulse_us`` 0 attaches without pulses (line held low); otherwise 1000-2000, a
-    multiple of 100 on software PWM pins.
+    ``pulse_us`` 0 attaches without pulses (line held low); otherwise 1000-2000, in steps
+    of SOFT_PWM_STEP_US on software PWM pins.
     """
 
     pin: Annotated[int, U8]

@@ -3,6 +3,12 @@
  *
  * A reply is queued only when the whole frame fits the transmit buffer; until
  * then the loop waits and takes no further byte from the receive FIFO.
+ *
+ * While the host keeps requests in flight the FIFO holds whole frames: up to
+ * BATCH_MAX quick ones (dispatch_quick: requests that never wait) are
+ * answered in one step, their replies built in the transmit buffer itself
+ * (no copy) and queued at once, so each waits at most for a few quick
+ * requests that were already waiting behind it.
  */
 #include "app.h"
 
@@ -18,9 +24,13 @@
 #include "pwm.h"
 #include "stream.h"
 
+#define BATCH_MAX 8u
+
 static parser_t parser;
-static uint8_t pending[AIO_FRAME_MAX];
+static uint8_t pending[2u * AIO_FRAME_MAX]; /* replies not yet queued: whole frames */
 static uint8_t pending_len;
+
+_Static_assert(sizeof pending <= AIO_TX_BUFFER_SIZE, "a batch fits the empty transmit buffer");
 
 void app_init(void)
 {
@@ -36,12 +46,7 @@ void app_init(void)
     misc_init();
 }
 
-void app_tick(void)
-{
-    pwm_tick();
-    stream_tick();
-    failsafe_tick();
-}
+void app_tick(void) { failsafe_tick(); }
 
 /* A parser event: build the reply and queue it at once (the transmitter
  * usually takes its first byte right away); if the buffer is full it stays
@@ -59,7 +64,8 @@ static void handle(uint8_t event)
 uint8_t app_step(void)
 {
     int16_t c;
-    uint8_t event;
+    uint8_t event, n;
+    hal_rx_view_t rx;
 
     failsafe_poll();
     if (pending_len) {
@@ -78,23 +84,51 @@ uint8_t app_step(void)
         parser_discard(&parser, hal_ticks());
         return 1;
     }
-    c = hal_rx_get();
-    if (c >= 0) {
-        /* A burst: feed the bytes straight from the FIFO until a frame ends
-         * or the FIFO is empty (at most a FIFO's worth, so the watchdog and
-         * the checks above still come round).  The parser's quiet-period
-         * reference is the arrival of the newest byte, as if each byte had
-         * been fed with its own tick. */
-        uint8_t n = AIO_RX_FIFO_SIZE;
-        do {
+    rx = hal_rx_view();
+    if (rx.count) {
+        /* (a request trickling in at the line rate goes byte by byte, and
+         * its last byte should not pay for a call that cannot succeed) */
+        n = rx.count >= 3u && parser_idle(&parser) ? parser_take(&parser, rx.ring, rx.tail, rx.count) : 0;
+        if (n) {
+            /* Replies of quick requests are built straight in the transmit
+             * buffer when it has room there; the others go through
+             * `pending`, so interrupt frames are never held up by a slow
+             * request. */
+            uint8_t quick = dispatch_quick(parser.rq.ct), batch = quick ? BATCH_MAX : 1u;
+            uint8_t room = 0, len = 0;
+            uint8_t *out = quick ? hal_tx_claim(AIO_FRAME_MAX, sizeof pending, &room) : 0;
+            if (!out) {
+                out = pending;
+                room = sizeof pending;
+            }
+            do {
+                hal_rx_consume(n);
+                len = (uint8_t)(len + dispatch(&parser.rq, out + len));
+                if (!--batch || misc_reset_pending || (uint8_t)(room - len) < AIO_FRAME_MAX)
+                    break;
+                rx = hal_rx_view();
+                n = parser_take(&parser, rx.ring, rx.tail, rx.count);
+            } while (n && dispatch_quick(parser.rq.ct));
+            if (out != pending)
+                hal_tx_publish(len);
+            else if (!hal_tx_send(pending, len))
+                pending_len = len;
+            return 1;
+        }
+        /* Part of a frame, or something the parser must see byte by byte:
+         * feed the bytes straight from the FIFO until a frame ends or the
+         * FIFO is empty (at most a FIFO's worth, so the watchdog and the
+         * checks above still come round).  The quiet period counts from
+         * now. */
+        n = AIO_RX_FIFO_SIZE;
+        event = PARSER_NONE;
+        while (n-- && (c = hal_rx_get()) >= 0) {
             event = parser_feed(&parser, (uint8_t)c, 0);
             if (event != PARSER_NONE)
                 break;
-            if (!--n)
-                break;
-            c = hal_rx_get();
-        } while (c >= 0);
-        parser.last_tick = hal_rx_last_tick();
+        }
+        if (event != PARSER_REQUEST) /* mid-frame or discarding: the quiet period matters */
+            parser.last_tick = hal_ticks();
         if (event != PARSER_NONE)
             handle(event);
         return 1;

@@ -1,8 +1,12 @@
 /*
  * clock.c - timebase on Timer2: CTC, prescaler 8 (0.5 us), OCR2A = 199, so
  * one compare interrupt every 100 us.  The interrupt keeps the tick and
- * millisecond counts, runs the software PWM first (timing-critical), then
- * with interrupts enabled again the stream sampling and the failsafe check.
+ * millisecond counts and, while armed, runs the failsafe check.  It runs
+ * with interrupts enabled (only the multi-byte stores are atomic), so it
+ * never delays a software PWM edge.
+ *
+ * Timer0 counts at 0.5 us for the edge and stream alarms while one runs
+ * (hal_avr.c).
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -10,8 +14,6 @@
 #include "app.h"
 #include "clock.h"
 #include "hal.h"
-#include "pwm.h"
-#include "stream.h"
 #include "failsafe.h"
 
 #define TICK_COUNTS 200u /* timer counts per tick */
@@ -31,24 +33,20 @@ void clock_init(void)
     TIFR2 = _BV(OCF2A);
     TIMSK2 = _BV(OCIE2A);
     TCCR2B = _BV(CS21);
+    TCCR0A = 0; /* normal mode, no output compare pins; started by an alarm */
 }
 
-/* The slow part (stream sampling, failsafe check) runs with interrupts
- * enabled again, and only while a stream runs or the failsafe is armed.  It
+/* The slow part (failsafe check) runs only while the failsafe is armed.  It
  * is reached through clock_slow_call, which saves the registers the C ABI
  * lets clock_slow() clobber: the interrupt itself then makes no C call and
- * saves only the registers it uses (about 110 cycles instead of 160 per
- * tick, every 100 us, measured in simavr). */
+ * saves only the registers it uses. */
 void clock_slow(void) __attribute__((used, externally_visible, noinline));
 void clock_slow(void)
 {
     if (in_slow)
         return;
     in_slow = 1;
-    sei();
-    stream_tick();
     failsafe_tick();
-    cli();
     in_slow = 0;
 }
 
@@ -65,32 +63,75 @@ __asm__(".section .text.clock_slow_call,\"ax\",@progbits\n"
         "\tret\n"
         "\t.text\n");
 
-ISR(TIMER2_COMPA_vect)
+/* Hand-written, ~40 cycles a tick (the compiled one took ~75): interrupts
+ * are enabled from the first instruction, so a software PWM edge never waits
+ * for it; no other TIMER2_COMPA can come within 100 us.  Only the main loop
+ * reads the counts, and it cannot run in the middle of this, so the
+ * byte-wise carries need no interrupt lock.  r1 is cleared only for the C
+ * call (an interrupted MUL may leave it nonzero). */
+ISR(TIMER2_COMPA_vect, ISR_NAKED)
 {
-    clock_ticks++;
-    if (++ms_div >= 10u) {
-        ms_div = 0;
-        millis++;
-    }
-    pwm_tick();
-    if (stream_running() || failsafe_armed())
-        __asm__ volatile("call clock_slow_call" ::: "memory"); /* r1 is 0 here */
-}
-
-/* Only the low half (little-endian): reading all of a volatile uint32_t would
- * cost the receive interrupt four loads and four more saved registers. */
-uint16_t clock_ticks_isr(void)
-{
-    const volatile uint8_t *p = (const volatile uint8_t *)&clock_ticks;
-    return (uint16_t)(p[0] | (uint16_t)p[1] << 8);
+    __asm__ volatile(
+        "sei\n\t"
+        "push r24\n\t"
+        "in r24, __SREG__\n\t"
+        "push r24\n\t"
+        "lds r24, %[t0]\n\t"
+        "subi r24, 0xFF\n\t"
+        "sts %[t0], r24\n\t"
+        "brne 1f\n\t"
+        "lds r24, %[t0]+1\n\t"
+        "subi r24, 0xFF\n\t"
+        "sts %[t0]+1, r24\n\t"
+        "brne 1f\n\t"
+        "lds r24, %[t0]+2\n\t"
+        "subi r24, 0xFF\n\t"
+        "sts %[t0]+2, r24\n\t"
+        "brne 1f\n\t"
+        "lds r24, %[t0]+3\n\t"
+        "subi r24, 0xFF\n\t"
+        "sts %[t0]+3, r24\n\t"
+        "1:\n\t"
+        "lds r24, %[div]\n\t"
+        "subi r24, 0xFF\n\t"
+        "cpi r24, 10\n\t"
+        "brlo 2f\n\t"
+        "lds r24, %[ms]\n\t"
+        "subi r24, 0xFF\n\t"
+        "sts %[ms], r24\n\t"
+        "brne 3f\n\t"
+        "lds r24, %[ms]+1\n\t"
+        "subi r24, 0xFF\n\t"
+        "sts %[ms]+1, r24\n\t"
+        "3:\n\t"
+        "ldi r24, 0\n\t"
+        "2:\n\t"
+        "sts %[div], r24\n\t"
+        "lds r24, %[armed]\n\t"
+        "tst r24\n\t"
+        "breq 4f\n\t"
+        "push r1\n\t"
+        "clr r1\n\t"
+        "call clock_slow_call\n\t"
+        "pop r1\n\t"
+        "4:\n\t"
+        "pop r24\n\t"
+        "out __SREG__, r24\n\t"
+        "pop r24\n\t"
+        "reti\n\t"
+        :
+        : [t0] "i"(&clock_ticks), [div] "i"(&ms_div), [ms] "i"(&millis), [armed] "i"(&failsafe_is_armed));
 }
 
 uint16_t hal_ticks(void)
 {
+    /* the low half only (little-endian): loading all of a volatile uint32_t
+     * would read four bytes */
+    const volatile uint16_t *low = (const volatile uint16_t *)(const volatile void *)&clock_ticks;
     uint8_t s = SREG;
     uint16_t t;
     cli();
-    t = (uint16_t)clock_ticks;
+    t = *low;
     SREG = s;
     return t;
 }

@@ -44,7 +44,7 @@ static aio_handler_t handler(uint8_t ct)
     }
 }
 
-uint8_t dispatch(const aio_request_t *rq, uint8_t *frame)
+__attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_t *frame)
 {
     /* The handler writes its reply data straight into the frame (no copy, no
      * reply on the stack): frame[1] holds rp->len until the DT goes there. */

@@ -12,7 +12,8 @@ typedef struct {
     uint16_t value;
 } safe_state_t;
 
-static volatile uint8_t armed, tripped, event_pending;
+volatile uint8_t failsafe_is_armed; /* read by the tick interrupt (clock.c) */
+static volatile uint8_t tripped, event_pending;
 static uint16_t timeout_ms;
 static volatile uint16_t last_feed;
 static safe_state_t safe[PINS_COUNT];
@@ -23,7 +24,7 @@ static const uint8_t tripped_event[3] = {AIO_CT_EVENT, AIO_DT_EVENT_FAILSAFE_TRI
 void failsafe_init(void)
 {
     uint8_t i;
-    armed = tripped = event_pending = 0;
+    failsafe_is_armed = tripped = event_pending = 0;
     for (i = 0; i < PINS_COUNT; i++)
         safe[i].kind = AIO_SAFE_NONE;
 }
@@ -32,7 +33,7 @@ void failsafe_feed(void)
 {
     /* Only the failsafe check reads last_feed: nothing to do while it is not
      * armed (ARM sets last_feed itself). */
-    if (armed) {
+    if (failsafe_is_armed) {
         uint16_t now = hal_millis();
         uint8_t s = hal_irq_save();
         last_feed = now;
@@ -42,18 +43,18 @@ void failsafe_feed(void)
 
 uint8_t failsafe_tripped(void) { return tripped; }
 
-uint8_t failsafe_armed(void) { return armed; }
+uint8_t failsafe_armed(void) { return failsafe_is_armed; }
 
 uint8_t failsafe_status(void)
 {
-    return (uint8_t)((armed ? AIO_STATUS_FAILSAFE_ARMED : 0) |
+    return (uint8_t)((failsafe_is_armed ? AIO_STATUS_FAILSAFE_ARMED : 0) |
                      (tripped ? AIO_STATUS_FAILSAFE_TRIPPED : 0));
 }
 
 void failsafe_tick(void)
 {
     uint8_t pin;
-    if (!armed || (uint16_t)(hal_millis() - last_feed) < timeout_ms)
+    if (!failsafe_is_armed || (uint16_t)(hal_millis() - last_feed) < timeout_ms)
         return;
     for (pin = 0; pin < PINS_COUNT; pin++) {
         if (safe[pin].kind == AIO_SAFE_LEVEL && pins_role[pin] == ROLE_GPIO_OUT)
@@ -61,7 +62,7 @@ void failsafe_tick(void)
         else if (safe[pin].kind == AIO_SAFE_PULSE && pins_role[pin] == ROLE_PWM)
             pwm_set_pulse(pin, safe[pin].value);
     }
-    armed = 0;
+    failsafe_is_armed = 0;
     tripped = 1;
     event_pending = !hal_tx_send(tripped_event, sizeof tripped_event);
 }
@@ -87,7 +88,7 @@ uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp)
         last_feed = hal_millis();
         tripped = 0;
         event_pending = 0;
-        armed = 1;
+        failsafe_is_armed = 1;
         hal_irq_restore(s);
         break;
     case AIO_DT_FAILSAFE_SAFE_STATE:
@@ -114,7 +115,7 @@ uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp)
         break;
     default: /* DISARM */
         s = hal_irq_save();
-        armed = 0;
+        failsafe_is_armed = 0;
         tripped = 0;
         event_pending = 0;
         hal_irq_restore(s);

@@ -17,6 +17,7 @@
 #include "aio_protocol.h"
 #include "hal.h"
 #include "pins.h"
+#include "pwm.h"
 #include "stream.h"
 
 #define TWI_STEP_TICKS 20u /* 2 ms */
@@ -84,7 +85,8 @@ void hal_pin_mode(uint8_t pin, uint8_t mode)
     hal_irq_restore(s);
 }
 
-void hal_pin_write(uint8_t pin, uint8_t level)
+/* Inlined into the GPIO WRITE handler (LTO): the hot request. */
+__attribute__((always_inline)) inline void hal_pin_write(uint8_t pin, uint8_t level)
 {
     volatile uint8_t *port = port_of(pin);
     uint8_t bit = bit_of(pin), s = hal_irq_save();
@@ -108,13 +110,6 @@ void hal_edge_watch(uint16_t mask)
 
 ISR(PCINT0_vect) { gpio_pin_change(hal_pin_levels()); }
 ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
-
-void hal_softpwm_high(uint8_t mask)
-{
-    uint8_t s = hal_irq_save();
-    PORTD |= mask;
-    hal_irq_restore(s);
-}
 
 void hal_softpwm_low(uint8_t mask)
 {
@@ -151,10 +146,10 @@ uint16_t hal_adc_convert(uint8_t channel)
     return convert();
 }
 
-void hal_adc_start(uint8_t channel)
+void hal_adc_start(uint8_t channel, uint8_t clock_shift)
 {
     ADMUX = (uint8_t)(ADMUX_AVCC | (channel & 7u));
-    ADCSRA = _BV(ADEN) | _BV(ADIF) | _BV(ADIE) | ADC_PRESCALE | _BV(ADSC);
+    ADCSRA = (uint8_t)(_BV(ADEN) | _BV(ADIF) | _BV(ADIE) | (clock_shift & 7u) | _BV(ADSC));
 }
 
 /* Interrupts stay enabled while the sample is completed so the UART
@@ -383,6 +378,129 @@ ISR(TIMER1_COMPB_vect)
 {
     TCCR1A = (uint8_t)((TCCR1A & ~_BV(COM1B1)) | (servo_want & _BV(COM1B1)));
     TIMSK1 &= (uint8_t)~_BV(OCIE1B);
+}
+
+/* ---------------------------------------------------------------- Timer0 alarms */
+/*
+ * Timer0 counts at 0.5 us while an alarm runs; an alarm is its compare unit
+ * plus a count of half timer periods still to wait: a delay d is a first
+ * step of 1-128 counts (OCR0x += step) and then WRAPS(d) steps of 128, so
+ * OCR0x always changes (simavr 1.6 fires at once when OCR0x is rewritten
+ * with the count it holds).  The compare pins stay disconnected (COM0x = 0).
+ */
+#define HALF 128u
+/* The first step of a delay of d >= 1 counts, and the 128-count steps after it. */
+#define FIRST(d) ((uint8_t)((((d) - 1u) & (HALF - 1u)) + 1u))
+#define WRAPS(d) ((uint16_t)(((d) - 1u) >> 7)) /* d up to 120,000 (60 ms) */
+/* An edge due this close to the running alarm is waited for in it (the
+ * interrupt's exit and entry take about that long) ... */
+#define SPIN_COUNTS 12u
+/* ... and goes out as many cycles after its count as through the interrupt. */
+#define SPIN_ALIGN 20u
+
+static uint16_t pwm_wraps;
+
+/* Timer0 runs only while an alarm does (simavr then has no timer events to
+ * serve for it).  Interrupts disabled. */
+static void fine_timer_run(void)
+{
+    if (!(TCCR0B & _BV(CS01)))
+        TCCR0B = _BV(CS01);
+}
+
+static void fine_timer_idle(void)
+{
+    if (!(TIMSK0 & (_BV(OCIE0A) | _BV(OCIE0B))))
+        TCCR0B = 0;
+}
+
+void hal_softpwm_start(uint16_t delay)
+{
+    uint8_t s = hal_irq_save();
+    fine_timer_run();
+    OCR0A = (uint8_t)(TCNT0 + FIRST(delay));
+    pwm_wraps = WRAPS(delay);
+    TIFR0 = _BV(OCF0A);
+    TIMSK0 |= _BV(OCIE0A);
+    hal_irq_restore(s);
+}
+
+/* The edge goes out first, at a fixed distance from the match; then the next
+ * one is scheduled from this match (OCR0A), not from now.  An edge due
+ * within SPIN_COUNTS of the time this takes is waited for here. */
+ISR(TIMER0_COMPA_vect)
+{
+    uint16_t delay;
+    uint8_t base;
+
+    if (pwm_wraps) {
+        pwm_wraps--;
+        OCR0A = (uint8_t)(OCR0A + HALF);
+        return;
+    }
+    for (;;) {
+        PORTD = (uint8_t)((PORTD | pwm_soft_set) & pwm_soft_keep);
+        delay = pwm_soft_edge();
+        if (!delay) {
+            TIMSK0 &= (uint8_t)~_BV(OCIE0A);
+            fine_timer_idle();
+            return;
+        }
+        base = OCR0A;
+        OCR0A = (uint8_t)(base + FIRST(delay));
+        pwm_wraps = WRAPS(delay);
+        if (delay >= 256u) {
+            sei(); /* no match for 128 us: plan ahead with interrupts on */
+            pwm_soft_plan();
+            return; /* the epilogue's RETI ends the nesting */
+        }
+        if ((uint8_t)(TCNT0 - base) + SPIN_COUNTS < delay)
+            return;
+        while ((uint8_t)(TCNT0 - base) < (uint8_t)delay) {
+        }
+        TIFR0 = _BV(OCF0A); /* its match is this very edge */
+        __builtin_avr_delay_cycles(SPIN_ALIGN);
+    }
+}
+
+static uint8_t stream_first;
+static uint16_t stream_wraps, stream_left;
+
+void hal_stream_timer_start(uint32_t period)
+{
+    uint8_t s = hal_irq_save();
+    fine_timer_run();
+    stream_first = FIRST(period);
+    stream_wraps = WRAPS(period);
+    stream_left = stream_wraps;
+    OCR0B = (uint8_t)(TCNT0 + stream_first);
+    TIFR0 = _BV(OCF0B);
+    TIMSK0 |= _BV(OCIE0B);
+    hal_irq_restore(s);
+}
+
+void hal_stream_timer_stop(void)
+{
+    uint8_t s = hal_irq_save();
+    TIMSK0 &= (uint8_t)~_BV(OCIE0B);
+    fine_timer_idle();
+    hal_irq_restore(s);
+}
+
+/* Interrupts enabled from the first instruction (a PWM edge must not wait);
+ * no other COMPB can come for a step (at least one count after the OCR0B
+ * write; a stream period is 500 counts or more, and the sample takes far
+ * less than a step of 128). */
+ISR(TIMER0_COMPB_vect, ISR_NOBLOCK)
+{
+    if (stream_left) {
+        stream_left--;
+        OCR0B = (uint8_t)(OCR0B + HALF);
+        return;
+    }
+    stream_left = stream_wraps; /* before the match it schedules */
+    OCR0B = (uint8_t)(OCR0B + stream_first);
+    stream_alarm();
 }
 
 /* ---------------------------------------------------------------- INT0/INT1 */

@@ -8,6 +8,8 @@
  */
 #include "parser.h"
 
+#include "hal.h"
+
 enum { ST_IDLE = 0, ST_DT, ST_DATA, ST_CS, ST_DISCARD };
 
 /* frame[ct][dt]: 0 = no such request, else FR_KNOWN | data_len | (len_pos + 1) << 4.
@@ -125,6 +127,45 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
     default: /* ST_DISCARD: every byte restarts the quiet period */
         return PARSER_NONE;
     }
+}
+
+_Static_assert(HAL_RX_RING == 256u, "the FIFO's 8-bit indices wrap with its ring");
+
+/* The pipelined case: while the host keeps requests in flight the FIFO holds
+ * whole frames, and checking one in place costs a table lookup and a loop
+ * over its bytes instead of a state transition per byte.  A frame that runs
+ * across the end of the ring goes byte by byte (one in about 50). */
+uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t count)
+{
+    const uint8_t *f = ring + tail;
+    uint8_t *d = p->rq.data;
+    uint8_t ct, dt, e, data_len, i, b, sum;
+
+    if (p->state != ST_IDLE || count < 3u || tail > HAL_RX_RING - 3u)
+        return 0;
+    ct = f[0];
+    dt = f[1];
+    if (ct >= FR_ROWS || (uint8_t)(dt - 1u) >= FR_COLS - 1u)
+        return 0;
+    e = frame_table[ct][dt];
+    if (!e || (e & 0x70u)) /* unknown, or with a variable part: byte by byte */
+        return 0;
+    data_len = e & 0x0Fu;
+    if (count < (uint8_t)(data_len + 3u) || tail > HAL_RX_RING - 3u - data_len)
+        return 0;
+    sum = (uint8_t)(ct ^ dt);
+    f += 2;
+    for (i = data_len; i; i--) {
+        b = *f++;
+        *d++ = b;
+        sum ^= b;
+    }
+    if (sum != *f)
+        return 0;
+    p->rq.ct = ct;
+    p->rq.dt = dt;
+    p->rq.len = data_len;
+    return (uint8_t)(data_len + 3u);
 }
 
 uint8_t parser_poll(parser_t *p, uint16_t now)

@@ -37,6 +37,14 @@ typedef struct {
 void parser_init(parser_t *p);
 /* One received byte, with the tick at which it arrived. */
 uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick);
+/* A whole fixed-size request at the front of the receive FIFO (a ring of
+ * HAL_RX_RING = 256 bytes, `count` of them from index `tail`), parsed in place
+ * while the parser is between frames: returns its length in bytes, the
+ * request in p->rq, or 0 when the bytes are not (yet) one complete
+ * fixed-size request with a good checksum within the ring (not across its
+ * end); feed them one at a time then (parser_feed gives every error its
+ * reply). */
+uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t count);
 /* No byte available: checks the inter-byte gap and the end of discarding. */
 uint8_t parser_poll(parser_t *p, uint16_t now);
 /* Start discarding until quiet (after an RX overflow), counting from tick. */

@@ -1,11 +1,20 @@
 /*
  * stream.c - STREAM class (CT 0x07) and the STREAM_SAMPLE event.
  *
- * The timebase interrupt counts down the period; at the sampling instant it
- * latches the timestamp, levels, edges and counters into the frame, then an
- * ADC conversion chain (one interrupt per channel) fills in the analog
- * values, and the last step queues the frame if it fits the transmit buffer
- * (else the sample is dropped; its sequence number is used up either way).
+ * A Timer0 alarm (hal_stream_timer_start) marks the sampling instants, exact
+ * to 0.5 us, so a sample's timestamp is the start time plus whole periods
+ * (read from the clock it could be torn by a tick interrupt the alarm
+ * preempted); there the alarm latches the timestamp, levels, edges and
+ * counters into the frame, then an ADC conversion chain (one interrupt per
+ * channel) fills in the analog values, and the last step queues the frame if
+ * it fits the transmit buffer (else the sample is dropped; its sequence
+ * number is used up either way).
+ *
+ * The chain's ADC clock is chosen at START: the slowest (most accurate) one
+ * whose chain for all channels ends within 7/8 of the period.  At
+ * 125 kHz (prescaler 128) a conversion takes 104 us with full 10-bit
+ * accuracy; each halving of the prescaler halves the time and costs
+ * accuracy (the datasheet gives full accuracy only at 50-200 kHz).  Periods of 1 ms and more with up to 6 channels keep 125 kHz.
  * Blocking conversions of the main loop wait for a running chain; a sampling
  * instant that finds the main loop converting starts its chain when the main
  * loop releases the ADC.
@@ -25,13 +34,16 @@
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
-static uint16_t period_ticks;
-static uint16_t countdown;
+static uint8_t adc_shift;            /* ADC clock of the chain: 16 MHz >> adc_shift */
 static uint16_t seq;                 /* sequence number of the next sample */
+static uint32_t instant;             /* its sampling instant, board microseconds */
+static uint16_t stream_period;          /* the stream's period */
 static volatile uint8_t busy;        /* a sample is being assembled */
 static volatile uint8_t pending;     /* its ADC chain waits for the main loop */
 static volatile uint8_t main_owns;   /* the main loop converts */
-static uint8_t channel;              /* channel being converted */
+static uint8_t channels[AIO_ANALOG_CHANNELS]; /* the mask's channels, in order */
+static uint8_t channel_count;
+static uint8_t channel;              /* index in channels[] of the next conversion */
 static uint8_t pos;                  /* next analog value position in frame */
 static uint8_t frame[AIO_FRAME_MAX];
 static uint8_t frame_len;
@@ -78,12 +90,10 @@ static void finish(void)
 
 static void next_channel(void)
 {
-    while (channel < AIO_ANALOG_CHANNELS && !(mask >> channel & 1u))
-        channel++;
-    if (channel >= AIO_ANALOG_CHANNELS)
+    if (channel >= channel_count)
         finish();
     else
-        hal_adc_start(channel);
+        hal_adc_start(channels[channel], adc_shift);
 }
 
 void stream_adc_done(uint16_t value)
@@ -108,7 +118,7 @@ static void sample(void)
     *p++ = flags;
     p = aio_put16(p, seq);
     seq++;
-    p = aio_put32(p, hal_micros());
+    p = aio_put32(p, instant);
     *p++ = len;
     pos = (uint8_t)(p - frame);
     p += (uint8_t)(len - value_bytes(0, flags)); /* analog values come from the chain */
@@ -132,11 +142,11 @@ static void sample(void)
         next_channel();
 }
 
-void stream_tick(void)
+void stream_alarm(void)
 {
-    if (!running || --countdown)
+    if (!running)
         return;
-    countdown = period_ticks;
+    instant += stream_period;
     if (busy)
         seq++; /* the previous sample is still converting: drop this one */
     else
@@ -173,9 +183,28 @@ void stream_adc_release(void)
     hal_irq_restore(s);
 }
 
+/* Cycles a chain costs besides the conversions: per channel (the ADC
+ * interrupt and the next start) and per sample (latching, checksum, queueing),
+ * measured in simavr with margin. */
+#define CHAIN_CYCLES_PER_CHANNEL 160u
+#define CHAIN_CYCLES_PER_SAMPLE 960u
+
+uint8_t stream_adc_clock(uint8_t channels, uint16_t period_us)
+{
+    uint8_t shift;
+    /* a conversion is 13 ADC clocks = 13 << shift CPU cycles; the chain must
+     * end within 7/8 of the period (16 cycles a microsecond) */
+    for (shift = HAL_ADC_SHIFT_ACCURATE; shift >= HAL_ADC_SHIFT_FASTEST; shift--)
+        if ((uint32_t)channels * ((13u << shift) + CHAIN_CYCLES_PER_CHANNEL) + CHAIN_CYCLES_PER_SAMPLE <=
+            (uint32_t)period_us * 14u)
+            return shift;
+    return 0;
+}
+
 static void stop(void)
 {
     uint8_t s = hal_irq_save();
+    hal_stream_timer_stop();
     running = 0;
     if (busy) {
         busy = 0; /* cancel the sample being assembled: it was never sent */
@@ -187,7 +216,7 @@ static void stop(void)
 
 uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
-    uint8_t m, f, s;
+    uint8_t m, f, s, shift;
     uint16_t period, r;
 
     if (rq->dt == AIO_DT_STREAM_STOP) {
@@ -208,15 +237,24 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_PIN_BUSY;
     if (!stream_admit(value_bytes(m, f), period, BAUD))
         return AIO_ERR_LINK_CAPACITY;
+    shift = stream_adc_clock((uint8_t)(value_bytes(m, 0) / 2u), period);
+    if (!shift)
+        return AIO_ERR_VALUE_OUT_OF_RANGE; /* not reached: 6 channels take 78 us at 1 MHz */
     stop();
     gpio_take_stream_edges(&r, &r); /* start the edges afresh */
     s = hal_irq_save();
     mask = m;
     flags = f;
-    period_ticks = (uint16_t)(period / 100u);
-    countdown = period_ticks;
+    adc_shift = shift;
+    channel_count = 0;
+    for (r = 0; r < AIO_ANALOG_CHANNELS; r++)
+        if (m >> r & 1u)
+            channels[channel_count++] = (uint8_t)r;
     seq = 0;
     running = 1;
+    stream_period = period;
+    instant = hal_micros(); /* the alarm is a period from now: each instant adds one */
+    hal_stream_timer_start((uint32_t)period * HAL_FINE_PER_US);
     hal_irq_restore(s);
     return aio_echo(rq, rp);
 }

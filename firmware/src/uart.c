@@ -1,19 +1,22 @@
 /*
  * uart.c - USART0 for the ATmega328P (implements the UART part of hal.h).
  *
- * RX: every byte goes from the interrupt into a 128-byte FIFO; a full FIFO
- * or a hardware data overrun sets the overflow flag.
- * TX: a ring of AIO_TX_BUFFER_SIZE bytes emptied by the UDRE interrupt.
- * Producers (main loop and interrupts) reserve room for a whole frame with
- * interrupts disabled for a few cycles, copy it with interrupts enabled and
- * commit; the UDRE interrupt sees the bytes once no reservation is open, so
- * frames never interleave and copying never blocks the receiver.
+ * RX: every byte goes from the interrupt into a FIFO of 128 bytes (a
+ * 256-aligned ring of 256, so the 8-bit indices are address bytes); a full
+ * FIFO or a hardware data overrun sets the overflow flag.  The parser reads
+ * whole frames in place (hal_rx_view).
+ * TX: a 256-aligned ring holding at most AIO_TX_BUFFER_SIZE bytes, emptied by
+ * the UDRE interrupt.  Producers (main loop and interrupts) reserve room for
+ * a whole frame with interrupts disabled for a few cycles, copy it with
+ * interrupts enabled and commit; the UDRE interrupt sees the bytes once no
+ * reservation is open, so frames never interleave and copying never blocks
+ * the receiver.  The main loop can also claim the free room and build its
+ * replies there (hal_tx_claim/hal_tx_publish): no copy at all.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
 #include "aio_protocol.h"
-#include "clock.h"
 #include "hal.h"
 #include "uart.h"
 
@@ -32,22 +35,24 @@
 #define RX_SIZE AIO_RX_FIFO_SIZE
 #define TX_SIZE AIO_TX_BUFFER_SIZE /* capacity: at most this many bytes queued */
 
-_Static_assert(RX_SIZE == 128u, "the receive interrupt masks its index with 0x7F");
+_Static_assert(RX_SIZE == 128u, "the receive interrupt's full check is for 128");
 _Static_assert(TX_SIZE <= 255u, "tx counts are 8-bit");
 
-static uint8_t rx_buf[RX_SIZE];
+/* 256 bytes, 256-aligned, of which at most RX_SIZE are in use: the 8-bit
+ * indices wrap by themselves and are the low address byte (hal.h: the ring
+ * handed to the parser has HAL_RX_RING bytes). */
+static uint8_t rx_buf[HAL_RX_RING] __attribute__((aligned(256)));
 static volatile uint8_t rx_head, rx_tail; /* free-running, count = head - tail */
 static volatile uint8_t rx_overflow;      /* nonzero: overflowed */
-static volatile uint16_t rx_tick;
 
 /* The ring itself has 256 bytes so its 8-bit indices wrap by themselves; no
- * more than TX_SIZE of them are ever in use (tx_used), so the buffering
- * behaviour is that of a TX_SIZE buffer. */
-static uint8_t tx_buf[256];
+ * more than TX_SIZE of them are ever in use (tx_resv - tx_tail), so the
+ * buffering behaviour is that of a TX_SIZE buffer.  The UDRE interrupt owns
+ * tx_tail and sends up to tx_commit; producers own tx_resv and tx_commit. */
+static uint8_t tx_buf[256] __attribute__((aligned(256))); /* index = low address byte */
 static volatile uint8_t tx_tail;   /* next byte to send */
+static volatile uint8_t tx_commit; /* end of the bytes ready to send */
 static volatile uint8_t tx_resv;   /* end of the reserved bytes */
-static volatile uint8_t tx_used;   /* reserved bytes not yet sent */
-static volatile uint8_t tx_ready;  /* committed bytes not yet sent */
 static volatile uint8_t tx_open;   /* open reservations */
 static volatile uint8_t tx_started;
 
@@ -62,57 +67,44 @@ void uart_init(void)
     UCSR0B = _BV(RXCIE0) | _BV(RXEN0) | _BV(TXEN0);
 }
 
-/* Hand-written: ~60 cycles a byte including entry and exit (the compiled
- * version took ~87): five registers saved, no r0/r1 set-up.  Status before
- * data (DOR0 belongs to the byte in UDR0); records the tick of the arrival
- * (low half of clock_ticks; main reads rx_tick with interrupts disabled). */
+/* Hand-written: ~48 cycles a byte including entry and exit (the compiled
+ * version took ~87): four registers saved, no r0/r1 set-up.  Status before
+ * data (DOR0 belongs to the byte in UDR0).  No time stamp: the main loop
+ * stamps bytes when it takes them (a later stamp only lengthens the quiet
+ * period it measures, never shortens it). */
 ISR(USART_RX_vect, ISR_NAKED)
 {
     __asm__ volatile(
         "push r24\n\t"
         "in r24, __SREG__\n\t"
         "push r24\n\t"
-        "push r25\n\t"
         "push r30\n\t"
         "push r31\n\t"
-        "lds r25, %[ucsra]\n\t"
+        "lds r31, %[ucsra]\n\t"
         "lds r24, %[udr]\n\t"
-        "sbrc r25, %[dor]\n\t"
-        "sts %[ovf], r25\n\t"
-        "lds r25, %[tk]\n\t"
-        "sts %[rxt], r25\n\t"
-        "lds r25, %[tk]+1\n\t"
-        "sts %[rxt]+1, r25\n\t"
+        "sbrc r31, %[dor]\n\t"
+        "sts %[ovf], r31\n\t"
         "lds r30, %[head]\n\t"
-        "lds r25, %[tail]\n\t"
-        "mov r31, r30\n\t"
-        "sub r31, r25\n\t"
-        "sbrc r31, 7\n\t"          /* head - tail >= 128: full */
-        "rjmp 1f\n\t"
-        "mov r25, r30\n\t"
-        "subi r25, 0xFF\n\t"
-        "sts %[head], r25\n\t"
-        "andi r30, 0x7F\n\t"
-        "ldi r31, 0\n\t"
-        "subi r30, lo8(-(%[buf]))\n\t"
-        "sbci r31, hi8(-(%[buf]))\n\t"
-        "st Z, r24\n\t"
+        "lds r31, %[tail]\n\t"
+        "sub r31, r30\n\t"         /* tail - head = -count */
+        "cpi r31, 0x80\n\t"        /* count 128: full */
+        "breq 1f\n\t"
+        "ldi r31, hi8(%[buf])\n\t"  /* 256-aligned: Z = &rx_buf[head] */
+        "st Z+, r24\n\t"
+        "sts %[head], r30\n\t"      /* head + 1, wrapped at 256 */
         "2:\n\t"
         "pop r31\n\t"
         "pop r30\n\t"
-        "pop r25\n\t"
         "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
         "reti\n\t"
         "1:\n\t"
-        "ldi r25, 1\n\t"
-        "sts %[ovf], r25\n\t"
+        "sts %[ovf], r31\n\t"      /* r31 = 0x80: nonzero */
         "rjmp 2b\n\t"
         :
         : [ucsra] "n"(_SFR_MEM_ADDR(UCSR0A)), [udr] "n"(_SFR_MEM_ADDR(UDR0)), [dor] "n"(DOR0),
-          [ovf] "i"(&rx_overflow), [tk] "i"(&clock_ticks), [rxt] "i"(&rx_tick),
-          [head] "i"(&rx_head), [tail] "i"(&rx_tail), [buf] "i"(rx_buf));
+          [ovf] "i"(&rx_overflow), [head] "i"(&rx_head), [tail] "i"(&rx_tail), [buf] "i"(rx_buf));
 }
 
 uint8_t uart_rx_available(void) { return rx_head != rx_tail || rx_overflow; }
@@ -123,10 +115,23 @@ __attribute__((always_inline)) inline int16_t hal_rx_get(void)
     uint8_t tail = rx_tail, b;
     if (rx_head == tail)
         return -1;
-    b = rx_buf[tail & (RX_SIZE - 1u)];
+    b = rx_buf[tail];
     rx_tail = (uint8_t)(tail + 1u);
     return b;
 }
+
+__attribute__((always_inline)) inline hal_rx_view_t hal_rx_view(void)
+{
+    hal_rx_view_t v;
+    v.ring = rx_buf;
+    v.tail = rx_tail;
+    v.count = (uint8_t)(rx_head - v.tail);
+    return v;
+}
+
+/* Only the main loop moves rx_tail (and the overflow flush, with interrupts
+ * disabled, also in the main loop). */
+__attribute__((always_inline)) inline void hal_rx_consume(uint8_t n) { rx_tail = (uint8_t)(rx_tail + n); }
 
 bool hal_rx_take_overflow(void)
 {
@@ -141,17 +146,8 @@ bool hal_rx_take_overflow(void)
     return true;
 }
 
-uint16_t hal_rx_last_tick(void)
-{
-    uint8_t s = SREG;
-    uint16_t t;
-    cli();
-    t = rx_tick;
-    SREG = s;
-    return t;
-}
-
-/* Hand-written: ~50 cycles a byte including entry and exit. */
+/* Hand-written: ~42 cycles a byte including entry and exit.  It only moves
+ * tx_tail towards tx_commit; TXC0 is cleared when a frame is queued. */
 ISR(USART_UDRE_vect, ISR_NAKED)
 {
     __asm__ volatile(
@@ -160,25 +156,14 @@ ISR(USART_UDRE_vect, ISR_NAKED)
         "push r24\n\t"
         "push r30\n\t"
         "push r31\n\t"
-        "lds r24, %[ready]\n\t"
-        "tst r24\n\t"
-        "breq 1f\n\t"
-        "dec r24\n\t"
-        "sts %[ready], r24\n\t"
-        "ldi r24, %[a_val]\n\t"
-        "sts %[ucsra], r24\n\t"      /* clear TXC0 */
         "lds r30, %[tail]\n\t"
-        "mov r24, r30\n\t"
-        "inc r24\n\t"
-        "sts %[tail], r24\n\t"
-        "ldi r31, 0\n\t"
-        "subi r30, lo8(-(%[buf]))\n\t"
-        "sbci r31, hi8(-(%[buf]))\n\t"
-        "ld r24, Z\n\t"
+        "lds r24, %[commit]\n\t"
+        "cp r30, r24\n\t"
+        "breq 1f\n\t"
+        "ldi r31, hi8(%[buf])\n\t"  /* 256-aligned: Z = &tx_buf[tail] */
+        "ld r24, Z+\n\t"
         "sts %[udr], r24\n\t"
-        "lds r24, %[used]\n\t"
-        "dec r24\n\t"
-        "sts %[used], r24\n\t"
+        "sts %[tail], r30\n\t"      /* tail + 1, wrapped at 256 */
         "2:\n\t"
         "pop r31\n\t"
         "pop r30\n\t"
@@ -192,64 +177,134 @@ ISR(USART_UDRE_vect, ISR_NAKED)
         "sts %[ucsrb], r24\n\t"
         "rjmp 2b\n\t"
         :
-        : [ucsra] "n"(_SFR_MEM_ADDR(UCSR0A)), [ucsrb] "n"(_SFR_MEM_ADDR(UCSR0B)),
-          [udr] "n"(_SFR_MEM_ADDR(UDR0)), [a_val] "n"(_BV(U2X0) | _BV(TXC0)),
-          [not_udrie] "n"((uint8_t)~_BV(UDRIE0)), [ready] "i"(&tx_ready), [tail] "i"(&tx_tail),
-          [used] "i"(&tx_used), [buf] "i"(tx_buf));
+        : [ucsrb] "n"(_SFR_MEM_ADDR(UCSR0B)), [udr] "n"(_SFR_MEM_ADDR(UDR0)),
+          [not_udrie] "n"((uint8_t)~_BV(UDRIE0)), [tail] "i"(&tx_tail), [commit] "i"(&tx_commit),
+          [buf] "i"(tx_buf));
 }
 
-uint8_t hal_tx_free(void) { return (uint8_t)(TX_SIZE - tx_used); }
+/* Bytes reserved and not yet sent. */
+static inline uint8_t tx_used(void) { return (uint8_t)(tx_resv - tx_tail); }
+
+uint8_t hal_tx_free(void) { return (uint8_t)(TX_SIZE - tx_used()); }
+
+/* Interrupts disabled: the reserved bytes are complete, let the UDRE
+ * interrupt send them (unless another producer's copy is still open: its
+ * commit then covers these bytes too). */
+static inline __attribute__((always_inline)) void tx_commit_all(void)
+{
+    if (tx_open == 0) {
+        tx_commit = tx_resv;
+        UCSR0B |= _BV(UDRIE0);
+    }
+}
+
+/* Copies len (>= 1) bytes into the ring from index start.  The ring is
+ * 256-aligned, so stepping the low address byte alone wraps it. */
+static inline __attribute__((always_inline)) void tx_copy(uint8_t start, const uint8_t *src, uint8_t len)
+{
+    uint8_t *d = tx_buf + start;
+    __asm__ volatile("1:\n\t"
+                     "ld __tmp_reg__, X+\n\t"
+                     "st Z, __tmp_reg__\n\t"
+                     "inc r30\n\t"
+                     "dec %[n]\n\t"
+                     "brne 1b\n\t"
+                     : "+x"(src), "+z"(d), [n] "+r"(len)
+                     :
+                     : "memory");
+}
 
 bool hal_tx_send(const uint8_t *frame, uint8_t len)
 {
-    uint8_t s = SREG, start, i;
+    uint8_t s = SREG, start;
+    if (!len)
+        return true;
     cli();
-    if ((uint8_t)(TX_SIZE - tx_used) < len) {
+    start = tx_resv;
+    if ((uint8_t)(TX_SIZE - (uint8_t)(start - tx_tail)) < len) {
         SREG = s;
         return false;
     }
-    if (tx_used == 0 && (UCSR0A & _BV(UDRE0))) {
+    UCSR0A = _BV(U2X0) | _BV(TXC0); /* clear TXC0: set again once all of it is out */
+    tx_started = 1;
+    if (start == tx_tail && (UCSR0A & _BV(UDRE0))) {
         /* Transmitter idle and nothing queued or reserved: the first byte goes
          * straight into UDR0, no round trip through the UDRE interrupt. */
-        UCSR0A = _BV(U2X0) | _BV(TXC0); /* clear TXC0 */
         UDR0 = *frame++;
-        tx_started = 1;
         if (--len == 0) {
             SREG = s;
             return true;
         }
     }
-    start = tx_resv;
     tx_resv = (uint8_t)(start + len); /* wraps at 256 with the ring */
-    tx_used = (uint8_t)(tx_used + len);
     if (len <= 8u) {
         /* Short frame (every GPIO/PWM reply): copying it takes about as long
-         * as the reservation dance, so do it all in this critical section.
-         * An open reservation of an interrupted producer commits it later. */
-        for (i = 0; i < len; i++)
-            tx_buf[(uint8_t)(start + i)] = frame[i];
-        if (tx_open == 0) {
-            tx_ready = tx_used;
-            tx_started = 1;
-            UCSR0B |= _BV(UDRIE0);
-        }
+         * as the reservation dance, so do it all in this critical section. */
+        tx_copy(start, frame, len);
+        tx_commit_all();
         SREG = s;
         return true;
     }
     tx_open++;
     SREG = s;
-
-    for (i = 0; i < len; i++)
-        tx_buf[(uint8_t)(start + i)] = frame[i];
-
+    tx_copy(start, frame, len);
     cli();
-    if (--tx_open == 0) {
-        tx_ready = tx_used;
-        tx_started = 1;
-        UCSR0B |= _BV(UDRIE0);
-    }
+    tx_open--;
+    tx_commit_all();
     SREG = s;
     return true;
 }
 
-bool hal_tx_idle(void) { return tx_used == 0 && (!tx_started || (UCSR0A & _BV(TXC0))); }
+static uint8_t claim_start, claim_size;
+
+uint8_t *hal_tx_claim(uint8_t need, uint8_t want, uint8_t *room)
+{
+    uint8_t s = SREG, start, n, to_end;
+    cli();
+    start = tx_resv;
+    n = (uint8_t)(TX_SIZE - (uint8_t)(start - tx_tail));
+    to_end = (uint8_t)(0u - start); /* 0 = the whole ring */
+    if (to_end && to_end < n)
+        n = to_end;
+    if (n > want)
+        n = want;
+    if (tx_open || n < need) {
+        SREG = s;
+        return 0;
+    }
+    tx_resv = (uint8_t)(start + n);
+    tx_open++;
+    claim_start = start;
+    claim_size = n;
+    SREG = s;
+    *room = n;
+    return tx_buf + start;
+}
+
+void hal_tx_publish(uint8_t len)
+{
+    uint8_t s = SREG, from, to, after;
+    cli();
+    /* frames interrupts queued behind the claim (complete: an interrupt
+     * producer runs to its end before the main loop resumes) move down to
+     * follow the published bytes */
+    from = (uint8_t)(claim_start + claim_size);
+    to = (uint8_t)(claim_start + len);
+    for (after = (uint8_t)(tx_resv - from); after; after--)
+        tx_buf[to++] = tx_buf[from++];
+    tx_resv = to;
+    if (tx_resv != claim_start) {
+        UCSR0A = _BV(U2X0) | _BV(TXC0); /* clear TXC0: set again once all of it is out */
+        tx_started = 1;
+        if (tx_tail == claim_start && tx_commit == claim_start && (UCSR0A & _BV(UDRE0))) {
+            /* transmitter idle: the first byte straight into UDR0 */
+            UDR0 = tx_buf[claim_start];
+            tx_tail = (uint8_t)(claim_start + 1u);
+        }
+    }
+    tx_open--;
+    tx_commit_all();
+    SREG = s;
+}
+
+bool hal_tx_idle(void) { return tx_resv == tx_tail && (!tx_started || (UCSR0A & _BV(TXC0))); }

@@ -10,6 +10,7 @@
 #include "counter.h"
 #include "gpio.h"
 #include "hal.h"
+#include "pwm.h"
 #include "stream.h"
 
 uint32_t fake_ticks;
@@ -32,11 +33,18 @@ bool fake_i2c_stuck;
 uint8_t fake_i2c_resets;
 uint8_t fake_softpwm_port;
 uint16_t fake_edge_watch;
+uint64_t fake_fine_now;
+uint32_t fake_softpwm_width[8];
+uint32_t fake_softpwm_rises[8];
+uint32_t fake_adc_shift;
 
-#define RX_MAX (1u << 20)
+/* The two Timer0 alarms: due time in fine counts, 0 = off. */
+static uint64_t pwm_due, stream_due, stream_period;
+static uint64_t rise_at[8];
+
+#define RX_MAX HAL_RX_RING /* the board's FIFO: a ring the parser reads in place */
 static uint8_t rx[RX_MAX];
 static uint32_t rx_head, rx_tail;
-static uint16_t rx_tick;
 static bool rx_over;
 static uint8_t irq_on = 1;
 
@@ -65,9 +73,13 @@ void fake_reset(void)
     fake_i2c_resets = 0;
     fake_softpwm_port = 0;
     fake_edge_watch = 0;
+    fake_fine_now = 0;
+    pwm_due = stream_due = 0;
+    memset(fake_softpwm_width, 0, sizeof fake_softpwm_width);
+    memset(fake_softpwm_rises, 0, sizeof fake_softpwm_rises);
+    fake_adc_shift = 0;
     rx_head = rx_tail = 0;
     rx_over = false;
-    rx_tick = 0;
     i2c_state = I2C_IDLE;
     irq_on = 1;
 }
@@ -82,19 +94,68 @@ void fake_rx_push(const uint8_t *bytes, uint32_t n)
         }
         rx[rx_head++ % RX_MAX] = bytes[i];
     }
-    rx_tick = (uint16_t)fake_ticks;
 }
 
 void fake_rx_overflow(void) { rx_over = true; }
 uint32_t fake_rx_pending(void) { return rx_head - rx_tail; }
 
+/* The software PWM alarm: apply the pending edge (recording each pin's
+ * rises and the width of its last pulse), ask for the next one. */
+static void pwm_alarm(void)
+{
+    uint8_t before = fake_softpwm_port, pin;
+    uint16_t delay;
+    fake_softpwm_port = (uint8_t)((fake_softpwm_port | pwm_soft_set) & pwm_soft_keep);
+    for (pin = 2; pin < 8; pin++) {
+        uint8_t was = before >> pin & 1u, now = fake_softpwm_port >> pin & 1u;
+        if (now && !was) {
+            rise_at[pin] = fake_fine_now;
+            fake_softpwm_rises[pin]++;
+        } else if (was && !now) {
+            fake_softpwm_width[pin] = (uint32_t)(fake_fine_now - rise_at[pin]);
+        }
+    }
+    delay = pwm_soft_edge();
+    pwm_due = delay ? pwm_due + delay : 0;
+    if (delay >= 256u)
+        pwm_soft_plan();
+}
+
 void fake_advance(uint32_t ticks)
 {
     while (ticks--) {
+        uint64_t end = fake_fine_now + 100u * HAL_FINE_PER_US;
+        for (;;) {
+            uint64_t due = 0;
+            if (pwm_due && pwm_due <= end)
+                due = pwm_due;
+            if (stream_due && stream_due <= end && (!due || stream_due < due))
+                due = stream_due;
+            if (!due)
+                break;
+            fake_fine_now = due;
+            if (due == pwm_due) {
+                pwm_alarm();
+            } else {
+                stream_due += stream_period;
+                stream_alarm();
+            }
+        }
+        fake_fine_now = end;
         fake_ticks++;
         app_tick();
     }
 }
+
+void hal_softpwm_start(uint16_t delay) { pwm_due = fake_fine_now + delay; }
+
+void hal_stream_timer_start(uint32_t period)
+{
+    stream_period = period;
+    stream_due = fake_fine_now + period;
+}
+
+void hal_stream_timer_stop(void) { stream_due = 0; }
 
 uint16_t hal_pin_levels(void)
 {
@@ -143,7 +204,7 @@ void hal_irq_restore(uint8_t state) { irq_on = state; }
 
 uint16_t hal_ticks(void) { return (uint16_t)fake_ticks; }
 uint16_t hal_millis(void) { return (uint16_t)(fake_ticks / 10u); }
-uint32_t hal_micros(void) { return fake_ticks * 100u; }
+uint32_t hal_micros(void) { return (uint32_t)(fake_fine_now / HAL_FINE_PER_US); }
 
 int16_t hal_rx_get(void)
 {
@@ -161,7 +222,13 @@ bool hal_rx_take_overflow(void)
     return true;
 }
 
-uint16_t hal_rx_last_tick(void) { return rx_tick; }
+hal_rx_view_t hal_rx_view(void)
+{
+    hal_rx_view_t v = {rx, (uint8_t)rx_tail, (uint8_t)(rx_head - rx_tail)};
+    return v;
+}
+
+void hal_rx_consume(uint8_t n) { rx_tail += n; }
 
 uint8_t hal_tx_free(void)
 {
@@ -175,6 +242,31 @@ bool hal_tx_send(const uint8_t *frame, uint8_t len)
     memcpy(fake_tx + fake_tx_len, frame, len);
     fake_tx_len += len;
     return true;
+}
+
+/* The claimed room is reserved at the end of fake_tx; frames "interrupts"
+ * send meanwhile go after it and move down on publish, as on the board. */
+static uint32_t claim_at, claim_size;
+
+uint8_t *hal_tx_claim(uint8_t need, uint8_t want, uint8_t *room)
+{
+    uint32_t free_bytes = fake_tx_len >= fake_tx_capacity ? 0 : fake_tx_capacity - fake_tx_len;
+    if (free_bytes > want)
+        free_bytes = want;
+    if (free_bytes < need || fake_tx_len + free_bytes > FAKE_TX_MAX)
+        return 0;
+    claim_at = fake_tx_len;
+    claim_size = free_bytes;
+    fake_tx_len += free_bytes;
+    *room = (uint8_t)free_bytes;
+    return fake_tx + claim_at;
+}
+
+void hal_tx_publish(uint8_t len)
+{
+    uint32_t after = fake_tx_len - (claim_at + claim_size);
+    memmove(fake_tx + claim_at + len, fake_tx + claim_at + claim_size, after);
+    fake_tx_len = claim_at + len + after;
 }
 
 bool hal_tx_idle(void) { return true; }
@@ -212,7 +304,11 @@ void hal_edge_watch(uint16_t mask) { fake_edge_watch = mask; }
 
 uint16_t hal_adc_convert(uint8_t channel) { return fake_adc[channel]; }
 
-void hal_adc_start(uint8_t channel) { fake_adc_pending = channel; }
+void hal_adc_start(uint8_t channel, uint8_t clock_shift)
+{
+    fake_adc_pending = channel;
+    fake_adc_shift = clock_shift;
+}
 
 void hal_twi_init(uint8_t fast) { (void)fast; i2c_state = I2C_IDLE; }
 
@@ -267,7 +363,6 @@ void hal_servo_attach(uint8_t pin, uint16_t us) { fake_servo_us[pin - 9] = us; }
 void hal_servo_set(uint8_t pin, uint16_t us) { fake_servo_us[pin - 9] = us; }
 void hal_servo_detach(uint8_t pin) { fake_servo_us[pin - 9] = 0xFFFF; }
 
-void hal_softpwm_high(uint8_t mask) { fake_softpwm_port |= mask; }
 void hal_softpwm_low(uint8_t mask) { fake_softpwm_port &= (uint8_t)~mask; }
 
 void hal_counter_enable(uint8_t index, uint8_t rising)

@@ -26,12 +26,16 @@ extern bool fake_i2c_stuck;          /* every step times out */
 extern uint8_t fake_i2c_resets;
 extern uint8_t fake_softpwm_port;    /* PORTD bits driven by software PWM */
 extern uint16_t fake_edge_watch;
+extern uint64_t fake_fine_now;          /* Timer0 counts (0.5 us) since start */
+extern uint32_t fake_softpwm_width[8];  /* counts of each D2-D7 pin's last pulse */
+extern uint32_t fake_softpwm_rises[8];  /* its pulses started */
+extern uint32_t fake_adc_shift;         /* clock shift of the last chain conversion */
 
 void fake_reset(void);
 void fake_rx_push(const uint8_t *bytes, uint32_t n);
 void fake_rx_overflow(void);
 uint32_t fake_rx_pending(void);
-void fake_advance(uint32_t ticks);   /* time passes: runs the tick interrupt */
+void fake_advance(uint32_t ticks);   /* 100 us ticks pass: the alarms due, then the tick */
 void fake_drive(uint8_t pin, uint8_t level); /* an input changes: pin-change interrupt */
 void fake_adc_complete(void);
 

@@ -11,6 +11,7 @@
 #include "counter.h"
 #include "fake_hal.h"
 #include "parser.h"
+#include "stream.h"
 #include "vectors.h"
 
 static int failures, checks;
@@ -266,11 +267,11 @@ static void test_pwm(void)
     CHECK(B(5, 1, 8, 0x05, 0xDC), B(0x85, 1, AIO_ERR_PIN_NOT_CAPABLE));
     CHECK(B(5, 1, 9, 0x03, 0xE7), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
     CHECK(B(5, 1, 9, 0x07, 0xD1), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 2001 */
-    CHECK(B(5, 1, 4, 0x05, 0xDD), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* soft: not *100 */
+    CHECK(B(5, 1, 4, 0x03, 0xE7), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* soft: 999 */
     CHECK(B(2, 1, 4, 1), B(2, 1, 4, 1));
     CHECK(B(5, 1, 4, 0x05, 0xDC), B(0x85, 1, AIO_ERR_PIN_BUSY));
     CHECK(B(2, 4, 4), B(2, 4, 4));
-    CHECK(B(5, 1, 4, 0x05, 0xDC), B(5, 1, 4, 0x05, 0xDC)); /* 1500 us = 15 ticks */
+    CHECK(B(5, 1, 4, 0x05, 0xDC), B(5, 1, 4, 0x05, 0xDC)); /* 1500 us */
     /* software PWM: high for 15 ticks every 200 */
     fake_advance(400 - (fake_ticks % 200) - 1);
     {
@@ -287,7 +288,12 @@ static void test_pwm(void)
         if (high != 30 || starts != 2)
             printf("  soft PWM: high %d starts %d\n", high, starts);
     }
-    /* a new width takes effect at the next frame */
+    /* exact to the alarm count: 1500 us = 3000 counts of 0.5 us */
+    EXPECT(fake_softpwm_width[4] == 1500u * 2u);
+    /* 1 us steps; a new width takes effect at the next frame */
+    CHECK(B(5, 2, 4, 0x05, 0xDD), B(5, 2, 4, 0x05, 0xDD)); /* 1501 */
+    fake_advance(400);
+    EXPECT(fake_softpwm_width[4] == 1501u * 2u);
     CHECK(B(5, 2, 4, 0x07, 0xD0), B(5, 2, 4, 0x07, 0xD0));
     fake_advance(200);
     {
@@ -297,6 +303,48 @@ static void test_pwm(void)
             high += fake_softpwm_port >> 4 & 1u;
         }
         EXPECT(high == 20);
+    }
+    EXPECT(fake_softpwm_width[4] == 2000u * 2u);
+    /* six pins: distinct, equal and 1 us apart widths each exact; frames 20 ms apart */
+    {
+        static const uint16_t widths[8] = {0, 0, 1000, 1001, 2000, 1500, 1500, 1999};
+        uint8_t pin;
+        uint32_t rises, before[8];
+        for (pin = 2; pin < 8; pin++) {
+            if (pin != 4) {
+                uint8_t cfg[] = {5, 1, pin, (uint8_t)(widths[pin] >> 8), (uint8_t)widths[pin]};
+                check(__FILE__, __LINE__, cfg, sizeof cfg, cfg, sizeof cfg);
+            }
+        }
+        CHECK(B(5, 2, 4, 0x07, 0xD0), B(5, 2, 4, 0x07, 0xD0));
+        fake_advance(400);
+        memcpy(before, fake_softpwm_rises, sizeof before);
+        fake_advance(1000); /* 100 ms: 5 frames */
+        for (pin = 2; pin < 8; pin++) {
+            EXPECT(fake_softpwm_width[pin] == widths[pin] * 2u);
+            EXPECT(fake_softpwm_rises[pin] - before[pin] == 5);
+        }
+        /* releasing a pin mid-pulse takes it low at once, for good */
+        fake_advance(200 - (uint32_t)(fake_fine_now / 200u) % 200u + 5u); /* 0.5 ms into a frame */
+        EXPECT(fake_softpwm_port >> 7 & 1u);
+        CHECK(B(2, 4, 7), B(2, 4, 7));
+        EXPECT(!(fake_softpwm_port >> 7 & 1u));
+        rises = fake_softpwm_rises[7];
+        fake_advance(400);
+        EXPECT(fake_softpwm_rises[7] == rises && fake_softpwm_rises[2] > rises);
+        /* width 0 stops that pin's pulses; the last pin stopped stops the alarm */
+        for (pin = 2; pin < 7; pin++) {
+            uint8_t set0[] = {5, 2, pin, 0, 0};
+            check(__FILE__, __LINE__, set0, sizeof set0, set0, sizeof set0);
+        }
+        fake_advance(400);
+        rises = fake_softpwm_rises[2];
+        fake_advance(400);
+        EXPECT(fake_softpwm_rises[2] == rises && (fake_softpwm_port & 0xFCu) == 0);
+        /* and a new width starts it again */
+        CHECK(B(5, 2, 3, 0x04, 0x4C), B(5, 2, 3, 0x04, 0x4C)); /* 1100 */
+        fake_advance(400);
+        EXPECT(fake_softpwm_width[3] == 1100u * 2u && fake_softpwm_rises[3] > rises);
     }
     CHECK(B(2, 4, 4), B(2, 4, 4));
     fake_advance(400);
@@ -338,6 +386,16 @@ static void test_stream(void)
     CHECK(B(7, 1, 0x40, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(7, 1, 1, 8, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(7, 1, 1, 0, 0x03, 0xE7), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
+    CHECK(B(7, 1, 1, 0, 0x00, 0xF9), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 249 */
+    CHECK(B(7, 1, 1, 0, 0x01, 0x13), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 275 */
+    CHECK(B(7, 1, 1, 0, 0x00, 0xFA), B(0x87, 1, AIO_ERR_LINK_CAPACITY));     /* 250 at 115200 */
+    /* 250 us: 4 channels fit 2 Mbaud, not 1 Mbaud; 6 channels every 500 us fit 1 Mbaud */
+    EXPECT(stream_admit(8, 250, 2000000) && !stream_admit(8, 250, 1000000));
+    EXPECT(stream_admit(12, 500, 1000000) && !stream_admit(12, 300, 1000000));
+    /* the chain's ADC clock: 125 kHz (104 us a conversion) wherever it fits */
+    EXPECT(stream_adc_clock(6, 1000) == 7 && stream_adc_clock(1, 250) == 7);
+    EXPECT(stream_adc_clock(4, 250) == 5 && stream_adc_clock(6, 500) == 6);
+    EXPECT(stream_adc_clock(6, 250) == 4 && stream_adc_clock(6, 100) == 0);
     CHECK(B(7, 1, 1, 0, 0xEA, 0x61), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 60001 */
     CHECK(B(7, 1, 1, 0, 0x04, 0x4D), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 1101 */
     CHECK(B(7, 1, 1, 0, 0x06, 0x40), B(0x87, 1, AIO_ERR_LINK_CAPACITY));     /* 1600 */
@@ -591,8 +649,10 @@ static void test_pipelining(void)
                                0x01, 0x02, 0x00, 0x07, 0x04};
         EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
     }
-    /* replies wait for room in the transmit buffer; none is dropped */
-    fake_tx_capacity = 12;
+    /* replies wait for room in the transmit buffer; none is dropped (a
+     * batch of replies, at most 2 * AIO_FRAME_MAX bytes, must fit the emptied
+     * buffer: 76 bytes here, 192 on the board) */
+    fake_tx_capacity = 2u * AIO_FRAME_MAX;
     n = 0;
     for (i = 0; i < 40; i++) {
         memcpy(burst + n, "\x01\x02\x03", 3);
@@ -614,6 +674,45 @@ static void test_pipelining(void)
         EXPECT(total == 40 * 5);
     }
     fake_tx_capacity = 192;
+}
+
+/* Frames parsed in place: at every position of the 256-byte receive ring,
+ * also across its end (those go byte by byte), whole bursts answered in
+ * order, a bad checksum in a burst answered as such. */
+static void test_ring_positions(void)
+{
+    int offset, i;
+    board();
+    CHECK(B(2, 1, 13, 1), B(2, 1, 13, 1));
+    for (offset = 0; offset < 300; offset++) {
+        uint8_t burst[20];
+        memcpy(burst, "\x02\x03\x0D\x01\x0D", 5);      /* GPIO WRITE 13 high */
+        memcpy(burst + 5, "\x01\x02\x03", 3);             /* READ ID */
+        memcpy(burst + 8, "\x02\x03\x0D\x00\xFF", 5);  /* bad checksum */
+        memcpy(burst + 13, "\x02\x03\x0D\x00\x0C", 5); /* GPIO WRITE 13 low */
+        fake_rx_push(burst, 18);
+        run();
+        take();
+        {
+            static const uint8_t exp[] = {0x02, 0x03, 0x0D, 0x01, 0x0D, 0x01, 0x02, 0xFF, 0xFF,
+                                          0x03, 0x82, 0x03, 0x01, 0x80};
+            EXPECT(outn == sizeof exp && !memcmp(out, exp, sizeof exp));
+            if (outn != sizeof exp || memcmp(out, exp, sizeof exp)) {
+                printf("  at offset %d\n", offset);
+                dump("got", out, outn);
+                return;
+            }
+        }
+        /* after the error the rest is discarded until 10 ms of quiet */
+        fake_advance(PARSER_GAP_TICKS + 1);
+        run();
+        /* one byte more each round moves the frames across the ring */
+        fake_rx_push(B(0x01, 0x02, 0x03));
+        for (i = 0; i < offset % 3; i++)
+            fake_rx_push(B(0x01, 0x02, 0x03));
+        run();
+        take();
+    }
 }
 
 /* 1,000,000 random bytes: no crash, no out-of-bounds access (ASan/UBSan),
@@ -726,6 +825,7 @@ int main(void)
     test_failsafe();
     test_framing();
     test_pipelining();
+    test_ring_positions();
     test_random();
     test_vectors();
     printf("%d checks, %d failures\n", checks, failures);

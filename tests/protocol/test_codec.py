@@ -185,6 +185,6 @@ def test_a_stream_sample_with_a_payload_that_contradicts_its_mask_is_garbage() -
 
 def test_stream_admission_rule_matches_the_documented_limits() -> None:
     four = 0b1111
-    assert p.stream_min_period_us(four, p.StreamFlags.NONE, 115200) == 2400
-    assert p.stream_min_period_us(four, p.StreamFlags.NONE, 1_000_000) == 1000
+    assert p.stream_min_period_us(four, p.StreamFlags.NONE, 115200) == 2350
+    assert p.stream_min_period_us(four, p.StreamFlags.NONE, 1_000_000) == 300
     assert not p.stream_fits_link(20, 2300, 115200)

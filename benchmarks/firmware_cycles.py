@@ -1,0 +1,92 @@
+"""Exact firmware cycle counts (issue 13, items 5 and 7), no host and no wall clock.
+
+Builds ``benchmarks/firmware_cycles.c`` against libsimavr and runs it on each ELF:
+
+* ``writes``: pipelined GPIO WRITE to D13, 24 requests in flight, the UART input kept
+  fed at the ELF's baud rate.  ``cycles_per_command`` is simulated CPU cycles per
+  command; when it is above the wire's time per command (simavr moves 11 bit times a
+  byte: 880 cycles for the 5-byte request at 1 Mbaud, 440 at 2 Mbaud) the firmware is
+  the limit and the figure is its whole work per command (receive and transmit
+  interrupts, parsing, execution, reply, its share of the timer tick).
+* ``pwm``: soft PWM on D2-D7 at 1500 us, widths of every pulse from the simulated pin
+  edges, with the link idle and under the pipelined writes.
+* ``seq``: one request at a time, the virtual Uno's ``firmware_cycles`` definition (last
+  request byte read from UDR0 to the first reply byte written), median and minimum.
+
+The virtual Uno (``benchmarks/firmware_wire_speed.py``) measures the same through a pty
+and pyserial, paced to the wall clock; on a loaded machine that measures the host.
+
+    .venv/bin/python benchmarks/firmware_cycles.py --elf before=/tmp/old-2000000.elf \\
+        --elf after=firmware/build/arduinoio-2000000.elf --json benchmarks/results/x.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+
+
+def build(directory: Path) -> Path:
+    binary = directory / "firmware_cycles"
+    subprocess.run(
+        [
+            "cc",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-I/usr/include/simavr",
+            "-o",
+            str(binary),
+            str(HERE / "firmware_cycles.c"),
+            "-lsimavr",
+            "-lelf",
+            "-lpthread",
+            "-lm",
+        ],
+        check=True,
+    )
+    return binary
+
+
+def run(binary: Path, *args: str) -> dict[str, Any]:
+    out = subprocess.run([str(binary), *args], check=True, capture_output=True, text=True).stdout
+    # simavr prints "Loaded ..." lines of its own on stdout; the result is the JSON line.
+    line = next(line for line in out.splitlines() if line.startswith("{"))
+    return dict(json.loads(line))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--elf", action="append", required=True, help="NAME=PATH, repeatable")
+    parser.add_argument("--n", type=int, default=3000, help="pipelined commands per run")
+    parser.add_argument("--pwm-us", type=int, default=1500)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    results: dict[str, dict[str, Any]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        binary = build(Path(tmp))
+        for item in args.elf:
+            name, path = item.split("=", 1)
+            results[name] = {
+                "elf": path,
+                "writes": run(binary, path, "writes", str(args.n)),
+                "pwm_idle": run(binary, path, "pwm", "0", str(args.pwm_us)),
+                "pwm_loaded": run(binary, path, "pwm", str(args.n), str(args.pwm_us)),
+                "sequential": run(binary, path, "seq", "300"),
+            }
+            print(name, json.dumps(results[name]), flush=True)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        record = {"command": "benchmarks/firmware_cycles.py " + " ".join(sys.argv[1:])}
+        args.json.write_text(json.dumps(record | {"results": results}, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
