@@ -225,8 +225,11 @@ def test_a_reboot_wait_on_a_closing_link_ends_instead_of_freezing() -> None:
         async with connected() as (board, fake):
             fake.faults.lose_reply = 1.0
 
+            waiting = anyio.Event()  # the first status poll went unanswered
+            board.link.on_state_change(lambda state: waiting.set())
+
             async def unplug_when_waiting() -> None:
-                await anyio.wait_all_tasks_blocked()
+                await waiting.wait()
                 await board.link.aclose()
 
             async with anyio.create_task_group() as tg:
