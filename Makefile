@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: all setup system-deps venv firmware sim lint test test-fast bench generate clean
+.PHONY: all setup system-deps venv firmware sim lint test test-fast bench bench-peers generate clean
 
 all: setup firmware sim
 
@@ -53,6 +53,21 @@ test: setup firmware sim lint
 
 bench: setup firmware sim
 	$(BIN)/arduinoio bench --all --json benchmarks/results/latest.json --plot benchmarks/results/latest.png
+
+# Side by side with Firmata (docs/performance.md, "Against Firmata"): StandardFirmata is
+# fetched with npm into benchmarks/peers/.cache, its Python clients go into their own
+# .venv-peers; nothing of either is committed.  About 15 minutes.
+PEER_VENV := .venv-peers
+
+$(PEER_VENV)/.installed: benchmarks/peers/requirements.txt
+	$(PYTHON) -m venv $(PEER_VENV)
+	$(PEER_VENV)/bin/pip install -q -r benchmarks/peers/requirements.txt
+	touch $@
+
+bench-peers: setup firmware sim $(PEER_VENV)/.installed
+	@command -v npm >/dev/null || { $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
+	$(BIN)/python benchmarks/peers/peer_bench.py --json benchmarks/results/peers.json \
+	  --doc docs/performance.md --readme README.md
 
 clean:
 	rm -rf firmware/build firmware/sim/build

@@ -63,7 +63,9 @@
 #define CYC_PER_US 16ULL
 #define SLICE_CYCLES 128ULL             /* 8 us of simulated time between pacing checks */
 #define LEAD_MAX_CYCLES (30ULL * 16)    /* let simulation run at most ~30 us ahead of wall */
+#ifndef RUNAHEAD_CYCLES
 #define RUNAHEAD_CYCLES (2000ULL * 16)  /* idle link: run ahead in slices of up to 2 ms */
+#endif
 #define ANNOUNCE_MAX_CYCLES (250000ULL * 16) /* announce anyway if RXEN0 stays off 250 ms */
 #define LAG_REBASE_CYCLES (50000ULL * 16) /* > 50 ms behind: give up catching up, rebase */
 #define TICK_16U2_CYCLES 65536ULL       /* 16U2 Timer0 overflow: clk/256 * 256 = 4.096 ms */
