@@ -114,6 +114,17 @@ class FirmataRunner:
         raise RuntimeError(f"{client} test {test} failed ({result.returncode}): {err}")
 
 
+async def firmata_booted(uno: VirtualUno) -> None:
+    """Wait until StandardFirmata has finished booting: it blinks its version (~2 s) before
+    it reports version and name (dropped by the harness while no host holds the port)."""
+    with anyio.fail_after(20):
+        while True:
+            status = await uno.status()
+            if status["bytes_to_host"] + status["bytes_discarded"] >= 3:
+                return
+            await anyio.sleep(0.05)
+
+
 # ------------------------------------------------------------------ project side
 AIO = "arduinoio"
 A_SEQUENTIAL = "arduinoio_async: write, then read"
@@ -232,6 +243,8 @@ class Bench:
         self.firmata = firmata
         self.elf = elf
         self.rows: list[dict[str, Any]] = []
+        #: per board: did the simulation keep up with the wall clock (rebases, lag)?
+        self.harness: dict[str, dict[str, Any]] = {}
         self.log: Callable[[str], None] = lambda text: print(text, flush=True)
 
     async def boards(self, system: str, link: str, **options: Any) -> VirtualUno:
@@ -239,99 +252,135 @@ class Bench:
             assert self.elf is not None
             options.update(elf=self.elf, baud=FIRMATA_BAUD)
         else:
-            options.setdefault("baud", PROJECT_BAUD)
+            options.setdefault("baud", FAST_BAUD if system == "fast" else PROJECT_BAUD)
             options.setdefault("board_id", 1)
         uno = VirtualUno(fixture="loopback", usb_bridge=link, **options)  # type: ignore[arg-type]
         await uno.start()
         for channel, mv in enumerate((1000, 2000, 3000, 4000)):
             await uno.set_analog(channel, mv)
+        if system == "firmata" and not options.get("reset_on_open"):
+            await firmata_booted(uno)
         return uno
+
+    @asynccontextmanager
+    async def powered(self, link: str, *systems: str) -> AsyncIterator[dict[str, VirtualUno]]:
+        """Only the boards a step needs run: StandardFirmata never sleeps, and an idle one
+        still costs a fifth of a core, which a shared 2-core machine cannot spare."""
+        unos: dict[str, VirtualUno] = {}
+        try:
+            for system in systems:
+                unos[system] = await self.boards(system, link)
+            yield unos
+            for system, uno in unos.items():
+                await self.account(f"{system}/{link}/{uno.baud}", uno)
+        finally:
+            for uno in unos.values():
+                await uno.stop()
+
+    async def account(self, key: str, uno: VirtualUno) -> None:
+        """Record whether the board kept up with the wall clock; refuse a lossy harness."""
+        status = await uno.status()
+        if status["lost"] != {"to_board": 0, "to_host": 0}:
+            raise RuntimeError(f"harness lost bytes: {status['lost']}")
+        seen = self.harness.setdefault(key, {"boards": 0, "rebases": 0, "max_lag_us": 0.0})
+        seen["boards"] += 1
+        seen["rebases"] += status["rebases"]
+        seen["max_lag_us"] = max(seen["max_lag_us"], status["max_lag_us"])
 
     def firmata_clients(self) -> list[str]:
         return self.firmata.clients() if self.firmata and self.elf else []
 
-    async def sequential(self, unos: dict[tuple[str, str], VirtualUno]) -> None:
+    async def sequential(self) -> None:
         """(a) and (b): rounds that interleave clients and links."""
         s = self.sizes
         per_round = max(1, s.n // s.rounds)
         samples: dict[tuple[str, str, str], list[float]] = {}
         for r in range(s.rounds):
-            for test in ("a", "b"):
-                for link in LINKS:
-                    for client in self.firmata_clients():
-                        port = unos[("firmata", link)].port
-                        assert self.firmata is not None
-                        got = await self.firmata.run(client, test, port, n=per_round)
-                        samples.setdefault((client, test, link), []).extend(got["samples_ms"])
-                    aio = unos[(AIO, link)]
-                    if test == "a":
-                        for name, pipelined in ((A_SEQUENTIAL, False), (A_PIPELINED, True)):
-                            got_ms = await project_a(aio, per_round, pipelined)
-                            samples.setdefault((name, test, link), []).extend(got_ms)
-                    else:
-                        got_ms = await project_b(aio, per_round)
-                        samples.setdefault(("arduinoio_async: read ID", test, link), []).extend(
-                            got_ms
-                        )
+            for link in LINKS:
+                if self.firmata_clients():
+                    async with self.powered(link, "firmata") as unos:
+                        for test in ("a", "b"):
+                            for client in self.firmata_clients():
+                                assert self.firmata is not None
+                                got = await self.firmata.run(
+                                    client, test, unos["firmata"].port, n=per_round
+                                )
+                                key = (client, test, link)
+                                samples.setdefault(key, []).extend(got["samples_ms"])
+                async with self.powered(link, AIO) as unos:
+                    aio = unos[AIO]
+                    for name, pipelined in ((A_SEQUENTIAL, False), (A_PIPELINED, True)):
+                        got_ms = await project_a(aio, per_round, pipelined)
+                        samples.setdefault((name, "a", link), []).extend(got_ms)
+                    got_ms = await project_b(aio, per_round)
+                    key = ("arduinoio_async: read ID", "b", link)
+                    samples.setdefault(key, []).extend(got_ms)
             self.log(f"(a), (b): round {r + 1} of {s.rounds} done")
         for (client, test, link), values in samples.items():
             system = AIO if client.startswith("arduinoio") else "firmata"
             baud = PROJECT_BAUD if system == AIO else FIRMATA_BAUD
             self.rows.append(row(system, client, test, link, baud, **latency_figures(values)))
 
-    async def analog(self, unos: dict[tuple[str, str], VirtualUno]) -> None:
+    async def analog(self) -> None:
         """(c): 4 channels at the shortest period each accepts."""
         for link in LINKS:
-            for client in self.firmata_clients():
-                assert self.firmata is not None
-                port = unos[("firmata", link)].port
-                got = await self.firmata.run(client, "c", port, seconds=self.sizes.seconds)
-                per_channel = min(got["counts"])
-                rate = round(statistics.fmean(got["counts"]) / got["seconds"], 1)
-                self.rows.append(
-                    row("firmata", client, "c", link, FIRMATA_BAUD, n=per_channel, rate_per_s=rate)
-                )
-            for baud in (PROJECT_BAUD, FAST_BAUD):
-                uno = unos[(AIO, link)] if baud == PROJECT_BAUD else unos[("fast", link)]
-                got = await project_c(uno, self.sizes.seconds)
+            if self.firmata_clients():
+                async with self.powered(link, "firmata") as unos:
+                    for client in self.firmata_clients():
+                        assert self.firmata is not None
+                        port = unos["firmata"].port
+                        got = await self.firmata.run(client, "c", port, seconds=self.sizes.seconds)
+                        per_channel = min(got["counts"])
+                        rate = round(statistics.fmean(got["counts"]) / got["seconds"], 1)
+                        figures = {"n": per_channel, "rate_per_s": rate}
+                        self.rows.append(row("firmata", client, "c", link, FIRMATA_BAUD, **figures))
+            for system in (AIO, "fast"):
+                async with self.powered(link, system) as unos:
+                    got = await project_c(unos[system], self.sizes.seconds)
                 rate = round(got["count"] / got["seconds"], 1)
                 client = f"arduinoio_async: stream, {got['period_us']} us, lost {got['lost']}"
+                baud = FAST_BAUD if system == "fast" else PROJECT_BAUD
                 self.rows.append(row(AIO, client, "c", link, baud, n=got["count"], rate_per_s=rate))
             self.log(f"(c) on link {link} done")
 
-    async def writes(self, unos: dict[tuple[str, str], VirtualUno]) -> None:
+    async def writes(self) -> None:
         """(d): writes that reach the pin, counted by the harness as D2 level changes."""
         n = self.sizes.writes
         for link in LINKS:
-            for client in self.firmata_clients():
-                uno = unos[("firmata", link)]
-                assert self.firmata is not None
+            if self.firmata_clients():
+                async with self.powered(link, "firmata") as unos:
+                    uno = unos["firmata"]
+                    for client in self.firmata_clients():
+                        assert self.firmata is not None
 
-                async def firmata_writes(
-                    client: str = client,
-                    uno: VirtualUno = uno,
-                    runner: FirmataRunner = self.firmata,
-                ) -> float:
-                    got = await runner.run(client, "d", uno.port, n=n)
-                    return float(got["seconds"])
+                        async def firmata_writes(
+                            client: str = client,
+                            runner: FirmataRunner = self.firmata,
+                            uno: VirtualUno = uno,
+                        ) -> float:
+                            got = await runner.run(client, "d", uno.port, n=n)
+                            return float(got["seconds"])
 
-                edges, seconds = await edges_during(uno, firmata_writes)
-                rate = round(edges / seconds, 1)
-                self.rows.append(
-                    row("firmata", client, "d", link, FIRMATA_BAUD, n=edges, rate_per_s=rate)
-                )
-            for tasks in (1, 8):
-                aio = unos[(AIO, link)]
+                        edges, seconds = await edges_during(uno, firmata_writes)
+                        rate = round(edges / seconds, 1)
+                        self.rows.append(
+                            row(
+                                "firmata", client, "d", link, FIRMATA_BAUD, n=edges, rate_per_s=rate
+                            )
+                        )
+            async with self.powered(link, AIO) as unos:
+                aio = unos[AIO]
+                for tasks in (1, 8):
 
-                async def project_writes(tasks: int = tasks, aio: VirtualUno = aio) -> float:
-                    return await project_d(aio, n, tasks)
+                    async def project_writes(tasks: int = tasks, aio: VirtualUno = aio) -> float:
+                        return await project_d(aio, n, tasks)
 
-                edges, seconds = await edges_during(aio, project_writes)
-                client = f"arduinoio_async: {tasks} task{'s' if tasks > 1 else ''}"
-                rate = round(edges / seconds, 1)
-                self.rows.append(
-                    row(AIO, client, "d", link, PROJECT_BAUD, n=edges, rate_per_s=rate)
-                )
+                    edges, seconds = await edges_during(aio, project_writes)
+                    client = f"arduinoio_async: {tasks} task{'s' if tasks > 1 else ''}"
+                    rate = round(edges / seconds, 1)
+                    self.rows.append(
+                        row(AIO, client, "d", link, PROJECT_BAUD, n=edges, rate_per_s=rate)
+                    )
             self.log(f"(d) on link {link} done")
 
     async def start_up(self) -> None:
@@ -350,6 +399,8 @@ class Bench:
                         samples.setdefault(client, []).extend(got["samples_ms"])
                     got_ms = await project_e(unos[AIO])
                     samples.setdefault("arduinoio_async: Board.open + write", []).append(got_ms)
+                for system, uno in unos.items():
+                    await self.account(f"{system}/{link}/{uno.baud}/reset-on-open", uno)
             finally:
                 for uno in unos.values():
                     await uno.stop()
@@ -360,26 +411,12 @@ class Bench:
             self.log(f"(e) on link {link} done")
 
     async def run(self, tests: str) -> None:
-        unos: dict[tuple[str, str], VirtualUno] = {}
-        try:
-            for link in LINKS:
-                if self.firmata_clients():
-                    unos[("firmata", link)] = await self.boards("firmata", link)
-                unos[(AIO, link)] = await self.boards(AIO, link)
-                unos[("fast", link)] = await self.boards(AIO, link, baud=FAST_BAUD)
-            if "a" in tests or "b" in tests:
-                await self.sequential(unos)
-            if "c" in tests:
-                await self.analog(unos)
-            if "d" in tests:
-                await self.writes(unos)
-            for uno in unos.values():
-                status = await uno.status()
-                if status["lost"] != {"to_board": 0, "to_host": 0}:
-                    raise RuntimeError(f"harness lost bytes: {status['lost']}")
-        finally:
-            for uno in unos.values():
-                await uno.stop()
+        if "a" in tests or "b" in tests:
+            await self.sequential()
+        if "c" in tests:
+            await self.analog()
+        if "d" in tests:
+            await self.writes()
         if "e" in tests:
             await self.start_up()
         order = {t: i for i, t in enumerate("abcde")}
@@ -419,6 +456,7 @@ async def main(args: argparse.Namespace) -> int:
             "cpus": os.cpu_count(),
             "python": platform.python_version(),
         },
+        "harness": bench.harness,
         "rows": bench.rows,
     }
     table = render_markdown(bench.rows)
