@@ -60,33 +60,45 @@ def render_markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(out).rstrip() + "\n"
 
 
+def _cell(r: dict[str, Any]) -> str:
+    if r["test"] in "cd":
+        return _rate(r["rate_per_s"]) + "/s"
+    if r["test"] == "e":
+        return f"{r['mean_ms'] / 1000:.2f} s"
+    return f"{r['p50_ms']:.2f} ms"
+
+
 def render_summary(rows: list[dict[str, Any]]) -> str:
-    """Client by test, "16u2 / none" in each cell: p50 for (a), (b), mean for (e)."""
-    clients: list[str] = []
+    """One line per Firmata client and one for the project; "16u2 / none" in each cell
+    (p50 for (a), (b), mean for (e)).  The project's variants share its line, named."""
+    lines: dict[str, dict[str, list[str]]] = {}
     for r in rows:
-        if r["client"] not in clients:
-            clients.append(r["client"])
-    cells: dict[tuple[str, str, str], str] = {}
-    for r in rows:
-        if r["test"] in "cd":
-            text = _rate(r["rate_per_s"]) + "/s"
-        elif r["test"] == "e":
-            text = f"{r['mean_ms'] / 1000:.2f} s"
-        else:
-            text = f"{r['p50_ms']:.2f} ms"
-        cells[(r["client"], r["test"], r["link"])] = text
+        project = r["system"] == "arduinoio"
+        name = "arduinoio_async (115,200)" if project else f"Firmata: {r['client']} (57,600)"
+        variant = str(r["client"]).removeprefix("arduinoio_async: ") if project else ""
+        if project and r["baud"] != 115200:
+            variant += f" at {r['baud']:,} baud"
+        cell = lines.setdefault(name, {}).setdefault(r["test"], [])
+        pair = {link: "-" for link in ("16u2", "none")}
+        for other in rows:
+            if (other["client"], other["test"], other["baud"]) == (
+                r["client"],
+                r["test"],
+                r["baud"],
+            ):
+                pair[other["link"]] = _cell(other)
+        text = f"{pair['16u2']} / {pair['none']}"
+        text = f"{variant}: {text}" if variant else text
+        if text not in cell:
+            cell.append(text)
     out = [
         "| client (baud) | (a) D2 set -> D3 known, p50 | (b) round trip, p50 | "
         "(c) analog /s per channel | (d) writes at the pin /s | (e) open -> first command |",
         "|---|---|---|---|---|---|",
     ]
-    bauds = {r["client"]: r["baud"] for r in rows}
-    for client in clients:
-        line = [f"{client} ({bauds[client]:,})"]
-        for test in "abcde":
-            pair = [cells.get((client, test, link), "-") for link in ("16u2", "none")]
-            line.append("-" if pair == ["-", "-"] else " / ".join(pair))
-        out.append("| " + " | ".join(line) + " |")
+    for name, cells in lines.items():
+        row = [name] + ["<br>".join(cells.get(test, ["-"])) for test in "abcde"]
+        out.append("| " + " | ".join(row) + " |")
     out.append("")
     out.append("Each cell: through the 16U2 bridge model / without it.")
     return "\n".join(out) + "\n"
