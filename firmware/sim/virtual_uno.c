@@ -264,10 +264,15 @@ static size_t host_rx_room(void)
  * firmware, a busy loop in Arduino sketches) costs one wait per ~2 ms instead
  * of one per tick.  Whatever the firmware sends meanwhile makes the link busy
  * again and is delivered at its simulated time (the harness waits for the
- * wall clock before handing it over), so board-initiated timing is kept. */
+ * wall clock before handing it over), so board-initiated timing is kept.
+ * Not while the UART receiver is off (boot, reset): bytes that would be lost
+ * to it on a real board must be lost here too. */
+#define UCSR0B_RXEN0(a) ((a)->data[0xC1] & 0x10)
 static int link_idle(void)
 {
-	return ring_empty(&host_rx) && ring_empty(&wire_tx) && !out_len &&
+	/* and the receiver on: while the firmware boots, a host byte must meet the
+	 * receiver-off window in wall time, as on a real board (no run-ahead) */
+	return avr && UCSR0B_RXEN0(avr) && ring_empty(&host_rx) && ring_empty(&wire_tx) && !out_len &&
 	       ring_empty(&bridge_buf) && ring_empty(&usb_out) && !gen[0].active &&
 	       !gen[1].active && !holding_reset;
 }
