@@ -11,7 +11,7 @@ APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev av
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
 .PHONY: all setup system-deps venv firmware sim bootloader package-data monitor-assets lint docs \
-        test test-fast bench generate clean
+        test test-fast bench bench-peers generate clean
 
 all: setup firmware sim
 
@@ -92,6 +92,21 @@ BENCH_OUT := $(if $(RECORD),benchmarks/results,benchmarks/results/local)
 bench: setup firmware sim
 	@mkdir -p $(BENCH_OUT)
 	$(BIN)/arduinoio bench --all --json $(BENCH_OUT)/latest.json --plot $(BENCH_OUT)/latest.png
+
+# Side by side with Firmata (docs/performance.md, "Against Firmata"): StandardFirmata is
+# fetched with npm into benchmarks/peers/.cache, its Python clients go into their own
+# .venv-peers; nothing of either is committed.  About 15 minutes.
+PEER_VENV := .venv-peers
+
+$(PEER_VENV)/.installed: benchmarks/peers/requirements.txt
+	$(PYTHON) -m venv $(PEER_VENV)
+	$(PEER_VENV)/bin/pip install -q -r benchmarks/peers/requirements.txt
+	touch $@
+
+bench-peers: setup firmware sim $(PEER_VENV)/.installed
+	@command -v npm >/dev/null || { $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
+	$(BIN)/python benchmarks/peers/peer_bench.py --json benchmarks/results/peers.json \
+	  --doc docs/performance.md --readme README.md
 
 clean:
 	rm -rf firmware/build firmware/sim/build firmware/bootloader/build

@@ -1,0 +1,120 @@
+"""Markdown for the peer benchmark's rows: the full table (docs) and a summary (README).
+
+Both go between HTML comment markers, so a new run replaces them in place:
+``<!-- peers:table:begin -->`` ... ``<!-- peers:table:end -->`` in docs/performance.md and
+``<!-- peers:summary:begin -->`` ... ``<!-- peers:summary:end -->`` in the README.
+
+    .venv/bin/python benchmarks/peers/peers_table.py benchmarks/results/peers.json
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+TESTS = {
+    "a": "host sets D2 -> host knows D3's new level (jumper)",
+    "b": "one request/response round trip",
+    "c": "4 analog channels at the shortest period accepted, per channel",
+    "d": "digital writes per second that reach the pin (harness counts edges)",
+    "e": "port open -> first command done, board resets on open",
+}
+
+
+def _ms(value: Any) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
+def _rate(value: Any) -> str:
+    return "-" if value is None else f"{value:,.0f}"
+
+
+def render_markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per test, Firmata rows first, both links."""
+    out = []
+    for test, title in TESTS.items():
+        chosen = [r for r in rows if r["test"] == test]
+        if not chosen:
+            continue
+        out.append(f"**({test}) {title}**\n")
+        if test in "cd":
+            out.append("| link | system | client | baud | n | per second |")
+            out.append("|---|---|---|---|---|---|")
+            for r in chosen:
+                out.append(
+                    f"| {r['link']} | {r['system']} | {r['client']} | {r['baud']:,} | "
+                    f"{r['n']:,} | {_rate(r['rate_per_s'])} |"
+                )
+        else:
+            out.append("| link | system | client | baud | n | p50 ms | p90 ms | p99 ms | mean ms |")
+            out.append("|---|---|---|---|---|---|---|---|---|")
+            for r in chosen:
+                out.append(
+                    f"| {r['link']} | {r['system']} | {r['client']} | {r['baud']:,} | {r['n']} | "
+                    f"{_ms(r['p50_ms'])} | {_ms(r['p90_ms'])} | {_ms(r['p99_ms'])} | "
+                    f"{_ms(r['mean_ms'])} |"
+                )
+        out.append("")
+    return "\n".join(out).rstrip() + "\n"
+
+
+def _cell(r: dict[str, Any]) -> str:
+    if r["test"] in "cd":
+        return _rate(r["rate_per_s"]) + "/s"
+    if r["test"] == "e":
+        return f"{r['mean_ms'] / 1000:.2f} s"
+    return f"{r['p50_ms']:.2f} ms"
+
+
+def render_summary(rows: list[dict[str, Any]]) -> str:
+    """One line per Firmata client and one for the project; "16u2 / none" in each cell
+    (p50 for (a), (b), mean for (e)).  The project's variants share its line, named."""
+    lines: dict[str, dict[str, list[str]]] = {}
+    for r in rows:
+        project = r["system"] == "arduinoio"
+        name = "arduinoio_async (115,200)" if project else f"Firmata: {r['client']} (57,600)"
+        variant = str(r["client"]).removeprefix("arduinoio_async: ") if project else ""
+        if project and r["baud"] != 115200:
+            variant += f" at {r['baud']:,} baud"
+        cell = lines.setdefault(name, {}).setdefault(r["test"], [])
+        pair = {link: "-" for link in ("16u2", "none")}
+        for other in rows:
+            if (other["client"], other["test"], other["baud"]) == (
+                r["client"],
+                r["test"],
+                r["baud"],
+            ):
+                pair[other["link"]] = _cell(other)
+        text = f"{pair['16u2']} / {pair['none']}"
+        text = f"{variant}: {text}" if variant else text
+        if text not in cell:
+            cell.append(text)
+    out = [
+        "| client (baud) | (a) D2 set -> D3 known, p50 | (b) round trip, p50 | "
+        "(c) analog /s per channel | (d) writes at the pin /s | (e) open -> first command |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, cells in lines.items():
+        row = [name] + ["<br>".join(cells.get(test, ["-"])) for test in "abcde"]
+        out.append("| " + " | ".join(row) + " |")
+    out.append("")
+    out.append("Each cell: through the 16U2 bridge model / without it.")
+    return "\n".join(out) + "\n"
+
+
+def replace_between(text: str, name: str, content: str) -> str:
+    """Replace what lies between ``<!-- peers:NAME:begin -->`` and its end marker."""
+    begin, end = f"<!-- peers:{name}:begin -->", f"<!-- peers:{name}:end -->"
+    if begin not in text or end not in text:
+        raise ValueError(f"markers {begin} / {end} not found")
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    return f"{head}{begin}\n{content}{end}{tail}"
+
+
+if __name__ == "__main__":
+    data = json.loads(Path(sys.argv[1]).read_text())
+    print(render_markdown(data))
+    print(render_summary(data))
