@@ -64,10 +64,14 @@
 #define CYC_PER_US 16ULL
 #define SLICE_CYCLES 128ULL             /* 8 us of simulated time between pacing checks */
 #define LEAD_MAX_CYCLES (30ULL * 16)    /* let simulation run at most ~30 us ahead of wall */
+#ifndef RUNAHEAD_CYCLES
+#define RUNAHEAD_CYCLES (2000ULL * 16)  /* idle link: run ahead in slices of up to 2 ms */
+#endif
+#define ANNOUNCE_MAX_CYCLES (250000ULL * 16) /* announce anyway if RXEN0 stays off 250 ms */
 #define LAG_REBASE_CYCLES (50000ULL * 16) /* > 50 ms behind: give up catching up, rebase */
 #define TICK_16U2_CYCLES 65536ULL       /* 16U2 Timer0 overflow: clk/256 * 256 = 4.096 ms */
 #define USB_FRAME_CYCLES 16000ULL       /* USB full-speed 1 ms frame */
-#define FLUSH_16U2_BYTES 96             /* arduino-usbserial: release when this many wait */
+#define NEARLY_FULL_16U2 96             /* arduino-usbserial: release when MORE than this wait */
 #define OUT_HOLD_NS 5000ULL             /* max wall time a board->host byte waits for a batched write */
 #define MAX_CLIENTS 16
 #define RING 8192
@@ -155,6 +159,13 @@ static uint64_t next_inject_ok; /* earliest cycle for next injection (wire spaci
 static int uart_xoff;
 static uint64_t tick_at;        /* 16U2 next tick event, 0 = none */
 static unsigned long bytes_to_host, bytes_from_host, bytes_discarded;
+static unsigned long lost_to_board, lost_to_host; /* a harness queue was full: never expected */
+static unsigned long host_rx_stalls;  /* times the harness stopped reading the pty (queue full) */
+static int host_rx_stalled;
+static unsigned long bridge_full_releases; /* 16U2 releases because > 96 bytes waited */
+static unsigned long runahead_jumps;  /* host stimulus while running ahead: time base moved */
+static uint64_t runahead_jump_cycles;
+static int announced;                 /* ready line printed (after the firmware's RXEN0) */
 static uint64_t last_host_byte_t;   /* cycle the last host byte entered the UART */
 static unsigned long faults_dropped, faults_inserted, faults_flipped;
 
@@ -238,6 +249,59 @@ static void rebase(void)
 {
 	wall_base_ns = now_ns();
 	cycle_base = avr ? avr->cycle : 0;
+}
+
+/* Room left in the host->board queue.  When it is full the harness stops
+ * reading the pty (build_pollfds no longer asks for POLLIN): the kernel's pty
+ * buffer fills and the host's write() blocks, as a real USB bridge NAKs OUT
+ * packets while its buffer is full.  Nothing is dropped for want of room. */
+static size_t host_rx_room(void)
+{
+	return RING - 1 - ring_len(&host_rx);
+}
+
+/* Idle link: nothing waits to go either way, no pulse train runs.  Then the
+ * simulation may run up to RUNAHEAD_CYCLES ahead of the wall clock instead of
+ * LEAD_MAX_CYCLES, so a firmware's periodic tick (100 us in the project
+ * firmware, a busy loop in Arduino sketches) costs one wait per ~2 ms instead
+ * of one per tick.  Whatever the firmware sends meanwhile makes the link busy
+ * again and is delivered at its simulated time (the harness waits for the
+ * wall clock before handing it over), so board-initiated timing is kept.
+ * Not while the UART receiver is off (boot, reset): bytes that would be lost
+ * to it on a real board must be lost here too. */
+#define UCSR0B_RXEN0(a) ((a)->data[0xC1] & 0x10)
+static int link_idle(void)
+{
+	/* and the receiver on: while the firmware boots, a host byte must meet the
+	 * receiver-off window in wall time, as on a real board (no run-ahead) */
+	return avr && UCSR0B_RXEN0(avr) && ring_empty(&host_rx) && ring_empty(&wire_tx) && !out_len &&
+	       ring_empty(&bridge_buf) && ring_empty(&usb_out) && !gen[0].active &&
+	       !gen[1].active && !holding_reset;
+}
+
+static uint64_t lead_allowed(void)
+{
+	return link_idle() ? RUNAHEAD_CYCLES : LEAD_MAX_CYCLES;
+}
+
+/* A host stimulus (pty bytes, a control command that changes the circuit)
+ * arrives at wall time W while the simulation may be running ahead of W.  It
+ * cannot be applied in the simulated past, and applying it in the simulated
+ * future would delay the firmware's answer by the lead.  Instead the time base
+ * moves: "now" in simulated time becomes W.  The simulated clock thus gains
+ * at most RUNAHEAD_CYCLES per idle-to-busy transition caused by the host
+ * (counted in status: runahead_jumps, runahead_jump_us); latency measured by
+ * the host is unaffected. */
+static void catch_up_wall(void)
+{
+	if (!avr || opt_fast)
+		return;
+	uint64_t wc = wall_cycles(now_ns());
+	if (avr->cycle > wc + LEAD_MAX_CYCLES) {
+		runahead_jumps++;
+		runahead_jump_cycles += avr->cycle - wc;
+		rebase();
+	}
 }
 
 static int pin_port(int p) { return p < 8 ? 2 : (p < 14 ? 0 : 1); }
@@ -487,6 +551,8 @@ static void to_host(uint8_t b)
 		out_first_ns = now_ns();
 	if (out_len < sizeof(out_buf))
 		out_buf[out_len++] = b;
+	else
+		lost_to_host++; /* host not reading and 8 KiB already waiting */
 }
 
 static void flush_out(void)
@@ -513,7 +579,8 @@ static void release_16u2(uint64_t now)
 {
 	uint64_t frame = next_boundary(now, USB_FRAME_CYCLES);
 	while (!ring_empty(&bridge_buf)) {
-		ring_push(&usb_out, ring_peek(&bridge_buf)->b, frame);
+		if (!ring_push(&usb_out, ring_peek(&bridge_buf)->b, frame))
+			lost_to_host++;
 		ring_pop(&bridge_buf);
 	}
 }
@@ -540,8 +607,12 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 		if (!opt_16u2) {
 			to_host(bytes[i]);
 		} else {
-			ring_push(&bridge_buf, bytes[i], now);
-			if (ring_len(&bridge_buf) >= FLUSH_16U2_BYTES) {
+			if (!ring_push(&bridge_buf, bytes[i], now))
+				lost_to_host++;
+			/* Arduino-usbserial.c sends when (TIFR0 & TOV0) || BufferCount >
+			 * BUFFER_NEARLY_FULL (96): the 97th waiting byte, not the 96th */
+			if (ring_len(&bridge_buf) > NEARLY_FULL_16U2) {
+				bridge_full_releases++;
 				release_16u2(now);
 			} else if (!tick_at) {
 				tick_at = next_boundary(now, TICK_16U2_CYCLES);
@@ -689,7 +760,8 @@ static void uart_out_hook(avr_irq_t *irq, uint32_t value, void *param)
 		uint64_t prev_end = wire_tx.d[last].t;
 		if (prev_end > start) start = prev_end;
 	}
-	ring_push(&wire_tx, (uint8_t)value, start + byte_cycles);
+	if (!ring_push(&wire_tx, (uint8_t)value, start + byte_cycles))
+		lost_to_host++;
 	schedule(start + byte_cycles);
 }
 
@@ -712,8 +784,8 @@ static void build_pollfds(void)
 {
 	npfds = 0;
 	if (master_fd >= 0 && slave_open && !holding_reset) {
-		pfds[npfds].fd = master_fd;
-		pfds[npfds].events = POLLIN | (out_len ? POLLOUT : 0);
+		pfds[npfds].fd = master_fd; /* back-pressure: no POLLIN while host_rx is full */
+		pfds[npfds].events = (host_rx_room() ? POLLIN : 0) | (out_len ? POLLOUT : 0);
 		npfds++;
 	} else if (master_fd >= 0 && slave_open) {
 		pfds[npfds].fd = master_fd;  /* still read (and discard) while held in reset */
@@ -762,7 +834,11 @@ static uint64_t sleep_for(uint64_t how_long)
 	for (;;) {
 		uint64_t t = now_ns();
 		uint64_t wc = wall_cycles(t);
-		if (wc >= target)
+		/* idle link: sleep through the tick in simulated time only, as long as
+		 * the lead stays within RUNAHEAD_CYCLES; once it would not, wait until
+		 * the wall clock reaches the target (lead back to 0), so waits come in
+		 * slices of ~2 ms instead of one per timer tick */
+		if (wc >= target || (target - wc <= RUNAHEAD_CYCLES && link_idle()))
 			return target - avr->cycle;
 		uint64_t wait_ns = (target - wc) * 1000ULL / CYC_PER_US;
 		int r = wait_fds(wait_ns);
@@ -952,17 +1028,30 @@ static void read_master(void)
 {
 	uint8_t buf[512];
 	for (;;) {
-		ssize_t n = read(master_fd, buf, sizeof(buf));
+		size_t want = sizeof(buf);
+		if (!holding_reset && plugged) {
+			size_t room = host_rx_room();
+			if (!room) {
+				if (!host_rx_stalled) host_rx_stalls++;
+				host_rx_stalled = 1;
+				return;
+			}
+			if (room < want) want = room;
+		}
+		ssize_t n = read(master_fd, buf, want);
 		if (n > 0) {
 			if (holding_reset || !plugged) {
 				bytes_discarded += (unsigned long)n;
 				continue;
 			}
+			host_rx_stalled = 0;
+			catch_up_wall(); /* a host stimulus: never stamped in the simulation's future */
 			uint64_t t = avr->cycle;
 			if (opt_16u2)
 				t = next_boundary(t, USB_FRAME_CYCLES);
 			for (ssize_t i = 0; i < n; i++)
-				ring_push(&host_rx, buf[i], t);
+				if (!ring_push(&host_rx, buf[i], t))
+					lost_to_board++;
 			recompute_next_event();
 			continue;
 		}
@@ -1157,6 +1246,13 @@ static void handle_command(struct jobj *o, struct sbuf *r)
 	if (!cv || cv->type != 2) { sb_add(r, "{\"ok\": false, \"error\": \"missing cmd\"}"); return; }
 	const char *cmd = cv->str;
 	double x;
+	static const char *const observers[] = {"status", "pin", "pulse_stats", "firmware_cycles",
+						 "eeprom_i2c", "eeprom", "peek", "ping", NULL};
+	int observes = 0;
+	for (int i = 0; observers[i]; i++)
+		observes |= !strcmp(cmd, observers[i]);
+	if (!observes)
+		catch_up_wall(); /* a stimulus takes effect at the simulated "now" of its wall time */
 
 	if (!strcmp(cmd, "status")) {
 		uint64_t t = now_ns();
@@ -1176,14 +1272,18 @@ static void handle_command(struct jobj *o, struct sbuf *r)
 			  "\"faults\": {\"drop\": %g, \"insert\": %g, \"flip\": %g, \"dropped\": %lu, "
 			  "\"inserted\": %lu, \"flipped\": %lu}, \"pulses_active\": %s, "
 			  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u, "
-			  "\"last_host_byte_us\": %.3f}",
+			  "\"last_host_byte_us\": %.3f, \"lost\": {\"to_board\": %lu, \"to_host\": %lu}, "
+			  "\"host_rx_stalls\": %lu, \"host_rx_queued\": %u, \"bridge_full_releases\": %lu, "
+			  "\"runahead_jumps\": %lu, \"runahead_jump_us\": %.3f}",
 		       opt_baud, fixture_names[opt_fixture], opt_16u2 ? "16u2" : "none",
 		       opt_fast ? "true" : "false", opt_reset_on_open ? "true" : "false",
 		       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded, pty_writes,
 		       fault_drop, fault_insert, fault_flip, faults_dropped, faults_inserted,
 		       faults_flipped, (gen[0].active || gen[1].active) ? "true" : "false",
 		       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc,
-		       (double)last_host_byte_t / CYC_PER_US);
+		       (double)last_host_byte_t / CYC_PER_US, lost_to_board, lost_to_host,
+		       host_rx_stalls, ring_len(&host_rx), bridge_full_releases, runahead_jumps,
+		       (double)runahead_jump_cycles / CYC_PER_US);
 		return;
 	}
 	if (!strcmp(cmd, "set_analog")) {
@@ -1516,6 +1616,30 @@ static int load_bootloader(const char *path)
 /* ------------------------------------------------------------------ setup */
 static void on_signal(int sig) { quit_flag = 1; }
 
+/* The ready line goes out once the firmware has switched its UART receiver on
+ * (RXEN0), not at power-up: a host that writes a request the moment it learns
+ * the port would otherwise lose it to a receiver that is still off (simavr
+ * drops input while RXEN0 is clear, as silicon does).  A firmware that never
+ * enables its receiver is announced after ANNOUNCE_MAX_CYCLES (250 ms) of
+ * simulated time, or when it halts. */
+#define RXEN0_BIT 0x10
+static void announce_when_listening(void)
+{
+	if (plugged && !halted && !(avr->data[UCSR0B_ADDR] & RXEN0_BIT) &&
+	    avr->cycle < ANNOUNCE_MAX_CYCLES)
+		return;
+	announced = 1;
+	char line[1024], idtxt[16];
+	if (opt_id >= 0)
+		snprintf(idtxt, sizeof(idtxt), "%d", opt_id);
+	else
+		snprintf(idtxt, sizeof(idtxt), "null");
+	int n = snprintf(line, sizeof(line),
+			 "{\"port\": \"%s\", \"control\": \"%s\", \"pid\": %d, \"id\": %s, \"baud\": %u}\n",
+			 pty_name, ctl_path, (int)getpid(), idtxt, opt_baud);
+	if (write(json_fd, line, (size_t)n) != n) { /* parent gone: keep running until signalled */ }
+}
+
 static void usage(void)
 {
 	fprintf(stderr,
@@ -1666,18 +1790,10 @@ int main(int argc, char **argv)
 	after_reset();
 	rebase();
 
-	char line[1024], idtxt[16];
-	if (opt_id >= 0)
-		snprintf(idtxt, sizeof(idtxt), "%d", opt_id);
-	else
-		snprintf(idtxt, sizeof(idtxt), "null");
-	int n = snprintf(line, sizeof(line),
-			 "{\"port\": \"%s\", \"control\": \"%s\", \"pid\": %d, \"id\": %s, \"baud\": %u}\n",
-			 pty_name, ctl_path, (int)getpid(), idtxt, opt_baud);
-	if (write(json_fd, line, (size_t)n) != n) { /* parent gone: keep running until signalled */ }
-
 	last_io_ns = now_ns();
 	while (!quit_flag) {
+		if (!announced)
+			announce_when_listening();
 		if (!plugged || holding_reset || halted) {
 			uint64_t to = 20000000ULL;
 			if (holding_reset) {
@@ -1716,13 +1832,15 @@ int main(int argc, char **argv)
 			continue;
 		}
 		uint64_t wc = wall_cycles(t);
-		if (avr->cycle > wc + LEAD_MAX_CYCLES) {
+		if (avr->cycle > wc + lead_allowed()) {
 			poll_io((avr->cycle - wc) * 1000ULL / CYC_PER_US);
 		} else {
 			int64_t lag = (int64_t)wc - (int64_t)avr->cycle;
 			if (lag > max_lag_cycles) max_lag_cycles = lag;
 			if (lag > (int64_t)LAG_REBASE_CYCLES) { rebase(); rebase_count++; }
-			if (t - last_io_ns > 100000ULL) poll_io(0);
+			/* running ahead on an idle link: look for host bytes every 20 us */
+			uint64_t every = avr->cycle > wc + LEAD_MAX_CYCLES ? 20000ULL : 100000ULL;
+			if (t - last_io_ns > every) poll_io(0);
 		}
 	}
 
