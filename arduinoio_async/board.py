@@ -96,6 +96,10 @@ class Board:
         self._gpio: dict[DigitalPin, Gpio] = {}
         self._i2c: I2CBus | None = None
         self.session = 0
+        #: The session tag the board carried when this library last tagged it: 0 = a fresh
+        #: boot nobody had tagged yet; any other value = an earlier program's tag (the board
+        #: has not reset since that program connected).
+        self.session_found = 0
         self.failsafe: FailsafeConfig | None = None
         self.failsafe_tripped = False
         self._failsafe_listeners: list[Callable[[Board], None]] = []
@@ -202,6 +206,7 @@ class Board:
                 f"speaks {p.PROTOCOL_VERSION} (update the firmware or the library)"
             )
         link.expected_id = self.board_id
+        self.session_found = (await link.request(p.ReadStatus())).session
         self.session = random.randint(1, 0xFFFF)
         await link.request(p.SetSession(self.session))
         self.port = link.name

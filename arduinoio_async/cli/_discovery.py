@@ -114,6 +114,8 @@ async def board_state(board: Board) -> dict[str, Any]:
         "id": board.board_id,
         "failsafe": failsafe,
         "stream": "running" if flags & p.StatusFlags.STREAMING else "stopped",
+        "session_found": board.session_found,
+        "session": status.session,
         "pins": await pin_roles(board),
     }
 
@@ -125,9 +127,16 @@ def _state_text(state: dict[str, Any]) -> dict[str, str]:
     elif failsafe == "armed":
         failsafe = "armed (trips when the host goes silent)"
     pins = ", ".join(f"{pin} {role}" for pin, role in state["pins"].items())
+    found = state["session_found"]
     return {
         "failsafe": failsafe,
         "stream": state["stream"],
+        "session": (
+            "0x0000 when this command connected: a fresh boot, no program had tagged it"
+            if found == 0
+            else f"0x{found:04X} when this command connected: tagged by an earlier program, "
+            "no reset since"
+        ),
         "pin roles": pins or "none (every pin free)",
     }
 

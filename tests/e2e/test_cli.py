@@ -278,3 +278,19 @@ async def test_a_stream_the_link_cannot_carry_names_the_shortest_period(
         async with board.stream(analog=channels, period_ms=shortest / 1000) as samples:
             async for _ in samples:  # the named period is admitted
                 break
+
+
+async def test_status_shows_whether_the_board_was_reset_since_a_program_tagged_it(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=0x0061)
+    code, out = await run("status", "--port", uno.port, "--json")
+    first = json.loads(out)
+    assert code == 0 and first["session_found"] == 0  # fresh boot
+    code, out = await run("status", "--port", uno.port, "--json")
+    assert json.loads(out)["session_found"] == first["session"] != 0  # the first run's tag
+    code, out = await run("status", "--port", uno.port)
+    assert "tagged by an earlier program, no reset since" in out
+    await uno.reset()  # the reset button: nobody tags the new boot
+    code, out = await run("status", "--port", uno.port)
+    assert "a fresh boot, no program had tagged it" in out

@@ -163,7 +163,10 @@ async def test_samples_come_at_the_period_in_simulated_time(
                 for _ in range(count):
                     last = await stream.__anext__()
                 end_us = (await uno.status())["sim_us"]
-    assert (last.sequence - first.sequence) & 0xFFFF == count
-    # count periods passed between the two status reads, give or take the host's latency
+    # Sequence numbers count the board's periods, also across a sample a loaded host lost
+    # on the way (the harness drops what a full pty cannot take, as a 16U2's ring would).
+    periods = (last.sequence - first.sequence) & 0xFFFF
+    assert count <= periods <= count + 5
+    # that many periods passed between the two status reads, give or take host latency
     elapsed = end_us - start_us
-    assert count * period_us - 2_000 <= elapsed <= count * period_us + 6_000 + period_us, elapsed
+    assert periods * period_us - 2_000 <= elapsed <= periods * period_us + 6_000 + period_us
