@@ -75,7 +75,12 @@ async def test_four_channels_at_1ms_for_10s_at_1mbaud(
         f"\n1 Mbaud, 4 channels, 1 ms: {len(samples)} samples, gaps {gaps}, dropped {dropped}, "
         f"board spacing {min(deltas)}-{max(deltas)} us (stdev {statistics.pstdev(deltas):.2f})"
     )
-    assert len(samples) >= 9900
+    # 10 s of wall time is 10,000 periods only while the simulation keeps real time; on a
+    # loaded machine it slows down as a whole, so the board's own clock is the oracle:
+    # every period in the samples' span delivered, none lost, none doubled.
+    assert len(samples) >= 5000
+    span_periods = round((samples[-1].board_time_us - samples[0].board_time_us) / 1000)
+    assert len(samples) == span_periods + 1
     assert gaps == 0 and dropped == 0
     sequences = [s.sequence for s in samples]
     assert all((b - a) & 0xFFFF == 1 for a, b in itertools.pairwise(sequences))
