@@ -273,15 +273,20 @@ async def host_overhead(n: int, progress: Progress | None = None) -> ScenarioRes
 
 
 #: Interleaved rounds of the pty comparison (bare pyserial, library on asyncio, on uvloop).
-HOST_ROUNDS = 12
+HOST_ROUNDS = 40
 
 
 async def _pty_floor(n: int, rounds: int = HOST_ROUNDS) -> dict[str, Any]:
     """Read ID round trips on a pty to a responder process: bare pyserial vs the library.
 
-    The variants run interleaved, ``rounds`` times each with ``n`` round trips, so a
-    noisy neighbour hits them alike; each round gives one CPU ratio per variant, and the
-    median and spread of those ratios are reported.
+    Method (the machine is shared and noisy, and its speed drifts by 2x within a minute):
+    the variants run interleaved, ``rounds`` times each with ``n`` round trips, in an
+    order that rotates every round (so none always runs first or right after another);
+    each variant's cost is the CPU time of the measuring thread (``time.thread_time``:
+    neither the responder process nor idle waiting counts); each round gives one ratio per
+    library variant against the bare loop of the same round, and the median of those
+    ratios is the figure, with its interquartile range as the spread.  A neighbour's burst
+    slows every variant of the round alike and cancels in the ratio.
     """
     return await anyio.to_thread.run_sync(_pty_rounds, n, rounds)
 
@@ -295,23 +300,25 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
     )
     os.close(master)
     variants = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
-    cpu: dict[str, list[float]] = {"bare": [], **{v: [] for v in variants}}
-    rtts: dict[str, list[float]] = {"bare": [], **{v: [] for v in variants}}
+    order = ["bare", *variants]
+    cpu: dict[str, list[float]] = {name: [] for name in order}
+    rtts: dict[str, list[float]] = {name: [] for name in order}
     try:
-        for _ in range(rounds):
-            bare_cpu, bare_rtts = _bare_round(path, n)
-            cpu["bare"].append(bare_cpu)
-            rtts["bare"] += bare_rtts
-            for variant in variants:
-                lib_cpu, lib_rtts = anyio.run(
-                    _library_round,
-                    path,
-                    n,
-                    backend="asyncio",
-                    backend_options={"use_uvloop": variant == "uvloop"},
-                )
-                cpu[variant].append(lib_cpu)
-                rtts[variant] += lib_rtts
+        for index in range(rounds):
+            shift = index % len(order)
+            for variant in order[shift:] + order[:shift]:
+                if variant == "bare":
+                    round_cpu, round_rtts = _bare_round(path, n)
+                else:
+                    round_cpu, round_rtts = anyio.run(
+                        _library_round,
+                        path,
+                        n,
+                        backend="asyncio",
+                        backend_options={"use_uvloop": variant == "uvloop"},
+                    )
+                cpu[variant].append(round_cpu)
+                rtts[variant] += round_rtts
     finally:
         os.close(slave)
         child.terminate()
@@ -319,6 +326,7 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
     out: dict[str, Any] = {
         "rounds": rounds,
         "round_trips_per_round": n,
+        "method": "interleaved rotating rounds; thread CPU time; median of per-round ratios",
         "bare_pyserial_rtt_us_p50": statistics.median(rtts["bare"]),
         "bare_pyserial_cpu_us": statistics.median(cpu["bare"]),
         "library_rtt_us_p50": statistics.median(rtts["asyncio"]),
@@ -326,9 +334,11 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
     }
     for variant in variants:
         ratios = sorted(lib / bare for lib, bare in zip(cpu[variant], cpu["bare"], strict=True))
+        quartiles = statistics.quantiles(ratios, n=4)
         out[f"{variant}_cpu_us"] = statistics.median(cpu[variant])
         out[f"{variant}_rtt_us_p50"] = statistics.median(rtts[variant])
         out[f"{variant}_ratio_median"] = statistics.median(ratios)
+        out[f"{variant}_ratio_iqr"] = [quartiles[0], quartiles[2]]
         out[f"{variant}_ratio_spread"] = [ratios[0], ratios[-1]]
         out[f"{variant}_ratios"] = ratios
     return out
@@ -342,13 +352,13 @@ def _bare_round(path: str, n: int) -> tuple[float, list[float]]:
             port.write(request)
             port.read(5)
         rtts = []
-        cpu = time.process_time()
+        cpu = time.thread_time()
         for _ in range(n):
             start = time.perf_counter_ns()
             port.write(request)
             port.read(5)
             rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.process_time() - cpu) / n * 1e6, rtts
+        return (time.thread_time() - cpu) / n * 1e6, rtts
     finally:
         port.close()
 
@@ -359,9 +369,9 @@ async def _library_round(path: str, n: int) -> tuple[float, list[float]]:
         for _ in range(50):
             await link.request(p.ReadId())
         rtts = []
-        cpu = time.process_time()
+        cpu = time.thread_time()
         for _ in range(n):
             start = time.perf_counter_ns()
             await link.request(p.ReadId())
             rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.process_time() - cpu) / n * 1e6, rtts
+        return (time.thread_time() - cpu) / n * 1e6, rtts

@@ -104,7 +104,8 @@ class SerialByteStream(anyio.abc.ByteStream):
             on_lost(exc)
 
     def _send_nowait(self, item: bytes) -> None:
-        self._check_open()
+        if self._closed or self._lost is not None:
+            self._check_open()  # raises
         if self._pending:
             self._pending += item
             return
