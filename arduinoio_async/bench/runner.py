@@ -10,6 +10,7 @@ model assumes; back to back, the loop would lock to the tick.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import random
 import statistics
@@ -290,6 +291,10 @@ async def _pty_floor(n: int, rounds: int = HOST_ROUNDS) -> dict[str, Any]:
     library variant against the bare loop of the same round, and the median of those
     ratios is the figure, with its interquartile range as the spread.  A neighbour's burst
     slows every variant of the round alike and cancels in the ratio.
+
+    Two reference variants show what the event loop itself costs: a minimal client
+    (``_minimal_round``: a reader callback resolving one future per round trip, no
+    library) on asyncio and on uvloop.  No asyncio client can go below that floor.
     """
     return await anyio.to_thread.run_sync(_pty_rounds, min(n, HOST_ROUND_TRIPS), rounds)
 
@@ -302,7 +307,8 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
         pass_fds=(master,),
     )
     os.close(master)
-    variants = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
+    loops = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
+    variants = [*loops, *(f"{loop}_minimal" for loop in loops)]
     order = ["bare", *variants]
     cpu: dict[str, list[float]] = {name: [] for name in order}
     rtts: dict[str, list[float]] = {name: [] for name in order}
@@ -314,11 +320,11 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
                     round_cpu, round_rtts = _bare_round(path, n)
                 else:
                     round_cpu, round_rtts = anyio.run(
-                        _library_round,
+                        _minimal_round if variant.endswith("_minimal") else _library_round,
                         path,
                         n,
                         backend="asyncio",
-                        backend_options={"use_uvloop": variant == "uvloop"},
+                        backend_options={"use_uvloop": variant.startswith("uvloop")},
                     )
                 cpu[variant].append(round_cpu)
                 rtts[variant] += round_rtts
@@ -378,3 +384,41 @@ async def _library_round(path: str, n: int) -> tuple[float, list[float]]:
             await link.request(p.ReadId())
             rtts.append((time.perf_counter_ns() - start) / 1e3)
         return (time.thread_time() - cpu) / n * 1e6, rtts
+
+
+async def _minimal_round(path: str, n: int) -> tuple[float, list[float]]:
+    """The event loop's own floor: write, then a reader callback resolves a future."""
+    loop = asyncio.get_running_loop()
+    port = serial.Serial(path, timeout=0)
+    fd = port.fd
+    request = p.ReadId().encode()
+    reply_size = len(p.ReadIdReply(0).encode())
+    waiting: list[asyncio.Future[None]] = []
+    received = [0]
+
+    def readable() -> None:
+        received[0] += len(os.read(fd, 256))
+        if received[0] >= reply_size and waiting:
+            received[0] -= reply_size
+            waiting.pop().set_result(None)
+
+    async def round_trip() -> None:
+        future = loop.create_future()
+        waiting.append(future)
+        os.write(fd, request)
+        await future
+
+    loop.add_reader(fd, readable)
+    try:
+        for _ in range(50):
+            await round_trip()
+        rtts = []
+        cpu = time.thread_time()
+        for _ in range(n):
+            start = time.perf_counter_ns()
+            await round_trip()
+            rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return (time.thread_time() - cpu) / n * 1e6, rtts
+    finally:
+        loop.remove_reader(fd)
+        port.close()

@@ -396,9 +396,13 @@ class Transport:
 
     def _on_data(self, data: bytes) -> None:
         """Received bytes (in the fd-readable callback or the reader task)."""
-        self._last_rx = self._now()
-        self._rx_since_loss = True
-        self._process(self._session.receive_data(data))
+        session = self._session
+        if session.state is not SessionState.READY:
+            # Only a drain reads these, and a drain starts with a loss of sync, which
+            # stamps ``_lost_at``: bytes received while in sync need no time stamp.
+            self._last_rx = self._now()
+            self._rx_since_loss = True
+        self._process(session.receive_data(data))
 
     def _on_lost(self, exc: BaseException | None) -> None:
         self._close(BoardDisconnectedError(f"{self.name}: port lost ({exc or 'EOF'})"))
