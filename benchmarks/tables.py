@@ -51,6 +51,22 @@ def host_table(scenario: dict[str, Any]) -> list[str]:
         f"{pty['bare_pyserial_cpu_us']:.1f} |",
         f"| this library | {pty['library_rtt_us_p50']:.1f} | {pty['library_cpu_us']:.1f} |",
     ]
+    labels = {
+        "asyncio": "this library, asyncio",
+        "uvloop": "this library, uvloop",
+        "asyncio_minimal": "minimal asyncio client (the loop's floor)",
+        "uvloop_minimal": "minimal uvloop client (the loop's floor)",
+    }
+    ratios = [(label, v) for v, label in labels.items() if f"{v}_ratio_iqr" in pty]
+    if ratios:
+        rows += [
+            "",
+            f"| CPU / bare pyserial, {pty['rounds']} interleaved rounds | median | IQR |",
+            "|---|---|---|",
+        ]
+        for label, v in ratios:
+            low, high = pty[f"{v}_ratio_iqr"]
+            rows.append(f"| {label} | {pty[f'{v}_ratio_median']:.2f}x | {low:.2f}-{high:.2f} |")
     return rows
 
 

@@ -67,6 +67,20 @@ def print_scenario(console: Console, scenario: ScenarioResult) -> None:
             f"us CPU; this library {pty['library_rtt_us_p50']:.1f} us p50, "
             f"{pty['library_cpu_us']:.1f} us CPU"
         )
+        labels = {
+            "asyncio": "this library on asyncio",
+            "uvloop": "this library on uvloop",
+            "asyncio_minimal": "minimal asyncio client (the loop's floor)",
+            "uvloop_minimal": "minimal uvloop client (the loop's floor)",
+        }
+        for variant, label in labels.items():
+            if f"{variant}_ratio_median" in pty and f"{variant}_ratio_iqr" in pty:
+                low, high = pty[f"{variant}_ratio_iqr"]
+                console.print(
+                    f"CPU / bare pyserial, {label}: median "
+                    f"{pty[f'{variant}_ratio_median']:.2f}x (IQR {low:.2f}-{high:.2f}, "
+                    f"{pty['rounds']} interleaved rounds)"
+                )
 
 
 def to_json(scenarios: list[ScenarioResult], argv: list[str]) -> dict[str, Any]:

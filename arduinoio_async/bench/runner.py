@@ -10,6 +10,7 @@ model assumes; back to back, the loop would lock to the tick.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import random
 import statistics
@@ -273,17 +274,29 @@ async def host_overhead(n: int, progress: Progress | None = None) -> ScenarioRes
 
 
 #: Interleaved rounds of the pty comparison (bare pyserial, library on asyncio, on uvloop).
-HOST_ROUNDS = 12
+HOST_ROUNDS = 100
+#: Round trips per variant and round: short rounds, many of them, so a neighbour's burst
+#: falls inside few rounds and the median ignores it.
+HOST_ROUND_TRIPS = 500
 
 
 async def _pty_floor(n: int, rounds: int = HOST_ROUNDS) -> dict[str, Any]:
     """Read ID round trips on a pty to a responder process: bare pyserial vs the library.
 
-    The variants run interleaved, ``rounds`` times each with ``n`` round trips, so a
-    noisy neighbour hits them alike; each round gives one CPU ratio per variant, and the
-    median and spread of those ratios are reported.
+    Method (the machine is shared and noisy, and its speed drifts by 2x within a minute):
+    the variants run interleaved, ``rounds`` times each with ``n`` round trips, in an
+    order that rotates every round (so none always runs first or right after another);
+    each variant's cost is the CPU time of the measuring thread (``time.thread_time``:
+    neither the responder process nor idle waiting counts); each round gives one ratio per
+    library variant against the bare loop of the same round, and the median of those
+    ratios is the figure, with its interquartile range as the spread.  A neighbour's burst
+    slows every variant of the round alike and cancels in the ratio.
+
+    Two reference variants show what the event loop itself costs: a minimal client
+    (``_minimal_round``: a reader callback resolving one future per round trip, no
+    library) on asyncio and on uvloop.  No asyncio client can go below that floor.
     """
-    return await anyio.to_thread.run_sync(_pty_rounds, n, rounds)
+    return await anyio.to_thread.run_sync(_pty_rounds, min(n, HOST_ROUND_TRIPS), rounds)
 
 
 def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
@@ -294,24 +307,27 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
         pass_fds=(master,),
     )
     os.close(master)
-    variants = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
-    cpu: dict[str, list[float]] = {"bare": [], **{v: [] for v in variants}}
-    rtts: dict[str, list[float]] = {"bare": [], **{v: [] for v in variants}}
+    loops = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
+    variants = [*loops, *(f"{loop}_minimal" for loop in loops)]
+    order = ["bare", *variants]
+    cpu: dict[str, list[float]] = {name: [] for name in order}
+    rtts: dict[str, list[float]] = {name: [] for name in order}
     try:
-        for _ in range(rounds):
-            bare_cpu, bare_rtts = _bare_round(path, n)
-            cpu["bare"].append(bare_cpu)
-            rtts["bare"] += bare_rtts
-            for variant in variants:
-                lib_cpu, lib_rtts = anyio.run(
-                    _library_round,
-                    path,
-                    n,
-                    backend="asyncio",
-                    backend_options={"use_uvloop": variant == "uvloop"},
-                )
-                cpu[variant].append(lib_cpu)
-                rtts[variant] += lib_rtts
+        for index in range(rounds):
+            shift = index % len(order)
+            for variant in order[shift:] + order[:shift]:
+                if variant == "bare":
+                    round_cpu, round_rtts = _bare_round(path, n)
+                else:
+                    round_cpu, round_rtts = anyio.run(
+                        _minimal_round if variant.endswith("_minimal") else _library_round,
+                        path,
+                        n,
+                        backend="asyncio",
+                        backend_options={"use_uvloop": variant.startswith("uvloop")},
+                    )
+                cpu[variant].append(round_cpu)
+                rtts[variant] += round_rtts
     finally:
         os.close(slave)
         child.terminate()
@@ -319,6 +335,7 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
     out: dict[str, Any] = {
         "rounds": rounds,
         "round_trips_per_round": n,
+        "method": "interleaved rotating rounds; thread CPU time; median of per-round ratios",
         "bare_pyserial_rtt_us_p50": statistics.median(rtts["bare"]),
         "bare_pyserial_cpu_us": statistics.median(cpu["bare"]),
         "library_rtt_us_p50": statistics.median(rtts["asyncio"]),
@@ -326,9 +343,11 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
     }
     for variant in variants:
         ratios = sorted(lib / bare for lib, bare in zip(cpu[variant], cpu["bare"], strict=True))
+        quartiles = statistics.quantiles(ratios, n=4)
         out[f"{variant}_cpu_us"] = statistics.median(cpu[variant])
         out[f"{variant}_rtt_us_p50"] = statistics.median(rtts[variant])
         out[f"{variant}_ratio_median"] = statistics.median(ratios)
+        out[f"{variant}_ratio_iqr"] = [quartiles[0], quartiles[2]]
         out[f"{variant}_ratio_spread"] = [ratios[0], ratios[-1]]
         out[f"{variant}_ratios"] = ratios
     return out
@@ -342,13 +361,13 @@ def _bare_round(path: str, n: int) -> tuple[float, list[float]]:
             port.write(request)
             port.read(5)
         rtts = []
-        cpu = time.process_time()
+        cpu = time.thread_time()
         for _ in range(n):
             start = time.perf_counter_ns()
             port.write(request)
             port.read(5)
             rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.process_time() - cpu) / n * 1e6, rtts
+        return (time.thread_time() - cpu) / n * 1e6, rtts
     finally:
         port.close()
 
@@ -359,9 +378,47 @@ async def _library_round(path: str, n: int) -> tuple[float, list[float]]:
         for _ in range(50):
             await link.request(p.ReadId())
         rtts = []
-        cpu = time.process_time()
+        cpu = time.thread_time()
         for _ in range(n):
             start = time.perf_counter_ns()
             await link.request(p.ReadId())
             rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.process_time() - cpu) / n * 1e6, rtts
+        return (time.thread_time() - cpu) / n * 1e6, rtts
+
+
+async def _minimal_round(path: str, n: int) -> tuple[float, list[float]]:
+    """The event loop's own floor: write, then a reader callback resolves a future."""
+    loop = asyncio.get_running_loop()
+    port = serial.Serial(path, timeout=0)
+    fd = port.fd
+    request = p.ReadId().encode()
+    reply_size = len(p.ReadIdReply(0).encode())
+    waiting: list[asyncio.Future[None]] = []
+    received = [0]
+
+    def readable() -> None:
+        received[0] += len(os.read(fd, 256))
+        if received[0] >= reply_size and waiting:
+            received[0] -= reply_size
+            waiting.pop().set_result(None)
+
+    async def round_trip() -> None:
+        future = loop.create_future()
+        waiting.append(future)
+        os.write(fd, request)
+        await future
+
+    loop.add_reader(fd, readable)
+    try:
+        for _ in range(50):
+            await round_trip()
+        rtts = []
+        cpu = time.thread_time()
+        for _ in range(n):
+            start = time.perf_counter_ns()
+            await round_trip()
+            rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return (time.thread_time() - cpu) / n * 1e6, rtts
+    finally:
+        loop.remove_reader(fd)
+        port.close()

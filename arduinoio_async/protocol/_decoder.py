@@ -107,6 +107,20 @@ class Decoder:
     def feed(self, data: bytes | bytearray | memoryview) -> list[Decoded]:
         """Add received bytes; return every frame (and garbage run) now complete."""
         buffer = self._buffer
+        if not buffer and len(data) > 2 and not data[0] & ERROR_FLAG:
+            # Fast path, the common case of a reply arriving alone: ``data`` is exactly one
+            # valid fixed-size frame.  Anything else takes the general path below, which
+            # gives the same result for this case.
+            layout = self._layouts.get((data[0] << 8) | data[1])
+            if layout is not None and layout.length_offset < 0 and layout.base_size == len(data):
+                check = 0
+                for byte in data:
+                    check ^= byte
+                if not check:
+                    try:
+                        return [layout.decode(data)]
+                    except ValueError:
+                        pass
         buffer += data
         out: list[Decoded] = []
         pos = 0

@@ -160,7 +160,13 @@ class Session:
             and len(self._flight) < self.max_in_flight
             and (not self._flight or self._flight_bytes + exchange.size <= self.window_bytes)
         ):
-            self._put_in_flight(exchange)
+            # _put_in_flight, inlined: this is every request's path on an idle link.
+            exchange.queued = False
+            exchange.attempts = 1
+            self._flight.append(exchange)
+            self._flight_bytes += exchange.size
+            if self.trace is not None:
+                self.trace("tx", request)
             return exchange, exchange.frame
         queue.append(exchange)
         return exchange, b""
@@ -392,7 +398,10 @@ class Session:
             self.stats.dropped_late_replies += 1
             exchange.done = True
             return
-        self._finish(exchange, reply, error, out)
+        exchange.done = True  # _finish, inlined (every reply's path)
+        exchange.reply = reply
+        exchange.error = error
+        out.done.append(exchange)
 
     def _lose_head(self, out: Received, retries: list[Exchange]) -> None:
         """The oldest request's reply was destroyed by line noise."""

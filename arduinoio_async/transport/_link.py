@@ -163,6 +163,7 @@ class Transport:
         self._resync_needed = anyio.Event()
         self._deadlines: dict[Exchange, float] = {}
         self._timer: asyncio.TimerHandle | None = None
+        self._timer_at = 0.0
         self._now: Callable[[], float] = anyio.current_time
 
     # ---- lifecycle ---------------------------------------------------------------------
@@ -292,43 +293,46 @@ class Transport:
         :class:`BoardTimeoutError`, :class:`LinkResyncError`, or
         :class:`BoardDisconnectedError`.
         """
-        session = self._session
-        exchange, data = session.send(request)
-        if data:
-            self.last_send = self._now()
-            self._write(data)
-        if exchange.done:  # refused at once (closed link): still a checkpoint for loops
-            await anyio.lowlevel.checkpoint()
-        else:
-            limit = self.timeout if timeout is None else timeout
-            loop = self._loop
-            if loop is not None:
-                await self._wait_future(loop, exchange, limit)
+        loop = self._loop
+        if loop is None:
+            exchange, data = self._session.send(request)
+            if data:
+                self.last_send = self._now()
+                self._write(data)
+            if exchange.done:  # refused at once (closed link): still a checkpoint for loops
+                await anyio.lowlevel.checkpoint()
             else:
-                await self._wait_event(exchange, limit)
+                await self._wait_event(exchange, self.timeout if timeout is None else timeout)
+        else:
+            # asyncio: the hot path, kept flat (one clock read, no extra coroutine).
+            now = loop.time()
+            exchange, data = self._session.send(request)
+            if data:
+                self.last_send = now
+                self._write(data)
+            if exchange.done:
+                await anyio.lowlevel.checkpoint()
+            else:
+                future = exchange.waiter = loop.create_future()
+                deadline = now + (self.timeout if timeout is None else timeout)
+                self._deadlines[exchange] = deadline
+                if self._timer is None:
+                    self._timer_at = deadline
+                    self._timer = loop.call_at(deadline, self._on_timer)
+                elif deadline < self._timer_at:
+                    self._timer.cancel()
+                    self._timer_at = deadline
+                    self._timer = loop.call_at(deadline, self._on_timer)
+                try:
+                    await future
+                except BaseException:
+                    if not exchange.done:
+                        self._deadlines.pop(exchange, None)
+                        self._session.cancel(exchange)
+                    raise
         if exchange.error is not None:
             raise exchange.error
         return exchange.reply  # type: ignore[return-value]
-
-    async def _wait_future(
-        self, loop: asyncio.AbstractEventLoop, exchange: Exchange, limit: float
-    ) -> None:
-        future = exchange.waiter = loop.create_future()
-        deadline = loop.time() + limit
-        self._deadlines[exchange] = deadline
-        timer = self._timer
-        if timer is None:
-            self._timer = loop.call_at(deadline, self._on_timer)
-        elif deadline < timer.when():
-            timer.cancel()
-            self._timer = loop.call_at(deadline, self._on_timer)
-        try:
-            await future
-        except BaseException:
-            if not exchange.done:
-                self._deadlines.pop(exchange, None)
-                self._session.cancel(exchange)
-            raise
 
     def _on_timer(self) -> None:
         """The link's one deadline timer: expire what is due, re-arm for the next."""
@@ -339,7 +343,8 @@ class Transport:
             self._deadlines.pop(exchange, None)
             self._process(self._session.expire(exchange))
         if self._deadlines and self._loop is not None:
-            self._timer = self._loop.call_at(min(self._deadlines.values()), self._on_timer)
+            self._timer_at = min(self._deadlines.values())
+            self._timer = self._loop.call_at(self._timer_at, self._on_timer)
 
     async def _wait_event(self, exchange: Exchange, limit: float) -> None:
         event = exchange.waiter = anyio.Event()
@@ -391,9 +396,13 @@ class Transport:
 
     def _on_data(self, data: bytes) -> None:
         """Received bytes (in the fd-readable callback or the reader task)."""
-        self._last_rx = self._now()
-        self._rx_since_loss = True
-        self._process(self._session.receive_data(data))
+        session = self._session
+        if session.state is not SessionState.READY:
+            # Only a drain reads these, and a drain starts with a loss of sync, which
+            # stamps ``_lost_at``: bytes received while in sync need no time stamp.
+            self._last_rx = self._now()
+            self._rx_since_loss = True
+        self._process(session.receive_data(data))
 
     def _on_lost(self, exc: BaseException | None) -> None:
         self._close(BoardDisconnectedError(f"{self.name}: port lost ({exc or 'EOF'})"))
@@ -414,13 +423,15 @@ class Transport:
                     waiter.set_result(None)
             else:
                 waiter.set()
-        for event in out.events:
-            self._publish(event)
+        if out.events:
+            for event in out.events:
+                self._publish(event)
         if out.lost is not None:
             logger.warning("%s lost sync: %s", self.name, out.lost)
             self._lost_at = self._now()
             self._rx_since_loss = False
-        self._sync_state()
+        if self._watchers or self._session.state is not self._session_state:
+            self._sync_state()
 
     def _publish(self, event: p.Event) -> None:
         for callback in list(self._subscribers):

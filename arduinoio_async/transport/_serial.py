@@ -104,7 +104,8 @@ class SerialByteStream(anyio.abc.ByteStream):
             on_lost(exc)
 
     def _send_nowait(self, item: bytes) -> None:
-        self._check_open()
+        if self._closed or self._lost is not None:
+            self._check_open()  # raises
         if self._pending:
             self._pending += item
             return
@@ -213,7 +214,8 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
                 raise anyio.ClosedResourceError
             try:
                 data: bytes = await anyio.to_thread.run_sync(self._read, max_bytes)
-            except (serial.SerialException, OSError, AttributeError, TypeError) as exc:
+            # ValueError: a socket:// port closed under its ``select`` in ``in_waiting``.
+            except (serial.SerialException, OSError, AttributeError, TypeError, ValueError) as exc:
                 raise self._broken(exc) from exc
             if data:
                 return data
@@ -227,7 +229,7 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
             raise anyio.ClosedResourceError
         try:
             await anyio.to_thread.run_sync(self._serial.write, item)
-        except (serial.SerialException, OSError, AttributeError, TypeError) as exc:
+        except (serial.SerialException, OSError, AttributeError, TypeError, ValueError) as exc:
             raise self._broken(exc) from exc
 
     async def send_eof(self) -> None:

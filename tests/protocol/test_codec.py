@@ -89,6 +89,38 @@ def test_chunked_stream_decodes_like_the_whole(frames: list[p.Frame], data: st.D
     assert decoder.buffered == 0
 
 
+def _merged(decoded: list[p.Decoded]) -> list[p.Frame | bytes]:
+    """Frames in order, with adjacent garbage runs joined (their split depends on chunking)."""
+    out: list[p.Frame | bytes] = []
+    for item in decoded:
+        if isinstance(item, p.Garbage):
+            if out and isinstance(out[-1], bytes):
+                out[-1] += item.data
+            else:
+                out.append(item.data)
+        else:
+            out.append(item)
+    return out
+
+
+@given(board_frames, st.data())
+def test_a_chunk_of_one_frame_decodes_as_its_bytes_one_by_one(
+    frame: p.Frame, data: st.DataObject
+) -> None:
+    """The decoder's fast path (a chunk that is exactly one frame) against the general path
+    (the same bytes one at a time), for the frame intact or with one byte changed."""
+    raw = bytearray(frame.encode())
+    if data.draw(st.booleans()):
+        raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
+    whole = p.Decoder.from_board()
+    single = p.Decoder.from_board()
+    by_bytes: list[p.Decoded] = []
+    for byte in raw:
+        by_bytes += single.feed(bytes((byte,)))
+    assert _merged(whole.feed(bytes(raw))) == _merged(by_bytes)
+    assert whole.buffered == single.buffered
+
+
 @given(st.lists(requests, max_size=20), st.data())
 def test_requests_split_at_every_byte_decode_intact(
     frames: list[p.Frame], data: st.DataObject
