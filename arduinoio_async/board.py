@@ -593,9 +593,23 @@ class Board:
                 continue
             if status.session != self.session:
                 if on_reset is not None:
-                    await on_reset()
+                    await self._recover(on_reset, "the restore after a reset")
                 continue
             if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
                 self._tripped()
             if self.failsafe_tripped and on_trip is not None:
-                await on_trip()
+                await self._recover(on_trip, "re-arming after a failsafe trip")
+
+    async def _recover(self, action: Callable[[], Awaitable[None]], what: str) -> None:
+        """Run a recovery; a board or link failure during it is logged, never raised.
+
+        The keepalive runs next to other boards' tasks: a restore that fails because the
+        board reset again or its cable was pulled must not take them down.  The board's
+        session still differs (or the trip flag is still set), so the next heartbeat tries
+        again, and a closed link ends the keepalive.
+        """
+        try:
+            await action()
+        except ArduinoIOError as exc:
+            logger.warning("%r: %s failed: %s", self, what, exc)
+            await anyio.lowlevel.checkpoint()

@@ -349,10 +349,11 @@ class BoardManager:
                 task_status.started()
                 started = True
                 await self._heartbeat(board, link, closed)
+                detail = await self._close_reason(link)
         except ArduinoIOError as exc:
             # The port failed mid-handshake or went away: it is forgotten below, so the
             # next scan probes it afresh.
-            detail = str(exc)
+            detail = str(exc) or type(exc).__name__
         finally:
             if board is not None:
                 board.detach(link)
@@ -368,6 +369,15 @@ class BoardManager:
                 self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
             if not started:
                 task_status.started()
+
+    @staticmethod
+    async def _close_reason(link: Transport) -> str:
+        """Why ``link`` closed: a request on a closed link fails with the close error."""
+        try:
+            await link.request(p.ReadStatus())
+        except ArduinoIOError as exc:
+            return str(exc) or type(exc).__name__
+        return "the link closed"
 
     async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
         """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip."""
