@@ -306,7 +306,7 @@ async def test_status_shows_whether_the_board_was_reset_since_a_program_tagged_i
 def board_that_fails_its_handshake(how: str) -> Iterator[str]:
     """A pty that answers the ID probe as board 0x0007, then at the capabilities request
     either hangs up (``"hangup"``) or claims a protocol version this library does not speak
-    (``"version"``)."""
+    (``"version"``); or hangs up at the ID probe itself (``"hangup-probe"``)."""
     master, slave = os.openpty()
     path = os.ttyname(slave)
     os.close(slave)
@@ -323,6 +323,9 @@ def board_that_fails_its_handshake(how: str) -> Iterator[str]:
                 received += os.read(master, 256)
             except OSError:
                 continue  # nobody has the slave open right now
+            if how == "hangup-probe" and read_id in received:
+                os.close(master)
+                return
             while read_id in received:
                 received = received.replace(read_id, b"", 1)
                 os.write(master, p.ReadIdReply(7).encode())
@@ -340,7 +343,7 @@ def board_that_fails_its_handshake(how: str) -> Iterator[str]:
     finally:
         stop.set()
         thread.join()
-        if how != "hangup":
+        if not how.startswith("hangup"):
             os.close(master)
 
 
@@ -371,3 +374,17 @@ def test_scan_options_refuse_impossible_values(
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert option in err and value in err and "must be" in err
+
+
+async def test_list_survives_a_port_that_hangs_up_during_the_probe(
+    virtual_uno_factory: VirtualUnoFactory, no_default_ports: None
+) -> None:
+    uno = await virtual_uno_factory(board_id=3)
+    with board_that_fails_its_handshake("hangup-probe") as port:
+        code, out = await run(
+            "list", "--json", "--probe-timeout", "2", "--ports", port, "--ports", uno.port
+        )
+    assert code == 0
+    rows = {row["port"]: row for row in json.loads(out)}
+    assert rows[uno.port]["status"] == "ok" and rows[uno.port]["id"] == 3
+    assert "lost" in rows[port]["status"], rows[port]
