@@ -29,6 +29,7 @@ from .errors import (
     PortBusyError,
     ProtocolError,
     ReplyMismatchError,
+    StaleHandleError,
     UsageError,
     ValueRangeError,
 )
@@ -172,6 +173,7 @@ __all__ = [
     "SampleStream",
     "Servo",
     "SoftPwm",
+    "StaleHandleError",
     "UsageError",
     "ValueRangeError",
     "VirtualUno",

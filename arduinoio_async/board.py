@@ -30,6 +30,7 @@ from .errors import (
     LinkError,
     PinRoleError,
     ProtocolError,
+    StaleHandleError,
     ValueRangeError,
 )
 from .handles import (
@@ -302,10 +303,13 @@ class Board:
         """End whatever role ``pin`` has, on the board and here."""
         require_capable(pin, Function.DIGITAL_INPUT)
         await self.request(p.PinRelease(int(pin)))
-        self._roles.pop(pin, None)
+        role = self._roles.pop(pin, None)
+        if role is not None:
+            role[0].released = True
         gpio = self._gpio.pop(pin, None)
         if gpio is not None:
             gpio.direction = None
+            gpio.released = True
 
     async def restore(self) -> None:
         """Replay every pin role and the I2C speed on a board that has lost them."""
@@ -519,14 +523,23 @@ class Board:
         watchdog fed while this process runs; a killed process, a pulled cable or a
         blocked event loop lets it fire.
         """
-        if not p.FAILSAFE_MIN_TIMEOUT_MS <= timeout_ms <= p.FAILSAFE_MAX_TIMEOUT_MS:
+        if (
+            isinstance(timeout_ms, bool)
+            or not isinstance(timeout_ms, int)
+            or not p.FAILSAFE_MIN_TIMEOUT_MS <= timeout_ms <= p.FAILSAFE_MAX_TIMEOUT_MS
+        ):
             raise ValueRangeError(
                 "failsafe timeout (ms)",
                 timeout_ms,
-                f"{p.FAILSAFE_MIN_TIMEOUT_MS}-{p.FAILSAFE_MAX_TIMEOUT_MS}",
+                f"a whole number of ms, {p.FAILSAFE_MIN_TIMEOUT_MS}-{p.FAILSAFE_MAX_TIMEOUT_MS}",
             )
         requests = []
         for handle, state in safe_states.items():
+            if getattr(handle, "board", None) is not self:
+                raise StaleHandleError(
+                    repr(handle), f"belongs to another board, not to {self!r}; its pin is not ours"
+                )
+            handle.check_usable()
             if isinstance(handle, PulseOutput):
                 pulse = handle.check_pulse(int(state))
                 requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.PULSE, pulse))
@@ -593,9 +606,23 @@ class Board:
                 continue
             if status.session != self.session:
                 if on_reset is not None:
-                    await on_reset()
+                    await self._recover(on_reset, "the restore after a reset")
                 continue
             if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
                 self._tripped()
             if self.failsafe_tripped and on_trip is not None:
-                await on_trip()
+                await self._recover(on_trip, "re-arming after a failsafe trip")
+
+    async def _recover(self, action: Callable[[], Awaitable[None]], what: str) -> None:
+        """Run a recovery; a board or link failure during it is logged, never raised.
+
+        The keepalive runs next to other boards' tasks: a restore that fails because the
+        board reset again or its cable was pulled must not take them down.  The board's
+        session still differs (or the trip flag is still set), so the next heartbeat tries
+        again, and a closed link ends the keepalive.
+        """
+        try:
+            await action()
+        except ArduinoIOError as exc:
+            logger.warning("%r: %s failed: %s", self, what, exc)
+            await anyio.lowlevel.checkpoint()

@@ -36,6 +36,7 @@ __all__ = [
     "PinRoleError",
     "ProtocolError",
     "ReplyMismatchError",
+    "StaleHandleError",
     "UsageError",
     "ValueRangeError",
 ]
@@ -72,6 +73,19 @@ class PinRoleError(UsageError):
         self.current = current
         self.requested = requested
         super().__init__(f"{pin} is in use as {current}; release it before using it as {requested}")
+
+
+class StaleHandleError(UsageError):
+    """A handle was used where it no longer (or never) speaks for its pin.
+
+    A released handle must not drive a pin another handle may own now, and a handle of
+    one board means nothing to another board (the same pin name is a different wire).
+    """
+
+    def __init__(self, handle: str, reason: str) -> None:
+        self.handle = handle
+        self.reason = reason
+        super().__init__(f"{handle} {reason}")
 
 
 class ValueRangeError(UsageError):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 from . import protocol as p
-from .errors import ValueRangeError
+from .errors import StaleHandleError, ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
 
 if TYPE_CHECKING:
@@ -60,12 +60,24 @@ class _PinHandle:
     def __init__(self, board: Board, pin: DigitalPin) -> None:
         self.board = board
         self.pin = pin
+        #: Set when the pin's role ended (``release()`` or ``board.release(pin)``): the pin
+        #: may belong to another handle now, so this one refuses to touch it.
+        self.released = False
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.pin.name} on {self.board}>"
 
+    def check_usable(self) -> None:
+        """Raise :class:`StaleHandleError` if this handle's role on the pin was released."""
+        if self.released:
+            raise StaleHandleError(
+                repr(self),
+                f"was released ({self.pin.name}'s role ended); ask the board for a new handle",
+            )
+
     async def release(self) -> None:
         """End the pin's role on the board so another role may use it."""
+        self.check_usable()
         await self.board.release(self.pin)
 
 
@@ -75,11 +87,13 @@ class DigitalOutput(_PinHandle):
     ROLE = "digital output"
 
     async def write(self, value: bool) -> None:
+        self.check_usable()
         reply = await self.board.request(p.GpioWrite(self.pin, bool(value)))
         self.board._remember(self.pin, self, _output_config(self.pin, reply.value))
 
     async def read(self) -> bool:
         """The level the pin drives now."""
+        self.check_usable()
         reply = await self.board.request(p.GpioRead(self.pin))
         return reply.level
 
@@ -91,6 +105,7 @@ class DigitalInput(_PinHandle):
 
     async def read(self) -> PinState:
         """Level now, and the rising/falling edges latched since the previous read."""
+        self.check_usable()
         return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
 
 
@@ -117,6 +132,7 @@ class Gpio(_PinHandle):
         self.direction: str | None = None
 
     async def write(self, value: bool) -> None:
+        self.check_usable()
         if self.direction != "output":
             await self.board._configure(self.pin, self, _output_config(self.pin, bool(value)))
             self.direction = "output"
@@ -125,12 +141,14 @@ class Gpio(_PinHandle):
         self.board._remember(self.pin, self, _output_config(self.pin, reply.value))
 
     async def read(self) -> PinState:
+        self.check_usable()
         if self.direction is None:
             await self.board._configure(self.pin, self, _input_config(self.pin, False))
             self.direction = "input"
         return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
 
     async def configure_input(self, *, pull_up: bool = False) -> None:
+        self.check_usable()
         await self.board._configure(self.pin, self, _input_config(self.pin, pull_up))
         self.direction = "input"
 
@@ -182,6 +200,7 @@ class PulseOutput(_PinHandle):
 
     async def set_pulse(self, pulse_us: int) -> None:
         """Pulse width in microseconds, 1000-2000; 0 stops the pulses."""
+        self.check_usable()
         pulse_us = self.check_pulse(int(pulse_us))
         reply = await self.board.request(p.PwmSet(self.pin, pulse_us))
         self.pulse_us = reply.pulse_us
@@ -221,10 +240,12 @@ class Counter(_PinHandle):
     ROLE = "event counter"
 
     async def read(self) -> int:
+        self.check_usable()
         return (await self.board.request(p.CounterRead(self.pin))).count
 
     async def reset(self) -> int:
         """Clear the counter; returns the count it had (read and clear are atomic)."""
+        self.check_usable()
         return (await self.board.request(p.CounterReset(self.pin))).count
 
 

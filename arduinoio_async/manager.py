@@ -82,7 +82,8 @@ class ProbeResult:
 
     @property
     def ok(self) -> bool:
-        return self.board_id is not None
+        """A board answered and was taken into service (no error on the way)."""
+        return self.board_id is not None and not self.error
 
 
 @dataclass(frozen=True, slots=True)
@@ -160,6 +161,10 @@ class BoardManager:
     _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
     #: Board ID -> the port whose supervisor owns it (set the moment a probe finds it).
     _claims: dict[int, str] = field(default_factory=dict, init=False)
+    #: Ports whose board answered the ID probe but failed its handshake, with the reason
+    #: (a protocol-version mismatch, a port lost mid-handshake).  Reported by ``probed()``
+    #: without keeping the port from being probed again at the next scan.
+    _failed: dict[str, ProbeResult] = field(default_factory=dict, init=False)
 
     async def __aenter__(self) -> BoardManager:
         # Through an exit stack: if the first scan raises, the task group is still
@@ -198,8 +203,11 @@ class BoardManager:
         return {bid: board for bid, board in self._boards.items() if board.connected}
 
     def probed(self) -> dict[str, ProbeResult]:
-        """What every port answered at its last probe."""
-        return {port: known.result for port, known in self._known.items()}
+        """What every port answered at its last probe (a failed handshake with its reason)."""
+        return {
+            **self._failed,
+            **{port: known.result for port, known in self._known.items()},
+        }
 
     def add_port(self, port: str) -> None:
         """Also look at ``port`` from the next scan on (for example a new virtual Uno)."""
@@ -322,6 +330,7 @@ class BoardManager:
         await self._task_group.start(self._supervise, board_id, link, name=f"board {port}")
 
     def _remember(self, result: ProbeResult, *, held: bool = False) -> ProbeResult:
+        self._failed.pop(result.port, None)
         self._known[result.port] = _Known(result, held)
         return result
 
@@ -349,10 +358,11 @@ class BoardManager:
                 task_status.started()
                 started = True
                 await self._heartbeat(board, link, closed)
+                detail = await self._close_reason(link)
         except ArduinoIOError as exc:
             # The port failed mid-handshake or went away: it is forgotten below, so the
             # next scan probes it afresh.
-            detail = str(exc)
+            detail = str(exc) or type(exc).__name__
         finally:
             if board is not None:
                 board.detach(link)
@@ -367,7 +377,19 @@ class BoardManager:
             if board is not None:
                 self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
             if not started:
+                failure = ProbeResult(link.name, board_id, error=detail or "handshake failed")
+                self._failed[link.name] = failure
+                logger.warning("board 0x%04X on %s not attached: %s", board_id, link.name, detail)
                 task_status.started()
+
+    @staticmethod
+    async def _close_reason(link: Transport) -> str:
+        """Why ``link`` closed: a request on a closed link fails with the close error."""
+        try:
+            await link.request(p.ReadStatus())
+        except ArduinoIOError as exc:
+            return str(exc) or type(exc).__name__
+        return "the link closed"
 
     async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
         """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip."""

@@ -16,6 +16,7 @@ consumer.  Nothing is lost silently:
 from __future__ import annotations
 
 import collections
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -96,9 +97,11 @@ def stream_request(
         flags |= p.StreamFlags.COUNTERS
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    period_us = round(period_ms * 1000)
+    finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
+    period_us = round(period_ms * 1000) if finite else 0
     if (
-        not p.STREAM_MIN_PERIOD_US <= period_us <= p.STREAM_MAX_PERIOD_US
+        not finite
+        or not p.STREAM_MIN_PERIOD_US <= period_us <= p.STREAM_MAX_PERIOD_US
         or period_us % p.STREAM_PERIOD_STEP_US
     ):
         raise ValueRangeError(

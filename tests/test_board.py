@@ -24,6 +24,7 @@ from arduinoio_async import (
     D10,
     PinCapabilityError,
     PinRoleError,
+    StaleHandleError,
     ValueRangeError,
 )
 from arduinoio_async import manager as manager_module
@@ -309,3 +310,66 @@ def test_a_manager_whose_first_scan_fails_exits_its_task_group_on_trio(
                 pass
 
     anyio.run(scenario, backend="trio")
+
+
+async def test_a_released_handle_refuses_to_drive_its_pin() -> None:
+    async with connected() as (board, fake):
+        old = await board.digital_output(D4)
+        await old.release()
+        new = await board.digital_output(D4, initial=True)
+        with pytest.raises(StaleHandleError, match=r"D4.*was released"):
+            await old.write(False)
+        with pytest.raises(StaleHandleError, match="was released"):
+            await old.read()
+        assert fake.levels[4] is True  # the new owner's level stands
+        await new.write(False)
+        assert fake.levels[4] is False
+        servo = await board.servo(D9, pulse_us=1500)
+        await board.release(D9)
+        with pytest.raises(StaleHandleError, match=r"D9.*was released"):
+            await servo.set_pulse(1200)
+        gpio = board.gpio(D5)
+        await gpio.write(True)
+        await board.release(D5)
+        with pytest.raises(StaleHandleError, match="was released"):
+            await gpio.write(True)
+        assert fake.role(5) != "output"
+
+
+async def test_arm_failsafe_refuses_another_boards_handle_and_a_released_one() -> None:
+    async with connected() as (board, _fake):
+        async with (
+            FakeBoard(board_id=0x0043) as other_fake,
+            Board.connect(other_fake.host_stream, timeout=0.5, ready_timeout=2) as other,
+        ):
+            foreign = await other.digital_output(D4)
+            await board.digital_output(D4)
+            with pytest.raises(StaleHandleError, match="belongs to another board"):
+                await board.arm_failsafe(200, {foreign: False})
+        released = await board.digital_output(D5)
+        await released.release()
+        with pytest.raises(StaleHandleError, match="was released"):
+            await board.arm_failsafe(200, {released: False})
+        assert board.failsafe is None  # nothing was stored
+
+
+async def test_a_non_integer_failsafe_timeout_is_refused_before_it_is_stored() -> None:
+    async with connected() as (board, _fake):
+        with pytest.raises(ValueRangeError, match="whole number of ms"):
+            await board.arm_failsafe(100.5, {})  # type: ignore[arg-type]
+        assert board.failsafe is None
+        await board.arm_failsafe(100, {})  # a later arm works
+        assert board.failsafe is not None
+        assert board.failsafe.timeout_ms == 100
+        await board.rearm_failsafe()
+
+
+async def test_a_nan_stream_period_is_a_value_range_error() -> None:
+    async with connected() as (board, _fake):
+        for period in (float("nan"), float("inf")):
+            with pytest.raises(ValueRangeError, match="stream period"):
+                async with board.stream(analog=[A0], period_ms=period):
+                    pass
+        with pytest.raises(ValueRangeError, match="stream buffer"):
+            async with board.stream(analog=[A0], buffer=0):
+                pass

@@ -9,6 +9,7 @@ all: the command fails at once and says how to name ports, instead of waiting fo
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -44,6 +45,30 @@ def board_id(text: str) -> int:
     return value
 
 
+def baud_rate(text: str) -> int:
+    """A positive whole number of bits per second."""
+    try:
+        value = int(text, 10)
+    except ValueError:
+        value = 0
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"baud rate must be a positive whole number, got {text}")
+    return value
+
+
+def probe_seconds(text: str) -> float:
+    """A finite, positive number of seconds (NaN or a negative deadline never ends well)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(
+            f"probe timeout must be a positive number of seconds, got {text}"
+        )
+    return value
+
+
 def add_scan_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--ports",
@@ -52,9 +77,9 @@ def add_scan_options(parser: argparse.ArgumentParser) -> None:
         metavar="PATH_OR_GLOB",
         help="also probe these ports (repeatable; ARDUINOIO_PORTS works too)",
     )
-    parser.add_argument("--baud", type=int, default=DEFAULT_BAUD)
+    parser.add_argument("--baud", type=baud_rate, default=DEFAULT_BAUD)
     parser.add_argument(
-        "--probe-timeout", type=float, default=5.0, help="seconds per port (auto-reset)"
+        "--probe-timeout", type=probe_seconds, default=5.0, help="seconds per port (auto-reset)"
     )
 
 

@@ -20,6 +20,8 @@ uint8_t analog_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
     uint8_t ch, *p;
 
+    if (rq->dt != AIO_DT_ANALOG_READ && rq->dt != AIO_DT_ANALOG_READ_ALL)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (rq->dt == AIO_DT_ANALOG_READ) {
         ch = rq->data[0];
         if (!(ch < 16u && (AIO_PINS_ANALOG_INPUT >> ch & 1u)))

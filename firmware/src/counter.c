@@ -23,6 +23,9 @@ uint8_t counter_handle(const aio_request_t *rq, aio_reply_t *rp)
     uint8_t err, s;
     uint32_t count;
 
+    if (rq->dt != AIO_DT_COUNTER_CONFIG && rq->dt != AIO_DT_COUNTER_READ &&
+        rq->dt != AIO_DT_COUNTER_RESET)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (!pins_capable(pin, AIO_PINS_COUNTER))
         return AIO_ERR_PIN_NOT_CAPABLE;
     if (rq->dt == AIO_DT_COUNTER_CONFIG) {

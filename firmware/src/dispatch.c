@@ -29,6 +29,9 @@ static uint8_t changes_output(const aio_request_t *rq)
     return rq->ct == AIO_CT_PWM;
 }
 
+/* Every handler answers a descriptor it does not implement with UNKNOWN_DESCRIPTOR
+ * before it reads a field or changes any state, even though the parser already filters
+ * unknown (CT, DT) pairs: a handler is never safe only because of its caller. */
 static aio_handler_t handler(uint8_t ct)
 {
     switch (ct) {

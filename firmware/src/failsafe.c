@@ -113,13 +113,15 @@ uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp)
         safe[pin].value = v;
         hal_irq_restore(s);
         break;
-    default: /* DISARM */
+    case AIO_DT_FAILSAFE_DISARM:
         s = hal_irq_save();
         failsafe_is_armed = 0;
         tripped = 0;
         event_pending = 0;
         hal_irq_restore(s);
         break;
+    default:
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     }
     return aio_echo(rq, rp);
 }

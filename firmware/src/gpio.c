@@ -70,10 +70,10 @@ __attribute__((optimize("O2"))) uint8_t gpio_handle(const aio_request_t *rq, aio
     uint8_t pin = rq->data[0];
     uint8_t arg = rq->data[1];
 
-    if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
-        return AIO_ERR_PIN_NOT_CAPABLE;
     if (rq->dt != AIO_DT_GPIO_WRITE)
         return gpio_handle_other(rq, rp);
+    if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
+        return AIO_ERR_PIN_NOT_CAPABLE;
     if (arg > 1)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     if (pins_role[pin] != ROLE_GPIO_OUT)
@@ -92,6 +92,11 @@ static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp)
     uint8_t err, role, state, s;
     uint16_t bit;
 
+    if (rq->dt != AIO_DT_GPIO_CONFIG && rq->dt != AIO_DT_GPIO_READ &&
+        rq->dt != AIO_DT_GPIO_PIN_RELEASE)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
+    if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
+        return AIO_ERR_PIN_NOT_CAPABLE;
     bit = pins_bit_of(pin);
     role = pins_role[pin];
 
@@ -132,10 +137,8 @@ static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp)
         rp->data[1] = state;
         rp->len = 2;
         return 0;
-    case AIO_DT_GPIO_PIN_RELEASE:
+    default: /* AIO_DT_GPIO_PIN_RELEASE */
         pins_release(pin);
         return aio_echo(rq, rp);
-    default:
-        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     }
 }

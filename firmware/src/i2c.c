@@ -47,6 +47,8 @@ uint8_t i2c_handle(const aio_request_t *rq, aio_reply_t *rp)
     uint8_t addr = rq->data[0], reg = rq->data[1], len = rq->data[2];
     uint8_t i, st, err;
 
+    if (rq->dt != AIO_DT_I2C_CONFIG && rq->dt != AIO_DT_I2C_READ && rq->dt != AIO_DT_I2C_WRITE)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (rq->dt == AIO_DT_I2C_CONFIG) {
         if (rq->data[0] > AIO_I2C_KHZ_400)
             return AIO_ERR_VALUE_OUT_OF_RANGE;

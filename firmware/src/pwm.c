@@ -168,6 +168,8 @@ uint8_t pwm_handle(const aio_request_t *rq, aio_reply_t *rp)
     uint16_t us = aio_be16(rq->data + 1);
     uint8_t err;
 
+    if (rq->dt != AIO_DT_PWM_CONFIG && rq->dt != AIO_DT_PWM_SET)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (!pins_capable(pin, AIO_PINS_SOFT_PWM | AIO_PINS_SERVO_PWM))
         return AIO_ERR_PIN_NOT_CAPABLE;
     if (rq->dt == AIO_DT_PWM_CONFIG) {

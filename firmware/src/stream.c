@@ -219,6 +219,8 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     uint8_t m, f, s, shift;
     uint16_t period, r;
 
+    if (rq->dt != AIO_DT_STREAM_START && rq->dt != AIO_DT_STREAM_STOP)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (rq->dt == AIO_DT_STREAM_STOP) {
         stop();
         aio_put16(rp->data, seq);

@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import io
 import json
+import os
+import select
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import anyio
@@ -23,6 +28,7 @@ from arduinoio_async import (
     LinkCapacityError,
     manager,
 )
+from arduinoio_async import protocol as p
 from arduinoio_async.cli import main
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -294,3 +300,91 @@ async def test_status_shows_whether_the_board_was_reset_since_a_program_tagged_i
     await uno.reset()  # the reset button: nobody tags the new boot
     code, out = await run("status", "--port", uno.port)
     assert "a fresh boot, no program had tagged it" in out
+
+
+@contextmanager
+def board_that_fails_its_handshake(how: str) -> Iterator[str]:
+    """A pty that answers the ID probe as board 0x0007, then at the capabilities request
+    either hangs up (``"hangup"``) or claims a protocol version this library does not speak
+    (``"version"``); or hangs up at the ID probe itself (``"hangup-probe"``)."""
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    os.close(slave)
+    stop = threading.Event()
+    read_id, read_caps = p.ReadId().encode(), p.ReadCapabilities().encode()
+    caps = p.ReadCapabilitiesReply(p.PROTOCOL_VERSION + 1, 9, 9, 0, p.DEFAULT_BAUD, 64)
+
+    def answer() -> None:
+        received = b""
+        while not stop.is_set():
+            if not select.select([master], [], [], 0.02)[0]:
+                continue
+            try:
+                received += os.read(master, 256)
+            except OSError:
+                continue  # nobody has the slave open right now
+            if how == "hangup-probe" and read_id in received:
+                os.close(master)
+                return
+            while read_id in received:
+                received = received.replace(read_id, b"", 1)
+                os.write(master, p.ReadIdReply(7).encode())
+            if read_caps in received:
+                if how == "hangup":
+                    os.close(master)
+                    return
+                received = received.replace(read_caps, b"", 1)
+                os.write(master, caps.encode())
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    try:
+        yield path
+    finally:
+        stop.set()
+        thread.join()
+        if not how.startswith("hangup"):
+            os.close(master)
+
+
+@pytest.mark.parametrize(
+    ("how", "reason"),
+    [("hangup", "lost"), ("version", f"speaks protocol version {p.PROTOCOL_VERSION + 1}")],
+)
+async def test_list_shows_a_board_whose_handshake_failed_with_the_reason(
+    no_default_ports: None, how: str, reason: str
+) -> None:
+    with board_that_fails_its_handshake(how) as port:
+        code, out = await run("list", "--json", "--probe-timeout", "2", "--ports", port)
+    assert code == 1  # no usable board
+    (row,) = json.loads(out)
+    assert row["port"] == port and row["id"] == 7
+    assert reason in row["status"], row
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [("--baud", "0"), ("--baud", "-9600"), ("--probe-timeout", "-1"), ("--probe-timeout", "nan")],
+)
+def test_scan_options_refuse_impossible_values(
+    option: str, value: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["list", option, value, "--ports", "/dev/null"], console=Console(file=io.StringIO()))
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert option in err and value in err and "must be" in err
+
+
+async def test_list_survives_a_port_that_hangs_up_during_the_probe(
+    virtual_uno_factory: VirtualUnoFactory, no_default_ports: None
+) -> None:
+    uno = await virtual_uno_factory(board_id=3)
+    with board_that_fails_its_handshake("hangup-probe") as port:
+        code, out = await run(
+            "list", "--json", "--probe-timeout", "2", "--ports", port, "--ports", uno.port
+        )
+    assert code == 0
+    rows = {row["port"]: row for row in json.loads(out)}
+    assert rows[uno.port]["status"] == "ok" and rows[uno.port]["id"] == 3
+    assert "lost" in rows[port]["status"], rows[port]

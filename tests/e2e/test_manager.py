@@ -20,6 +20,7 @@ from arduinoio_async import (
     DuplicateBoardError,
 )
 from arduinoio_async import protocol as p
+from arduinoio_async.board import Board
 from arduinoio_async.manager import BoardManager, ManagerEvent
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -188,3 +189,39 @@ async def test_a_reset_by_command_is_detected_and_restored(
         assert (await uno.pin("D4")).level == 1  # restored before the board was handed back
         status = await board.status()
         assert status.session == board.session
+
+
+async def test_a_restore_that_fails_drops_only_that_board(
+    virtual_uno_factory: VirtualUnoFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A board resets and its restore fails (the line goes dead as it starts, then the
+    cable is pulled): the manager reports the loss and keeps serving the other board; no
+    ExceptionGroup escapes ``async with BoardManager()``."""
+    resetting = await virtual_uno_factory(board_id=4)
+    other = await virtual_uno_factory(board_id=5)
+    adopt = Board.adopt
+
+    async def unplug_then_adopt(board: Board, link: Any) -> None:
+        if board.board_id == 4:
+            await resetting.set_faults(drop=1.0)  # every reply lost: the restore times out
+        await adopt(board, link)
+
+    events: list[ManagerEvent] = []
+    async with manager([resetting.port, other.port], rescan_interval=None) as boards:
+        boards.subscribe(events.append)
+        board = await boards.get(4)
+        survivor = await boards.get(5)
+        await board.gpio(D4).write(True)
+        monkeypatch.setattr(Board, "adopt", unplug_then_adopt)
+        await board.request(p.Reset())  # behind the library's back
+        with anyio.fail_after(10):
+            while not any(e.kind == "reset" for e in events):  # noqa: ASYNC110
+                await anyio.sleep(0.02)
+        await resetting.unplug()
+        with anyio.fail_after(10):
+            while not any(e.kind == "disconnected" and e.board_id == 4 for e in events):  # noqa: ASYNC110
+                await anyio.sleep(0.02)
+        lost = next(e for e in events if e.kind == "disconnected")
+        assert "closed" in lost.detail or "lost" in lost.detail, lost.detail  # says why
+        assert not board.connected
+        assert await survivor.read_id() == 5  # the other board stays

@@ -15,44 +15,43 @@ import time
 
 import anyio
 import pytest
-import serial
 
 from arduinoio_async import protocol as proto
 from arduinoio_async.sim import SimulatorError, SimulatorNotAvailable, VirtualUno
 from arduinoio_async.sim.cli import main as cli_main
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
-from .conftest import Link, start_test_board, test_elf
+from .conftest import Link, poll_until, start_test_board, test_elf
 
 pytestmark = pytest.mark.sim
 
 
-def _median_rtt(link: Link, n: int) -> float:
+async def _median_rtt(link: Link, n: int) -> float:
     for _ in range(5):
-        link.echo_rtt_us()
-    return statistics.median(link.echo_rtt_us() for _ in range(n))
+        await link.echo_rtt_us()
+    return statistics.median([await link.echo_rtt_us() for _ in range(n)])
 
 
 @pytest.mark.parametrize("baud", [115200, 1000000])
 async def test_echo_round_trip(virtual_uno_factory: VirtualUnoFactory, baud: int) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=baud, board_id=0x0102)
-    link = Link(uno.port)
+    link = await Link.open(uno.port)
     try:
-        rtt = _median_rtt(link, 100)
+        rtt = await _median_rtt(link, 100)
         print(f"\necho round trip at {baud} baud, no USB bridge model: median {rtt:.0f} us")
         assert rtt < 20000
-        assert link.eeprom(0) == 0x01 and link.eeprom(1) == 0x02  # board ID in EEPROM
+        assert await link.eeprom(0) == 0x01 and await link.eeprom(1) == 0x02  # board ID in EEPROM
         cycles = await uno.firmware_cycles()
         assert cycles.last is not None and cycles.samples
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_16u2_model_delays_replies_in_ticks(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=1000000, usb_bridge="16u2")
-    link = Link(uno.port)
+    link = await Link.open(uno.port)
     try:
-        rtts = [link.echo_rtt_us() for _ in range(40)]
+        rtts = [await link.echo_rtt_us() for _ in range(40)]
         med = statistics.median(rtts)
         print(
             f"\necho round trip at 1000000 baud with 16U2 model: median {med:.0f} us, "
@@ -62,13 +61,13 @@ async def test_16u2_model_delays_replies_in_ticks(virtual_uno_factory: VirtualUn
         assert 1000 < med < 20000
         assert max(rtts) > 3000
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_pacing_tracks_wall_clock(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory)
     a = await uno.status()
-    await anyio.sleep(1.0)
+    await anyio.sleep(1.0)  # the wall-clock interval being measured, not a synchronisation
     b = await uno.status()
     dsim = b["sim_us"] - a["sim_us"]
     dwall = b["wall_us"] - a["wall_us"]
@@ -87,29 +86,29 @@ async def test_pacing_keeps_up_with_pipelined_project_firmware(
     INT0/INT1 low-level poll (a cycle timer firing every cycle) running for good.
     """
     uno = await virtual_uno_factory(baud=1000000, board_id=1)
-    port = serial.Serial(uno.port, timeout=2)
+    link = await Link.open(uno.port, timeout=2)
     try:
-        port.write(proto.GpioConfig(2, proto.GpioFlags.OUTPUT).encode())
-        assert len(port.read(5)) == 5
+        await link.write(proto.GpioConfig(2, proto.GpioFlags.OUTPUT).encode())
+        assert len(await link.read(5)) == 5
         req = proto.GpioWrite(2, True).encode()
         a = await uno.status()
         n, window = 3000, 12
         t0 = time.perf_counter()
-        port.write(req * window)
+        await link.write(req * window)
         sent, got = window, 0
         while got < n:
-            r = port.read(5 * max(1, min(window, n - got) // 2))
+            r = await link.read(5 * max(1, min(window, n - got) // 2))
             assert r, f"timeout after {got} replies"
             k = len(r) // 5
             got += k
             if sent < n:
                 m = min(k, n - sent)
-                port.write(req * m)
+                await link.write(req * m)
                 sent += m
         elapsed = time.perf_counter() - t0
         b = await uno.status()
     finally:
-        port.close()
+        await link.close()
     writes = b["pty_writes"] - a["pty_writes"]
     nbytes = b["bytes_to_host"] - a["bytes_to_host"]
     print(
@@ -125,126 +124,136 @@ async def test_pacing_keeps_up_with_pipelined_project_firmware(
 
 async def test_loopback_fixture(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, fixture="loopback")
-    link = Link(uno.port)
+    link = await Link.open(uno.port)
     try:
-        link.pin_mode(9, 3)  # D9 output high drives D8
-        link.pin_mode(8, 0)
-        assert link.digital_read(8) == 1
+        await link.pin_mode(9, 3)  # D9 output high drives D8
+        await link.pin_mode(8, 0)
+        assert await link.digital_read(8) == 1
         assert (await uno.pin(8)).level == 1
-        link.pin_mode(9, 2)
-        assert link.digital_read(8) == 0
-        link.pin_mode(4, 2)  # D5 <- D4 low beats D5's pull-up
-        link.pin_mode(5, 1)
-        assert link.digital_read(5) == 0
-        link.pin_mode(12, 1)  # neither side drives: D12's pull-up holds the pair high
-        link.pin_mode(13, 0)
-        assert link.digital_read(13) == 1
-        link.pin_mode(12, 0)
-        assert link.digital_read(13) == 0
+        await link.pin_mode(9, 2)
+        assert await link.digital_read(8) == 0
+        await link.pin_mode(4, 2)  # D5 <- D4 low beats D5's pull-up
+        await link.pin_mode(5, 1)
+        assert await link.digital_read(5) == 0
+        await link.pin_mode(12, 1)  # neither side drives: D12's pull-up holds the pair high
+        await link.pin_mode(13, 0)
+        assert await link.digital_read(13) == 1
+        await link.pin_mode(12, 0)
+        assert await link.digital_read(13) == 0
         with pytest.raises(SimulatorError):
             await uno.drive(3, 1)  # jumpered pins cannot be driven from outside
     finally:
-        link.close()
+        await link.close()
 
 
 @pytest.mark.parametrize("tolerance", [0.0, 5.0])
 async def test_r2r_fixture(virtual_uno_factory: VirtualUnoFactory, tolerance: float) -> None:
     uno = await start_test_board(virtual_uno_factory, fixture="r2r", r2r_tolerance=tolerance)
-    link = Link(uno.port)
+    link = await Link.open(uno.port)
     try:
         for b1 in (0, 1):
             for b0 in (0, 1):
-                link.pin_mode(4, 2 | b0)  # ladder 1: A1 <- D4 (B0), D5 (B1)
-                link.pin_mode(5, 2 | b1)
+                await link.pin_mode(4, 2 | b0)  # ladder 1: A1 <- D4 (B0), D5 (B1)
+                await link.pin_mode(5, 2 | b1)
                 ideal = (2 * b1 + b0) * 1023 / 4
-                got = link.adc(1)
+                got = await link.adc(1)
                 if tolerance == 0.0:
                     assert abs(got - ideal) <= 1, (b1, b0, got)
                 else:
                     assert abs(got - ideal) <= 1023 * tolerance / 100 + 2, (b1, b0, got)
         await uno.set_analog(1, 1000)  # the ladder wins over a set voltage
-        assert abs(link.adc(1) - 3 * 1023 / 4) <= 1023 * tolerance / 100 + 2
+        assert abs(await link.adc(1) - 3 * 1023 / 4) <= 1023 * tolerance / 100 + 2
         await uno.set_analog(0, 1000)  # ladder 0 with D2/D3 floating inputs outputs 0 V
-        assert link.adc(0) < 5
+        assert await link.adc(0) < 5
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_auto_reset_on_open(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, reset_on_open=True, boot_delay_ms=300)
-    await anyio.sleep(0.5)
+
+    async def booted() -> bool:
+        status = await uno.status()
+        return bool(status["state"] != "reset" and status["sim_us"] > 400_000)
+
+    await poll_until(booted, "the first boot")
     before = await uno.status()
-    ser = serial.Serial(uno.port, timeout=0.1)
+    link = await Link.open(uno.port)
     try:
-        ser.write(b"lost")  # the "bootloader" swallows bytes
-        assert ser.read(4) == b""
+        await link.write(b"lost")  # the "bootloader" swallows bytes
+        assert await link.read(4, timeout=0.1) == b""
         held = await uno.status()
         assert held["state"] == "reset"
-        await anyio.sleep(0.35)
-        ser.timeout = 1.0
-        link = Link.__new__(Link)
-        link.ser = ser
-        assert link.echo_rtt_us() > 0
-        assert link.uptime_ms() < 200  # fresh boot after the open
+
+        async def released() -> bool:
+            return bool((await uno.status())["state"] != "reset")
+
+        await poll_until(released, "the end of the boot delay")
+        assert await link.echo_rtt_us() > 0
+        assert await link.uptime_ms() < 200  # fresh boot after the open
         after = await uno.status()
         assert after["resets"] > before["resets"] and after["opens"] == 1
     finally:
-        ser.close()
+        await link.close()
 
 
 async def test_no_reset_on_open_by_default(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory)
-    await anyio.sleep(0.3)
-    link = Link(uno.port)
+
+    async def ran_300_ms() -> bool:
+        return bool((await uno.status())["sim_us"] >= 300_000)
+
+    await poll_until(ran_300_ms, "300 ms of simulated time")
+    link = await Link.open(uno.port)
     try:
-        assert link.uptime_ms() > 250
+        assert await link.uptime_ms() > 250
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_unplug_and_replug(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, board_id=7)
-    link = Link(uno.port)
+    link = await Link.open(uno.port)
     old_port = uno.port
     try:
-        link.echo_rtt_us()
+        await link.echo_rtt_us()
         await uno.unplug()
-        with pytest.raises(serial.SerialException):
-            link.ser.write(b"x")
-            link.ser.read(1)
+        with pytest.raises((anyio.BrokenResourceError, anyio.EndOfStream)):
+            await link.write(b"x")
+            await link.stream.receive()
         assert (await uno.status())["plugged"] is False
     finally:
-        link.close()
+        await link.close()
     new_port = await uno.replug()
     assert new_port == uno.port and new_port != old_port
     print(f"\nreplug: {old_port} -> {new_port}")
-    await anyio.sleep(0.05)  # as on a real board, bytes sent before the UART is enabled are lost
-    link = Link(new_port)
+    link = await Link.open(new_port)
     try:
-        link.echo_rtt_us()
-        assert link.uptime_ms() < 300  # fresh boot
-        assert link.eeprom(1) == 7  # EEPROM survived the power cycle
+        await link.wait_answering()  # bytes sent before the UART is enabled are lost
+        await link.echo_rtt_us()
+        assert await link.uptime_ms() < 300  # fresh boot
+        assert await link.eeprom(1) == 7  # EEPROM survived the power cycle
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_faults_corrupt_at_roughly_the_rate(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=1000000, fault_drop=0.1, seed=42)
-    link = Link(uno.port, timeout=0.05)
+    link = await Link.open(uno.port, timeout=0.05)
     sent = received = 0
     try:
         payload = bytes(range(0x20, 0x20 + 50))
         for _ in range(20):
-            link.ser.write(payload)
+            await link.write(payload)
             sent += len(payload)
-            received += len(link.ser.read(200))
+            received += len(await link.read(200))
         print(f"\ndrop 0.1: {received}/{sent} bytes arrived")
         assert 0.8 * sent < received < 0.97 * sent
         await uno.set_faults(drop=0.0, flip=0.2)
         flipped = 0
         for _ in range(10):
-            link.ser.write(payload)
-            got = link.ser.read(200)
+            await link.write(payload)
+            got = await link.read(len(payload))
             assert len(got) == len(payload)
             flipped += sum(a != b for a, b in zip(got, payload, strict=True))
         print(f"flip 0.2: {flipped}/500 bytes corrupted")
@@ -252,27 +261,27 @@ async def test_faults_corrupt_at_roughly_the_rate(virtual_uno_factory: VirtualUn
         status = await uno.status()
         assert status["faults"]["dropped"] > 0 and status["faults"]["flipped"] == flipped
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_control_commands(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=1000000, board_id=0xBEEF)
-    link = Link(uno.port)
+    link = await Link.open(uno.port)
     try:
         assert await uno.eeprom(0, 2) == b"\xbe\xef"
         await uno.set_analog(3, 2500)
-        assert abs(link.adc(3) - 511) <= 1
+        assert abs(await link.adc(3) - 511) <= 1
         await uno.set_temperature(85.0)
-        assert abs(link.adc(8) - round((314 + 60) * 1023 / 1100)) <= 1
+        assert abs(await link.adc(8) - round((314 + 60) * 1023 / 1100)) <= 1
         await uno.drive("D7", 1)
-        assert link.digital_read(7) == 1 and (await uno.pin("D7")).level == 1
+        assert await link.digital_read(7) == 1 and (await uno.pin("D7")).level == 1
         await uno.drive("D7", None)
-        assert link.digital_read(7) == 0
-        link.pin_mode(7, 1)
-        assert link.digital_read(7) == 1  # released pin with pull-up
+        assert await link.digital_read(7) == 0
+        await link.pin_mode(7, 1)
+        assert await link.digital_read(7) == 1  # released pin with pull-up
         await uno.pulses(3, count=25, high_us=200, low_us=300)
         await uno.wait_pulses(timeout=5)
-        count = int.from_bytes(link.request(bytes([0x87, 3]), 2), "little")
+        count = int.from_bytes(await link.request(bytes([0x87, 3]), 2), "little")
         assert count == 25
         stats = await uno.pulse_stats(3)
         assert stats.count == 25
@@ -280,22 +289,26 @@ async def test_control_commands(virtual_uno_factory: VirtualUnoFactory) -> None:
         assert all(abs(p - 500) < 1 for p in stats.period_us)
         await uno.clear_pulse_stats(3)
         assert (await uno.pulse_stats(3)).count == 0
-        assert link.request(bytes([0x86, 0]), 1) == b"\x86"  # servo pulses on D9/D10
-        await anyio.sleep(0.1)
+        assert await link.request(bytes([0x86, 0]), 1) == b"\x86"  # servo pulses on D9/D10
+
+        async def servo_pulses() -> bool:
+            return len((await uno.pulse_stats("D9")).high_us) >= 3
+
+        await poll_until(servo_pulses, "servo pulses on D9")
         servo = await uno.pulse_stats("D9")
         assert servo.high_us and abs(statistics.median(servo.high_us) - 1500) < 2
         assert abs(statistics.median(servo.period_us) - 20000) < 5
-        reply = link.request(bytes([0x85, 0x5A]), 1)  # I2C EEPROM write at 0x10
+        reply = await link.request(bytes([0x85, 0x5A]), 1)  # I2C EEPROM write at 0x10
         assert (await uno.eeprom_i2c(0x10, 1)) == b"\x5a", reply
         cycles = await uno.firmware_cycles()
         assert cycles.last is not None
         print(f"\nfirmware cycles (last {len(cycles.samples)}): {cycles.samples[-5:]}")
-        link.request(bytes([0x88, 0]), 0)  # watchdog reset inside the firmware
-        await anyio.sleep(0.1)
-        assert link.request(bytes([0x8B, 0]), 1)[0] & 0x08  # WDRF
+        await link.request(bytes([0x88, 0]), 0)  # watchdog reset inside the firmware
+        await link.wait_answering()
+        assert (await link.request(bytes([0x8B, 0]), 1))[0] & 0x08  # WDRF
         assert await uno.eeprom(0, 2) == b"\xbe\xef"
         await uno.reset()
-        assert link.uptime_ms() < 100
+        assert await link.uptime_ms() < 100
         with pytest.raises(SimulatorError):
             await uno.command("no_such_command")
         with pytest.raises(SimulatorError):
@@ -303,7 +316,7 @@ async def test_control_commands(virtual_uno_factory: VirtualUnoFactory) -> None:
         status = await uno.status()
         assert status["id"] == 0xBEEF and status["fixture"] == "open"
     finally:
-        link.close()
+        await link.close()
 
 
 async def test_launcher_cleans_up() -> None:

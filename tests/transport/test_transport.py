@@ -11,6 +11,7 @@ import os
 from typing import Any
 
 import anyio
+import anyio.abc
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -243,8 +244,43 @@ fault_configs = st.builds(
 )
 
 FAULT_CASES = 150
-#: Corrupt replies that passed the checksum and the range checks (reported, not hidden).
-UNDETECTED: list[tuple[p.Request[p.Reply], p.Reply]] = []
+
+
+class RecordingStream(anyio.abc.ByteStream):
+    """The host's end of the fake's link, keeping every byte the host received."""
+
+    def __init__(self, inner: anyio.abc.ByteStream) -> None:
+        self.inner = inner
+        self.received = bytearray()
+
+    async def receive(self, max_bytes: int = 65536) -> bytes:
+        data = await self.inner.receive(max_bytes)
+        self.received += data
+        return data
+
+    async def send(self, item: bytes) -> None:
+        await self.inner.send(item)
+
+    async def send_eof(self) -> None:
+        await self.inner.send_eof()
+
+    async def aclose(self) -> None:
+        await self.inner.aclose()
+
+
+def check_undetected_corruption(
+    fake: FakeBoard, wire: RecordingStream, request: p.Request[p.Reply], reply: p.Reply
+) -> None:
+    """A wrong value is acceptable only as a corrupt frame the checksum cannot see.
+
+    An 8-bit XOR passes one corrupt frame in 256, so the oracle cannot demand the right
+    value under faults; it demands that the wrong one could only come that way: the faults
+    corrupted a reply, the frame echoes *this* request (never another caller's answer),
+    and its bytes are ones the host really received (nothing invented by the decoder).
+    """
+    assert fake.corrupted_replies > 0, (request, reply)
+    assert request.matches(reply), (request, reply)
+    assert reply.encode() in wire.received, (request, reply)
 
 
 @settings(
@@ -268,7 +304,8 @@ def test_every_call_gets_its_own_answer_or_a_documented_error(
 
     async def scenario() -> None:
         fake = make_fake(faults)
-        async with fake, Transport(fake.host_stream, timeout=0.1, quiet_time=0.005) as link:
+        wire = RecordingStream(fake.host_stream)
+        async with fake, Transport(wire, timeout=0.1, quiet_time=0.005) as link:
             outcomes: list[str] = []
 
             async def call(request: p.Request[p.Reply], cancel_after: float | None) -> None:
@@ -282,10 +319,7 @@ def test_every_call_gets_its_own_answer_or_a_documented_error(
                         outcomes.append(type(exc).__name__)
                         return
                     if reply != expected(fake, request):
-                        # An 8-bit XOR checksum passes one corrupt frame in 256; the only
-                        # way to a wrong value is a reply the faults corrupted.
-                        assert fake.corrupted_replies > 0, (request, reply)
-                        UNDETECTED.append((request, reply))
+                        check_undetected_corruption(fake, wire, request, reply)
                     outcomes.append("ok")
                 if scope.cancelled_caught:
                     outcomes.append("cancelled")
@@ -414,3 +448,22 @@ async def test_a_queued_request_that_expires_unsent_costs_no_resync() -> None:
         assert link.stats.resyncs == 0 and link.state is LinkState.READY
         assert link.in_flight == 1
         tg.cancel_scope.cancel()
+
+
+def test_the_fault_oracle_rejects_answers_no_corruption_explains() -> None:
+    """The oracle above can fail: after a corrupted reply it still refuses another
+    caller's answer and a value the host never received."""
+    fake = make_fake()
+    fake.corrupted_replies = 1
+    wire = RecordingStream(fake.host_stream)
+    request = p.AnalogRead(2)
+    corrupt = p.AnalogReadReply(2, 999)
+    wire.received += corrupt.encode()
+    check_undetected_corruption(fake, wire, request, corrupt)  # explained: accepted
+    with pytest.raises(AssertionError):  # another caller's answer
+        check_undetected_corruption(fake, wire, request, p.AnalogReadReply(1, 107))
+    with pytest.raises(AssertionError):  # never on the wire
+        check_undetected_corruption(fake, wire, request, p.AnalogReadReply(2, 998))
+    fake.corrupted_replies = 0
+    with pytest.raises(AssertionError):  # no fault at all
+        check_undetected_corruption(fake, wire, request, corrupt)
