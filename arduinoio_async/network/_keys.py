@@ -2,7 +2,10 @@
 
 Key space (one board ID = four lowercase hex digits, ``0x0007`` -> ``0007``)::
 
-    arduinoio/board/0007          liveliness token: the board is served right now
+    arduinoio/board/0007/server/<zid>
+                                  liveliness token: the server ``<zid>`` (its Zenoh
+                                  session ID) serves the board right now; one token per
+                                  server, so a client sees two servers announcing one ID
     arduinoio/board/0007/rq       queryable: payload = one request frame, reply = the
                                   board's reply frame (an error reply ``CT|0x80 DT code CS``
                                   is a reply frame too); a link fault is a Zenoh error
@@ -32,7 +35,8 @@ __all__ = [
     "ALL_CLIENTS",
     "DEFAULT_ENDPOINT",
     "RemoteFault",
-    "board_from_key",
+    "announcement_from_key",
+    "announcement_key",
     "board_key",
     "client_key",
     "connection_key",
@@ -51,7 +55,7 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 DEFAULT_LEASE_MS = 1000
 
 PREFIX = "arduinoio"
-ALL_BOARDS = f"{PREFIX}/board/*"
+ALL_BOARDS = f"{PREFIX}/board/*/server/*"
 ALL_CLIENTS = f"{PREFIX}/client/*"
 
 
@@ -75,13 +79,24 @@ def client_key(client_id: str) -> str:
     return f"{PREFIX}/client/{client_id}"
 
 
-def board_from_key(key: str) -> int | None:
-    """The board ID of a board liveliness key, or None for anything else."""
+def announcement_key(board_id: int, server_id: str) -> str:
+    """The liveliness token of server ``server_id`` serving board ``board_id``."""
+    return f"{board_key(board_id)}/server/{server_id}"
+
+
+def announcement_from_key(key: str) -> tuple[int, str] | None:
+    """(board ID, server) of an announcement token's key, or None for anything else."""
     parts = key.split("/")
-    if len(parts) != 3 or parts[:2] != [PREFIX, "board"] or len(parts[2]) != 4:
+    if (
+        len(parts) != 5
+        or parts[:2] != [PREFIX, "board"]
+        or parts[3] != "server"
+        or len(parts[2]) != 4
+        or not parts[4]
+    ):
         return None
     try:
-        return int(parts[2], 16)
+        return int(parts[2], 16), parts[4]
     except ValueError:
         return None
 

@@ -58,7 +58,7 @@ from ..manager import BoardManager, ManagerEvent
 from ..transport import Transport
 from ._keys import (
     ALL_CLIENTS,
-    board_key,
+    announcement_key,
     connection_key,
     encode_fault,
     events_key,
@@ -130,7 +130,9 @@ class _ServedBoard:
             loop.forward(self._admit),
             complete=True,
         )
-        self.token = session.liveliness().declare_token(board_key(self.board_id))
+        self.token = session.liveliness().declare_token(
+            announcement_key(self.board_id, str(session.zid()))
+        )
 
     def close(self) -> None:
         if self.closed:
