@@ -218,6 +218,7 @@ class RemoteBoards:
                 link = await Board.start_link(
                     stream, timeout=self.timeout, ready_timeout=self.ready_timeout
                 )
+                stream.relay_failures_to(link.relay_failure)
                 await self._run_link(board_id, link)
             except (ArduinoIOError, anyio.BrokenResourceError, anyio.ClosedResourceError) as exc:
                 # Announced but not answering (yet): the server is restarting, or access

@@ -30,6 +30,15 @@ from pathlib import Path
 
 import zenoh
 
+from ..errors import (
+    ArduinoIOError,
+    BoardTimeoutError,
+    LinkResyncError,
+    ProtocolError,
+    ReplyMismatchError,
+    UsageError,
+)
+
 __all__ = [
     "ALL_BOARDS",
     "ALL_CLIENTS",
@@ -111,6 +120,26 @@ class RemoteFault:
     @property
     def disconnected(self) -> bool:
         return self.error in ("BoardDisconnectedError", "PortBusyError")
+
+    def as_error(self, where: str) -> ArduinoIOError:
+        """The exception the server's caller got, for the client's caller of the request.
+
+        The classes whose outcome the server knows for this one request keep their class
+        (a request that timed out there times out here; a request the server refused is
+        refused); any other failure leaves the request's fate unknown:
+        :class:`LinkResyncError`, as a local link says for a request in flight when it
+        lost sync.
+        """
+        exact = _RELAYED.get(self.error, LinkResyncError)
+        return exact(f"{where}: {self.message} ({self.error} on the server)")
+
+
+#: Server-side failures that reach the client with their own class (constructors that
+#: take a message only).
+_RELAYED: dict[str, type[ArduinoIOError]] = {
+    cls.__name__: cls
+    for cls in (BoardTimeoutError, LinkResyncError, ReplyMismatchError, ProtocolError, UsageError)
+}
 
 
 def encode_fault(exc: BaseException) -> bytes:
