@@ -30,6 +30,11 @@ What the server changes on the way (everything else passes through untouched):
   with a margin).  A dead controller's outputs therefore go safe within its timeout, as
   they would if it had been on the USB cable itself.
 
+* **Board IDs are fixed.**  ``WriteId`` is refused with a ``UsageError`` (relayed to the
+  caller with its class): everything on the network -- the keys, the server's manager,
+  every client's ``Board`` -- names the board by its ID, and a new ID would leave them
+  all pointing at a board that no longer answers to it.
+
 Pin roles are the board's: a vanished client's roles stay configured (outputs hold their
 levels unless its failsafe makes them safe); its sample stream, which nobody reads any
 more, is stopped.  Configuring a pin in the role it already has
@@ -53,7 +58,7 @@ from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStre
 
 from .. import protocol as p
 from ..board import Board
-from ..errors import ArduinoIOError, BoardDisconnectedError, BoardError
+from ..errors import ArduinoIOError, BoardDisconnectedError, BoardError, UsageError
 from ..manager import BoardManager, ManagerEvent
 from ..transport import Transport
 from ._keys import (
@@ -79,6 +84,12 @@ _Spawn = tuple[Callable[..., Any], tuple[Any, ...]]
 STARVE_MARGIN = 0.2
 #: How often a starving board's heartbeat is held off and its owner's silence is checked.
 STARVE_TICK = 0.02
+#: Why a remote ``write_id`` is refused (it reaches the client as a UsageError).
+WRITE_ID_REFUSED = (
+    "board 0x{board:04X}: write_id(0x{new:04X}) is refused over the network: the server, "
+    "its clients and the board's keys name the board by its ID, which would change under "
+    "them; set the ID on the computer the board is plugged into (arduinoio set-id)"
+)
 #: Queries of one board in progress at once (the transport keeps at most 64 in flight).
 WORKERS = 64
 
@@ -231,6 +242,8 @@ class _ServedBoard:
                 query.reply(self.key, reply)
 
     async def _execute(self, client: str, request: p.Request[Any]) -> bytes:
+        if isinstance(request, p.WriteId):
+            raise UsageError(WRITE_ID_REFUSED.format(board=self.board_id, new=request.board_id))
         if isinstance(request, p.SetSession):
             self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
             return p.SetSessionReply(request.session).encode()

@@ -14,7 +14,7 @@ import pytest
 from arduinoio_async import A0, A1, D4, D5, D6, D7, D9
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.errors import BoardError, BoardNotFoundError, PinRoleError
+from arduinoio_async.errors import BoardError, BoardNotFoundError, PinRoleError, UsageError
 from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.network import NetworkBoardManager, RemoteBoards, open_remote_board
 from arduinoio_async.sim import VirtualUno
@@ -346,3 +346,28 @@ async def test_other_clients_do_not_feed_a_lost_owners_failsafe(
         status = await watcher.status()
         assert status.flags & p.StatusFlags.FAILSAFE_TRIPPED
         assert watcher.failsafe is None  # not this client's failsafe: it does not re-arm
+
+
+async def test_write_id_is_refused_over_the_network(serve_unos: ServeFactory) -> None:
+    """A remote write_id gets a precise UsageError; the board keeps its ID, and reads in
+    flight around the refused request get their own replies (no resync)."""
+    async with (
+        serve_unos([7]) as served,
+        open_remote_board(7, connect=[served.endpoint]) as board,
+    ):
+        ids: list[int] = []
+
+        async def read_id() -> None:
+            ids.append(await board.read_id())
+
+        async with anyio.create_task_group() as tg:
+            for _ in range(5):
+                tg.start_soon(read_id)
+            with pytest.raises(UsageError, match=r"write_id\(0x0042\) is refused over the net"):
+                await board.write_id(0x0042)
+            for _ in range(5):
+                tg.start_soon(read_id)
+        assert ids == [7] * 10
+        assert board.board_id == 7 and board.link.expected_id == 7
+        assert board.link.state.value == "ready" and board.link.stats.resyncs == 0
+        assert await board.read_id() == 7
