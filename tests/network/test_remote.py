@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import signal
 import sys
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 import anyio
@@ -282,6 +285,19 @@ async def start_armed_client(tmp_path: Path, endpoint: str, timeout_ms: int) -> 
     return client
 
 
+@asynccontextmanager
+async def killed_on_exit(process: anyio.abc.Process) -> AsyncIterator[anyio.abc.Process]:
+    """The process, killed when the block ends (a failed assertion must not wait forever
+    for a controller that just lives)."""
+    async with process:
+        try:
+            yield process
+        finally:
+            if process.returncode is None:
+                with contextlib.suppress(ProcessLookupError):
+                    process.kill()
+
+
 async def wait_board_time(uno: VirtualUno, span_us: float) -> None:
     """Let ``span_us`` of the board's time pass (a condition on the fixture's clock)."""
     start = float((await uno.status())["sim_us"])
@@ -297,7 +313,7 @@ async def test_a_killed_remote_client_trips_the_failsafe(
     async with serve_unos([7]) as served:
         uno = served.unos[7]
         client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
-        async with client:
+        async with killed_on_exit(client):
             await wait_board_time(uno, 3 * timeout_ms * 1000)  # the live client feeds it
             assert (await uno.pin("D4")).level == 1
             killed_at = float((await uno.status())["sim_us"])
@@ -328,7 +344,7 @@ async def test_other_clients_do_not_feed_a_lost_owners_failsafe(
         uno = served.unos[7]
         watcher = await remote.get(7)
         client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
-        async with client:
+        async with killed_on_exit(client):
             client.send_signal(how)
             killed_at = float((await uno.status())["sim_us"])
             # Without the server's gate these reads would keep the watchdog fed forever.
