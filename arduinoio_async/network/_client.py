@@ -25,13 +25,13 @@ import anyio.abc
 import zenoh
 
 from ..board import READY_TIMEOUT, Board
-from ..errors import ArduinoIOError, BoardNotFoundError, UsageError
+from ..errors import ArduinoIOError, BoardNotFoundError, DuplicateBoardError, UsageError
 from ..manager import BoardManager, ManagerEvent
 from ..transport import DEFAULT_TIMEOUT, LinkState, Transport
 from ._keys import (
     ALL_BOARDS,
     DEFAULT_ENDPOINT,
-    board_from_key,
+    announcement_from_key,
     client_key,
     undeclare,
     zenoh_config,
@@ -77,7 +77,7 @@ class RemoteBoards:
     ready_timeout: float = READY_TIMEOUT
     client_id: str = field(default_factory=lambda: uuid.uuid4().hex)
     _own_session: bool = field(default=False, init=False)
-    _announced: set[int] = field(default_factory=set, init=False)
+    _announced: dict[int, set[str]] = field(default_factory=dict, init=False)
     _boards: dict[int, Board] = field(default_factory=dict, init=False)
     _supervised: set[int] = field(default_factory=set, init=False)
     _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
@@ -123,6 +123,26 @@ class RemoteBoards:
         """IDs of the boards some server announces right now."""
         return set(self._announced)
 
+    def servers(self, board_id: int) -> set[str]:
+        """The servers (Zenoh session IDs) that announce board ``board_id`` right now."""
+        return set(self._announced.get(board_id, ()))
+
+    async def wait_announced(self, board_id: int, *, servers: int = 1) -> set[str]:
+        """Wait until exactly ``servers`` servers announce ``board_id``; return them."""
+        while len(self._announced.get(board_id, ())) != servers:
+            await self._changed.wait()
+        return self.servers(board_id)
+
+    def check_unique(self, board_id: int) -> None:
+        """Raise :class:`DuplicateBoardError` if two servers announce ``board_id``.
+
+        The ID then names two boards: a query would reach either, so the board is not
+        connected (and a connected one is dropped) until only one server announces it.
+        """
+        servers = self._announced.get(board_id, set())
+        if len(servers) > 1:
+            raise DuplicateBoardError(board_id, (f"zenoh server {zid}" for zid in servers))
+
     def present(self) -> dict[int, Board]:
         """Remote boards this client is connected to, by ID."""
         return {bid: board for bid, board in self._boards.items() if board.connected}
@@ -135,6 +155,7 @@ class RemoteBoards:
     async def get(self, board_id: int, *, timeout: float | None = None) -> Board:
         """The remote board ``board_id``, waiting up to ``timeout`` for it to connect."""
         limit = self.ready_timeout if timeout is None else timeout
+        self.check_unique(board_id)
         with anyio.move_on_after(limit):
             return await self.wait_connected(board_id)
         why = (
@@ -145,13 +166,17 @@ class RemoteBoards:
         raise BoardNotFoundError(board_id, {"zenoh": why})
 
     async def wait_connected(self, board_id: int) -> Board:
-        """Wait (without limit) until the remote board ``board_id`` is connected."""
+        """Wait (without limit) until the remote board ``board_id`` is connected.
+
+        Raises :class:`DuplicateBoardError` as soon as two servers announce the ID.
+        """
         if board_id not in self._supervised:
             if self._task_group is None:
                 raise RuntimeError("RemoteBoards is not running (use it as a context manager)")
             self._supervised.add(board_id)
             self._task_group.start_soon(self._supervise, board_id, name=f"remote 0x{board_id:04X}")
         while True:
+            self.check_unique(board_id)
             board = self._boards.get(board_id)
             if board is not None and board.connected:
                 return board
@@ -169,19 +194,23 @@ class RemoteBoards:
             callback(event)
 
     def _on_token(self, sample: zenoh.Sample) -> None:
-        board_id = board_from_key(str(sample.key_expr))
-        if board_id is None:
+        announcement = announcement_from_key(str(sample.key_expr))
+        if announcement is None:
             return
+        board_id, server = announcement
+        servers = self._announced.setdefault(board_id, set())
         if sample.kind == zenoh.SampleKind.PUT:
-            self._announced.add(board_id)
+            servers.add(server)
         else:
-            self._announced.discard(board_id)
+            servers.discard(server)
+            if not servers:
+                del self._announced[board_id]
         self._notify()
 
     async def _supervise(self, board_id: int) -> None:
         """Connect whenever the board is announced; keep the same Board across links."""
         while True:
-            while board_id not in self._announced:
+            while len(self._announced.get(board_id, ())) != 1:
                 await self._changed.wait()
             assert self.session is not None
             stream = RemoteByteStream(self.session, board_id, self.client_id)
@@ -189,6 +218,7 @@ class RemoteBoards:
                 link = await Board.start_link(
                     stream, timeout=self.timeout, ready_timeout=self.ready_timeout
                 )
+                stream.relay_failures_to(link.relay_failure)
                 await self._run_link(board_id, link)
             except (ArduinoIOError, anyio.BrokenResourceError, anyio.ClosedResourceError) as exc:
                 # Announced but not answering (yet): the server is restarting, or access
@@ -229,12 +259,19 @@ class RemoteBoards:
             self._emit(ManagerEvent("failsafe", board.board_id, link.name, "re-arming"))
             await board.rearm_failsafe(restore=True)
 
+        async def drop_when_duplicated() -> None:
+            while len(self._announced.get(board.board_id, ())) <= 1:
+                await self._changed.wait()
+            log.warning("remote board 0x%04X: two servers announce it; dropped", board.board_id)
+            closed.set()
+
         async with anyio.create_task_group() as tg:
             tg.start_soon(
                 partial(
                     board.keepalive, link, on_reset=restore_after_reset, on_trip=rearm_after_trip
                 )
             )
+            tg.start_soon(drop_when_duplicated)
             await closed.wait()
             tg.cancel_scope.cancel()
 
@@ -308,6 +345,8 @@ class NetworkBoardManager(BoardManager):
         return {**remote, **super().present()}
 
     async def get(self, board_id: int, *, timeout: float | None = None) -> Board:
+        if self.remote is not None:
+            self.remote.check_unique(board_id)
         try:
             return await super().get(board_id, timeout=timeout)
         except BoardNotFoundError as exc:

@@ -2,7 +2,10 @@
 
 Key space (one board ID = four lowercase hex digits, ``0x0007`` -> ``0007``)::
 
-    arduinoio/board/0007          liveliness token: the board is served right now
+    arduinoio/board/0007/server/<zid>
+                                  liveliness token: the server ``<zid>`` (its Zenoh
+                                  session ID) serves the board right now; one token per
+                                  server, so a client sees two servers announcing one ID
     arduinoio/board/0007/rq       queryable: payload = one request frame, reply = the
                                   board's reply frame (an error reply ``CT|0x80 DT code CS``
                                   is a reply frame too); a link fault is a Zenoh error
@@ -27,12 +30,22 @@ from pathlib import Path
 
 import zenoh
 
+from ..errors import (
+    ArduinoIOError,
+    BoardTimeoutError,
+    LinkResyncError,
+    ProtocolError,
+    ReplyMismatchError,
+    UsageError,
+)
+
 __all__ = [
     "ALL_BOARDS",
     "ALL_CLIENTS",
     "DEFAULT_ENDPOINT",
     "RemoteFault",
-    "board_from_key",
+    "announcement_from_key",
+    "announcement_key",
     "board_key",
     "client_key",
     "connection_key",
@@ -51,7 +64,7 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 DEFAULT_LEASE_MS = 1000
 
 PREFIX = "arduinoio"
-ALL_BOARDS = f"{PREFIX}/board/*"
+ALL_BOARDS = f"{PREFIX}/board/*/server/*"
 ALL_CLIENTS = f"{PREFIX}/client/*"
 
 
@@ -75,13 +88,24 @@ def client_key(client_id: str) -> str:
     return f"{PREFIX}/client/{client_id}"
 
 
-def board_from_key(key: str) -> int | None:
-    """The board ID of a board liveliness key, or None for anything else."""
+def announcement_key(board_id: int, server_id: str) -> str:
+    """The liveliness token of server ``server_id`` serving board ``board_id``."""
+    return f"{board_key(board_id)}/server/{server_id}"
+
+
+def announcement_from_key(key: str) -> tuple[int, str] | None:
+    """(board ID, server) of an announcement token's key, or None for anything else."""
     parts = key.split("/")
-    if len(parts) != 3 or parts[:2] != [PREFIX, "board"] or len(parts[2]) != 4:
+    if (
+        len(parts) != 5
+        or parts[:2] != [PREFIX, "board"]
+        or parts[3] != "server"
+        or len(parts[2]) != 4
+        or not parts[4]
+    ):
         return None
     try:
-        return int(parts[2], 16)
+        return int(parts[2], 16), parts[4]
     except ValueError:
         return None
 
@@ -96,6 +120,26 @@ class RemoteFault:
     @property
     def disconnected(self) -> bool:
         return self.error in ("BoardDisconnectedError", "PortBusyError")
+
+    def as_error(self, where: str) -> ArduinoIOError:
+        """The exception the server's caller got, for the client's caller of the request.
+
+        The classes whose outcome the server knows for this one request keep their class
+        (a request that timed out there times out here; a request the server refused is
+        refused); any other failure leaves the request's fate unknown:
+        :class:`LinkResyncError`, as a local link says for a request in flight when it
+        lost sync.
+        """
+        exact = _RELAYED.get(self.error, LinkResyncError)
+        return exact(f"{where}: {self.message} ({self.error} on the server)")
+
+
+#: Server-side failures that reach the client with their own class (constructors that
+#: take a message only).
+_RELAYED: dict[str, type[ArduinoIOError]] = {
+    cls.__name__: cls
+    for cls in (BoardTimeoutError, LinkResyncError, ReplyMismatchError, ProtocolError, UsageError)
+}
 
 
 def encode_fault(exc: BaseException) -> bytes:

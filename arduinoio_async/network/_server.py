@@ -5,12 +5,17 @@ Theory of operation
 Each board the manager has connected gets a queryable for requests, a publisher for its
 board-initiated frames and a liveliness token (see :mod:`._keys`); they go when the
 manager loses the board and come back when it reconnects.  A query is handed from
-Zenoh's thread to the event loop, numbered in arrival order, and on to the next free one
-of a pool of worker tasks (a task per query would cost more than the rest of the
-request).  A worker takes its query's turn (see ``_take_turn``) and puts the request on
-the board's one transport without suspending in between, so requests reach the link in
-the order the queries arrived, on any scheduler, and several clients' requests are
-pipelined on it like one client's.
+Zenoh's thread to the event loop and numbered in arrival order.  If nothing holds it
+back (no earlier query still waiting, the board not being starved) it is answered right
+there, in that callback: on asyncio the transport's ``request`` coroutine is stepped
+without a task (see :class:`_Resumer`), so the request reaches the link at once, and the
+reply goes back to Zenoh from the callback that completes the request's future -- one
+thread-to-loop hop per query and no task switch.  Otherwise (a starving board, trio)
+it goes on to the next free one of a pool of worker tasks, which takes its query's turn
+(see ``_take_turn``) and puts the request on the board's one transport without
+suspending in between.  Either way requests reach the link in the order the queries
+arrived, on any scheduler, and several clients' requests are pipelined on it like one
+client's.
 
 What the server changes on the way (everything else passes through untouched):
 
@@ -30,6 +35,11 @@ What the server changes on the way (everything else passes through untouched):
   with a margin).  A dead controller's outputs therefore go safe within its timeout, as
   they would if it had been on the USB cable itself.
 
+* **Board IDs are fixed.**  ``WriteId`` is refused with a ``UsageError`` (relayed to the
+  caller with its class): everything on the network -- the keys, the server's manager,
+  every client's ``Board`` -- names the board by its ID, and a new ID would leave them
+  all pointing at a board that no longer answers to it.
+
 Pin roles are the board's: a vanished client's roles stay configured (outputs hold their
 levels unless its failsafe makes them safe); its sample stream, which nobody reads any
 more, is stopped.  Configuring a pin in the role it already has
@@ -39,10 +49,12 @@ different role needs the pin released first, as on any board.
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import json
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,12 +65,19 @@ from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStre
 
 from .. import protocol as p
 from ..board import Board
-from ..errors import ArduinoIOError, BoardDisconnectedError, BoardError
+from ..errors import (
+    ArduinoIOError,
+    BoardDisconnectedError,
+    BoardError,
+    LinkResyncError,
+    ProtocolError,
+    UsageError,
+)
 from ..manager import BoardManager, ManagerEvent
 from ..transport import Transport
 from ._keys import (
     ALL_CLIENTS,
-    board_key,
+    announcement_key,
     connection_key,
     encode_fault,
     events_key,
@@ -79,8 +98,55 @@ _Spawn = tuple[Callable[..., Any], tuple[Any, ...]]
 STARVE_MARGIN = 0.2
 #: How often a starving board's heartbeat is held off and its owner's silence is checked.
 STARVE_TICK = 0.02
+#: Why a remote ``write_id`` is refused (it reaches the client as a UsageError).
+WRITE_ID_REFUSED = (
+    "board 0x{board:04X}: write_id(0x{new:04X}) is refused over the network: the server, "
+    "its clients and the board's keys name the board by its ID, which would change under "
+    "them; set the ID on the computer the board is plugged into (arduinoio set-id)"
+)
+NOT_ONE_REQUEST = "a query carries one request frame"
 #: Queries of one board in progress at once (the transport keeps at most 64 in flight).
 WORKERS = 64
+
+
+class _Resumer:
+    """Runs ``Transport.request(...)`` from loop callbacks, without a task (asyncio only).
+
+    On asyncio the request suspends only on the asyncio future its reply resolves (or,
+    refused at once, on a bare checkpoint): so the coroutine is stepped here -- at once,
+    which puts the request on the wire in the caller's callback, and again from the
+    future's done-callback, which hands the outcome to ``done`` -- as a task would step it,
+    minus the task's creation and its extra scheduling.  Nothing here can be cancelled:
+    the transport's own deadline ends every request.
+    """
+
+    __slots__ = ("_coro", "_done")
+
+    def __init__(
+        self,
+        coro: Coroutine[Any, Any, p.Reply],
+        done: Callable[[p.Reply | None, BaseException | None], None],
+    ) -> None:
+        self._coro = coro
+        self._done = done
+        self._step()
+
+    def _step(self, _: object = None) -> None:
+        try:
+            waiting = self._coro.send(None)
+        except StopIteration as finished:
+            self._done(finished.value, None)
+        except (Exception, asyncio.CancelledError) as exc:
+            self._done(None, exc)
+        else:
+            if waiting is None:  # a bare checkpoint
+                asyncio.get_running_loop().call_soon(self._step)
+            elif isinstance(waiting, asyncio.Future):
+                waiting._asyncio_future_blocking = False
+                waiting.add_done_callback(self._step)
+            else:  # not an asyncio awaitable: the transport changed; fail loudly
+                self._coro.close()
+                self._done(None, RuntimeError(f"request suspended on {waiting!r}"))
 
 
 @dataclass
@@ -120,6 +186,13 @@ class _ServedBoard:
         self._turn_waiters = 0
         self._turn_changed = anyio.Event()
         self._admitted = send
+        try:  # the fast path steps the transport's coroutine itself: asyncio only
+            self._now: Callable[[], float] = asyncio.get_running_loop().time
+            self._direct = True
+        except RuntimeError:
+            self._now = anyio.current_time
+            self._direct = False
+        self._clients: dict[bytes, str] = {}  # attachments seen, decoded once
         server.start_soon(self._run_workers, receive)
         session = server.session
         loop = server.loop
@@ -130,7 +203,9 @@ class _ServedBoard:
             loop.forward(self._admit),
             complete=True,
         )
-        self.token = session.liveliness().declare_token(board_key(self.board_id))
+        self.token = session.liveliness().declare_token(
+            announcement_key(self.board_id, str(session.zid()))
+        )
 
     def close(self) -> None:
         if self.closed:
@@ -156,10 +231,19 @@ class _ServedBoard:
     # ---- requests --------------------------------------------------------------------
 
     def _admit(self, query: zenoh.Query) -> None:
-        """In the loop, in arrival order: number the query, hand it to a free worker."""
+        """In the loop, in arrival order: number the query; answer it at once if nothing
+        holds it back, else hand it to a free worker."""
         self._arrivals += 1
+        number = self._arrivals
+        if self._direct and self.gate is None and self._turn + 1 == number:
+            client, request = self._parse(query)
+            # An arming creates anyio objects, which need a task: it takes the worker path.
+            if not isinstance(request, p.FailsafeArm):
+                self._pass_turn(number)
+                self._answer_now(query, client, request)
+                return
         try:
-            self._admitted.send_nowait((self._arrivals, query))
+            self._admitted.send_nowait((number, query))
         except (anyio.ClosedResourceError, anyio.BrokenResourceError):
             query.drop()  # type: ignore[no-untyped-call]  # unanswered: the board is gone
 
@@ -188,51 +272,127 @@ class _ServedBoard:
                 await self._turn_changed.wait()
             finally:
                 self._turn_waiters -= 1
+        self._pass_turn(number)
+
+    def _pass_turn(self, number: int) -> None:
         self._turn = number
         if self._turn_waiters:
             changed, self._turn_changed = self._turn_changed, anyio.Event()
             changed.set()
 
-    async def _answer(self, query: zenoh.Query, number: int) -> None:
-        with query:
-            client = (
-                query.attachment.to_bytes().decode(errors="replace") if query.attachment else ""
+    def _parse(self, query: zenoh.Query) -> tuple[str, p.Request[Any] | None]:
+        """The query's client and its request (None: the payload is not one request)."""
+        attachment = query.attachment
+        client = ""
+        if attachment is not None:
+            raw = attachment.to_bytes()
+            client = self._clients.get(raw) or self._clients.setdefault(
+                raw, raw.decode(errors="replace")
             )
-            payload = query.payload.to_bytes() if query.payload is not None else b""
-            frames = self._decoder.feed(payload)
-            self._decoder.reset()
+        frames = self._decoder.feed(query.payload.to_bytes() if query.payload is not None else b"")
+        self._decoder.reset()
+        if len(frames) != 1 or not isinstance(frames[0], p.Request):
+            return client, None
+        return client, frames[0]
+
+    def _answer_now(self, query: zenoh.Query, client: str, request: p.Request[Any] | None) -> None:
+        """The fast path, in the loop callback that admitted the query (asyncio only).
+
+        No worker task is woken: the request goes on the link here, in arrival order by
+        construction, and the reply is sent from the callback that completes it (see
+        :class:`_Resumer`).  Requests the server answers itself complete at once.
+        """
+        if request is None:
+            self._reply(query, None, None, ProtocolError(NOT_ONE_REQUEST))
+            return
+        if client:
+            self.last_heard[client] = self._now()
+        try:
+            if self.closed:
+                raise BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
+            local = self._answer_locally(client, request)
+        except ArduinoIOError as exc:
+            self._reply(query, request, None, exc)
+            return
+        if local is not None:
+            self._reply(query, request, local, None)
+            return
+
+        def done(reply: p.Reply | None, error: BaseException | None) -> None:
+            frame = None
+            if reply is not None:
+                try:
+                    frame = self._after_link(client, request, reply)
+                except ArduinoIOError as exc:
+                    error = exc
+            self._reply(query, request, frame, error)
+
+        _Resumer(self.link.request(request), done)
+
+    async def _answer(self, query: zenoh.Query, number: int) -> None:
+        """The worker path: for queries that must wait (their turn, a starving board)."""
+        frame: bytes | None = None
+        error: ArduinoIOError | None = None
+        try:
+            client, request = self._parse(query)
             if self.gate is not None:  # every query waits while the board is being starved
                 await self.gate.wait()
             await self._take_turn(number)
-            if len(frames) != 1 or not isinstance(frames[0], p.Request):
-                query.reply_err(
-                    json.dumps(
-                        {"error": "ProtocolError", "message": "a query carries one request frame"}
-                    ).encode()
-                )
-                return
-            request: p.Request[Any] = frames[0]
-            if client:
-                self.last_heard[client] = anyio.current_time()
-            try:
-                if self.closed:
-                    raise BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
-                reply = await self._execute(client, request)
-            except BoardError as exc:
-                layout = request.LAYOUT
-                code = p.ErrorCode(exc.code)  # type: ignore[arg-type]
-                error = p.ErrorReply(layout.class_tag, layout.descriptor, code)
-                query.reply(self.key, error.encode())
-            except ArduinoIOError as exc:
-                query.reply_err(encode_fault(exc))
+            if request is None:
+                error = ProtocolError(NOT_ONE_REQUEST)
             else:
-                query.reply(self.key, reply)
+                if client:
+                    self.last_heard[client] = self._now()
+                try:
+                    if self.closed:
+                        raise BoardDisconnectedError(
+                            f"board 0x{self.board_id:04X} is not connected"
+                        )
+                    frame = self._answer_locally(client, request)
+                    if frame is None:
+                        reply = await self.link.request(request)
+                        frame = self._after_link(client, request, reply)
+                except ArduinoIOError as exc:
+                    error = exc
+        except BaseException:
+            query.drop()  # type: ignore[no-untyped-call]  # cancelled: unanswered
+            raise
+        self._reply(query, request, frame, error)
 
-    async def _execute(self, client: str, request: p.Request[Any]) -> bytes:
+    def _reply(
+        self,
+        query: zenoh.Query,
+        request: p.Request[Any] | None,
+        frame: bytes | None,
+        error: BaseException | None,
+    ) -> None:
+        """Answer ``query`` with the reply frame, the board's error reply or a fault."""
+        with query, contextlib.suppress(zenoh.ZError):  # ZError: the session is closing
+            if frame is not None:
+                query.reply(self.key, frame)
+            elif isinstance(error, BoardError) and request is not None:
+                layout = request.LAYOUT
+                code = p.ErrorCode(error.code)  # type: ignore[arg-type]
+                query.reply(
+                    self.key, p.ErrorReply(layout.class_tag, layout.descriptor, code).encode()
+                )
+            elif isinstance(error, ArduinoIOError):
+                query.reply_err(encode_fault(error))
+            else:
+                log.error("board 0x%04X: %r failed: %r", self.board_id, request, error)
+                query.reply_err(encode_fault(LinkResyncError(f"server failure: {error!r}")))
+
+    def _answer_locally(self, client: str, request: p.Request[Any]) -> bytes | None:
+        """The reply of a request the server answers itself, or None: it goes to the link."""
+        if isinstance(request, p.WriteId):
+            raise UsageError(WRITE_ID_REFUSED.format(board=self.board_id, new=request.board_id))
         if isinstance(request, p.SetSession):
             self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
             return p.SetSessionReply(request.session).encode()
-        reply = await self.link.request(request)
+        return None
+
+    def _after_link(self, client: str, request: p.Request[Any], reply: p.Reply) -> bytes:
+        """The board's reply as ``client`` gets it; the server's records follow the request."""
         if isinstance(reply, p.ReadStatusReply):
             return self._virtual_status(client, reply).encode()
         if isinstance(request, p.FailsafeArm):

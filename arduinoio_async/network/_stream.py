@@ -7,6 +7,8 @@ issues one Zenoh query per frame, each numbered (a *slot*).  Replies come back o
 threads in any order; each is handed to the event loop (never waiting there) and held
 until every earlier slot is settled, so ``receive()`` yields reply frames strictly in the
 order the requests were sent -- the order the transport's pending queue expects.
+Once a transport is attached (:meth:`RemoteByteStream.attach`), settled slots go
+straight to it from the callback that settled them: no reader task is woken per reply.
 Board-initiated frames (class 0x40) arrive as publications and join the same byte queue
 as they arrive; the transport's decoder sorts them from the replies as it does on a
 serial line.
@@ -14,11 +16,15 @@ serial line.
 A slot settles in one of three ways:
 
 * a reply frame (an error reply frame included): its bytes are delivered;
-* a *link fault* on the server (its link timed out or lost sync): one byte that no frame
-  starts with is delivered in the slot's place.  The transport treats it like line noise:
-  everything in flight fails with :class:`~arduinoio_async.errors.LinkResyncError`
-  (their fate on the board is unknown, as the server's own link says) and it resyncs
-  with an ID request, which travels as a query like any other;
+* a *link fault* on the server (its link timed out or lost sync, or it refused the
+  request): the server settled this one request, and its outcome is relayed to it alone
+  (``Transport.relay_failure``) with the server's exact class where that class says what
+  happened to it (``BoardTimeoutError``, ``UsageError``...) and as
+  :class:`~arduinoio_async.errors.LinkResyncError` where its fate is unknown (see
+  :meth:`RemoteFault.as_error <._keys.RemoteFault.as_error>`).  The other requests in
+  flight keep their own slots, so nothing else fails and the client does not resync.
+  Before a transport is attached (while waiting for the board) a fault is one byte that
+  no frame starts with, which a reader takes for line noise;
 * the board is gone (the server answered ``BoardDisconnectedError``, or nobody answered
   at all): the stream breaks, so the transport fails everything with
   :class:`~arduinoio_async.errors.BoardDisconnectedError`.
@@ -28,12 +34,14 @@ from __future__ import annotations
 
 import collections
 import logging
+from collections.abc import Callable
 
 import anyio
 import anyio.abc
 import zenoh
 
 from .. import protocol as p
+from ..errors import ArduinoIOError
 from ._keys import RemoteFault, decode_fault, events_key, request_key, undeclare
 from ._loop import LoopHandle, zenoh_callback
 
@@ -108,12 +116,40 @@ class RemoteByteStream(anyio.abc.ByteStream):
         self._arrived = anyio.Event()
         self._error: anyio.BrokenResourceError | None = None
         self._closed = False
+        # Set by attach(): settled bytes go straight to the transport.
+        self._on_data: Callable[[bytes], None] | None = None
+        self._on_lost: Callable[[BaseException | None], None] | None = None
+        self._relay: Callable[[ArduinoIOError], None] | None = None
         #: The server's link faults seen so far (class name and message), for diagnostics.
         self.faults: list[RemoteFault] = []
         self._subscriber = session.declare_subscriber(
             events_key(board_id),
             self._loop.forward(self._deliver_event),
         )
+
+    # ---- push mode: the transport's receive path --------------------------------------
+
+    def relay_failures_to(self, relay: Callable[[ArduinoIOError], None]) -> None:
+        """Settle a slot the server failed by calling ``relay`` (``Transport.relay_failure``)
+        in the slot's turn, once a transport is attached."""
+        self._relay = relay
+
+    def attach(
+        self, on_data: Callable[[bytes], None], on_lost: Callable[[BaseException | None], None]
+    ) -> bool:
+        """Deliver received bytes by calling ``on_data`` in the event loop, in order, and
+        ``on_lost`` once the stream breaks (the transport's push-mode protocol)."""
+        if self._chunks:
+            on_data(b"".join(self._chunks))
+            self._chunks.clear()
+        self._on_data, self._on_lost = on_data, on_lost
+        if self._closed or self._error is not None:
+            on_lost(self._error)
+        return True
+
+    def detach(self) -> None:
+        """The transport closed: deliver nothing more to it."""
+        self._on_data = self._on_lost = self._relay = None
 
     # ---- anyio.abc.ByteStream ---------------------------------------------------------
 
@@ -159,6 +195,8 @@ class RemoteByteStream(anyio.abc.ByteStream):
             return
         self._closed = True
         self._arrived.set()
+        if self._on_lost is not None:
+            self._on_lost(None)
         # Undeclaring waits for running callbacks; ours only schedule, so it is quick.
         undeclare(self._subscriber)
         undeclare(self._querier)
@@ -191,14 +229,20 @@ class RemoteByteStream(anyio.abc.ByteStream):
                 self._break(f"{outcome.message} ({outcome.error} on the server)")
             else:
                 self.faults.append(outcome)
-                log.warning("%s: server link fault: %s", self.port, outcome.message)
-                self._push(LINK_FAULT_BYTE)
+                log.info("%s: %s on the server: %s", self.port, outcome.error, outcome.message)
+                if self._relay is not None and self._on_data is not None:
+                    self._relay(outcome.as_error(self.port))
+                else:
+                    self._push(LINK_FAULT_BYTE)
 
     def _deliver_event(self, sample: zenoh.Sample) -> None:
         self._push(sample.payload.to_bytes())
 
     def _push(self, data: bytes) -> None:
         if self._closed or self._error is not None:
+            return
+        if self._on_data is not None:
+            self._on_data(data)
             return
         self._chunks.append(data)
         self._arrived.set()
@@ -207,3 +251,5 @@ class RemoteByteStream(anyio.abc.ByteStream):
         if self._error is None and not self._closed:
             self._error = anyio.BrokenResourceError(f"{self.port}: {reason}")
             self._arrived.set()
+            if self._on_lost is not None:
+                self._on_lost(self._error)

@@ -225,6 +225,28 @@ class Session:
         self._marker = None
         return out
 
+    def relay_failure(self, error: ArduinoIOError) -> Received:
+        """The oldest request in flight failed beyond this link, with ``error``.
+
+        For a stream that relays another link (a board served over a network): the far
+        end settled the request itself and its replies stay in step with our requests,
+        so only this request fails and no resync follows.  Ignored unless the session
+        is in sync with a request in flight (it already failed this one itself).
+        """
+        out = Received()
+        held, self._held = self._held, None
+        if held is not None and self.state is SessionState.READY:
+            self._dispatch(held, out)  # no garbage followed it: the relay came next
+        if self.state is SessionState.READY and self._flight and not self._suspect:
+            exchange = self._flight.popleft()
+            self._flight_bytes -= exchange.size
+            if exchange.abandoned or exchange.internal:
+                exchange.done = True
+            else:
+                self._finish(exchange, None, error, out)
+            self._admit(out)
+        return out
+
     # ---- bytes from the board ----------------------------------------------------------
 
     def receive_data(self, data: bytes) -> Received:

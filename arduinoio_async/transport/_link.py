@@ -55,7 +55,7 @@ import anyio.abc
 import anyio.lowlevel
 
 from .. import protocol as p
-from ..errors import BoardDisconnectedError
+from ..errors import ArduinoIOError, BoardDisconnectedError
 from ..protocol.session import (
     MAX_IN_FLIGHT,
     Exchange,
@@ -403,6 +403,11 @@ class Transport:
             self._last_rx = self._now()
             self._rx_since_loss = True
         self._process(session.receive_data(data))
+
+    def relay_failure(self, error: ArduinoIOError) -> None:
+        """The oldest request in flight failed beyond the stream (a relaying stream's
+        far end settled it, see ``Session.relay_failure``); call in received order."""
+        self._process(self._session.relay_failure(error))
 
     def _on_lost(self, exc: BaseException | None) -> None:
         self._close(BoardDisconnectedError(f"{self.name}: port lost ({exc or 'EOF'})"))

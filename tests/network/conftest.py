@@ -7,6 +7,7 @@ test points the link at its new port.
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import socket
@@ -62,13 +63,14 @@ ServeFactory = Callable[..., AbstractAsyncContextManager[Served]]
 @pytest.fixture
 def serve_unos(virtual_uno_factory: VirtualUnoFactory, tmp_path: Path) -> ServeFactory:
     """``async with serve_unos([7], baud=...) as served:`` -- boards and a server."""
+    servers = itertools.count()
 
     @asynccontextmanager
     async def serve(
         ids: list[int], *, server_args: tuple[str, ...] = (), **uno_options: object
     ) -> AsyncIterator[Served]:
-        ports_dir = tmp_path / "ports"
-        ports_dir.mkdir(exist_ok=True)
+        ports_dir = tmp_path / f"ports-{next(servers)}"  # one per server
+        ports_dir.mkdir()
         unos = {bid: await virtual_uno_factory(board_id=bid, **uno_options) for bid in ids}
         endpoint = free_endpoint().replace("tcp/", "tls/" if "--config" in server_args else "tcp/")
         baud = int(str(uno_options.get("baud", 115200)))

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import signal
 import sys
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 import anyio
@@ -14,7 +17,7 @@ import pytest
 from arduinoio_async import A0, A1, D4, D5, D6, D7, D9
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.errors import BoardError, BoardNotFoundError, PinRoleError
+from arduinoio_async.errors import BoardError, BoardNotFoundError, PinRoleError, UsageError
 from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.network import NetworkBoardManager, RemoteBoards, open_remote_board
 from arduinoio_async.sim import VirtualUno
@@ -282,6 +285,19 @@ async def start_armed_client(tmp_path: Path, endpoint: str, timeout_ms: int) -> 
     return client
 
 
+@asynccontextmanager
+async def killed_on_exit(process: anyio.abc.Process) -> AsyncIterator[anyio.abc.Process]:
+    """The process, killed when the block ends (a failed assertion must not wait forever
+    for a controller that just lives)."""
+    async with process:
+        try:
+            yield process
+        finally:
+            if process.returncode is None:
+                with contextlib.suppress(ProcessLookupError):
+                    process.kill()
+
+
 async def wait_board_time(uno: VirtualUno, span_us: float) -> None:
     """Let ``span_us`` of the board's time pass (a condition on the fixture's clock)."""
     start = float((await uno.status())["sim_us"])
@@ -297,7 +313,7 @@ async def test_a_killed_remote_client_trips_the_failsafe(
     async with serve_unos([7]) as served:
         uno = served.unos[7]
         client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
-        async with client:
+        async with killed_on_exit(client):
             await wait_board_time(uno, 3 * timeout_ms * 1000)  # the live client feeds it
             assert (await uno.pin("D4")).level == 1
             killed_at = float((await uno.status())["sim_us"])
@@ -328,7 +344,7 @@ async def test_other_clients_do_not_feed_a_lost_owners_failsafe(
         uno = served.unos[7]
         watcher = await remote.get(7)
         client = await start_armed_client(tmp_path, served.endpoint, timeout_ms)
-        async with client:
+        async with killed_on_exit(client):
             client.send_signal(how)
             killed_at = float((await uno.status())["sim_us"])
             # Without the server's gate these reads would keep the watchdog fed forever.
@@ -346,3 +362,28 @@ async def test_other_clients_do_not_feed_a_lost_owners_failsafe(
         status = await watcher.status()
         assert status.flags & p.StatusFlags.FAILSAFE_TRIPPED
         assert watcher.failsafe is None  # not this client's failsafe: it does not re-arm
+
+
+async def test_write_id_is_refused_over_the_network(serve_unos: ServeFactory) -> None:
+    """A remote write_id gets a precise UsageError; the board keeps its ID, and reads in
+    flight around the refused request get their own replies (no resync)."""
+    async with (
+        serve_unos([7]) as served,
+        open_remote_board(7, connect=[served.endpoint]) as board,
+    ):
+        ids: list[int] = []
+
+        async def read_id() -> None:
+            ids.append(await board.read_id())
+
+        async with anyio.create_task_group() as tg:
+            for _ in range(5):
+                tg.start_soon(read_id)
+            with pytest.raises(UsageError, match=r"write_id\(0x0042\) is refused over the net"):
+                await board.write_id(0x0042)
+            for _ in range(5):
+                tg.start_soon(read_id)
+        assert ids == [7] * 10
+        assert board.board_id == 7 and board.link.expected_id == 7
+        assert board.link.state.value == "ready" and board.link.stats.resyncs == 0
+        assert await board.read_id() == 7

@@ -13,7 +13,12 @@ import zenoh
 from arduinoio_async.errors import BoardNotFoundError, UsageError
 from arduinoio_async.network import DEFAULT_ENDPOINT, open_remote_board, parse_board_url
 from arduinoio_async.network import zenoh_config as make_config
-from arduinoio_async.network._keys import board_from_key, board_key, request_key
+from arduinoio_async.network._keys import (
+    announcement_from_key,
+    announcement_key,
+    board_key,
+    request_key,
+)
 
 from .conftest import ServeFactory
 
@@ -44,9 +49,11 @@ def test_board_urls_and_keys() -> None:
             parse_board_url(bad)
     assert board_key(0xBEEF) == "arduinoio/board/beef"
     assert request_key(7) == "arduinoio/board/0007/rq"
-    assert board_from_key("arduinoio/board/0007") == 7
-    assert board_from_key("arduinoio/board/0007/rq") is None
-    assert board_from_key("arduinoio/board/zzzz") is None
+    assert announcement_key(7, "ab12") == "arduinoio/board/0007/server/ab12"
+    assert announcement_from_key("arduinoio/board/0007/server/ab12") == (7, "ab12")
+    assert announcement_from_key("arduinoio/board/0007") is None
+    assert announcement_from_key("arduinoio/board/0007/rq") is None
+    assert announcement_from_key("arduinoio/board/zzzz/server/ab12") is None
 
 
 async def openssl(*args: str) -> None:

@@ -8,6 +8,7 @@ must still deliver every reply to the caller it was verified for.
 from __future__ import annotations
 
 from collections.abc import AsyncIterator, Callable
+from functools import partial
 
 import anyio
 import pytest
@@ -15,10 +16,12 @@ import zenoh
 
 from arduinoio_async import protocol as p
 from arduinoio_async.errors import (
+    ArduinoIOError,
     BoardDisconnectedError,
     BoardError,
     BoardTimeoutError,
     LinkResyncError,
+    UsageError,
 )
 from arduinoio_async.network import RemoteByteStream, zenoh_config
 from arduinoio_async.network._keys import encode_fault, events_key, request_key
@@ -188,6 +191,79 @@ async def test_a_server_link_fault_never_gives_a_wrong_answer(session: zenoh.Ses
             if not isinstance(outcome, LinkResyncError):
                 assert outcome == p.AnalogReadReply(channel, 100 * channel)
         assert [f.error for f in stream.faults] == ["BoardTimeoutError"]
+
+
+def fail_query(fault: bytes, query: zenoh.Query) -> None:
+    query.reply_err(fault)
+
+
+@pytest.mark.parametrize("answer_order", [(0, 1, 2, 3), (3, 2, 1, 0)])
+async def test_a_server_side_failure_reaches_only_its_own_request(
+    session: zenoh.Session, answer_order: tuple[int, ...]
+) -> None:
+    """With the transport relaying failures (as RemoteBoards wires it), each query's
+    outcome on the server reaches that request alone: a timeout there is a
+    BoardTimeoutError here, a refusal keeps its class, a failure of unknown fate is a
+    LinkResyncError; the other reads get their replies and the link never resyncs."""
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    failures = {
+        0: BoardTimeoutError("no reply to AnalogRead in time"),
+        1: LinkResyncError("lost sync"),
+        3: UsageError("refused"),
+    }
+    outcomes: dict[int, object] = {}
+    async with Transport(stream, name="remote") as link:
+        stream.relay_failures_to(link.relay_failure)
+
+        async def read(channel: int) -> None:
+            try:
+                outcomes[channel] = await link.request(p.AnalogRead(channel))
+            except ArduinoIOError as exc:
+                outcomes[channel] = exc
+
+        async def answer() -> None:
+            await board.wait_queries(4)
+            for index in answer_order:
+                error = failures.get(index)
+                if error is None:
+                    board.answer(index)
+                else:
+                    board.answer(index, partial(fail_query, encode_fault(error)))
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(answer)
+            for channel in range(4):
+                tg.start_soon(read, channel)
+                await anyio.wait_all_tasks_blocked()  # wire order = channel order
+        assert type(outcomes[0]) is BoardTimeoutError
+        assert type(outcomes[1]) is LinkResyncError
+        assert outcomes[2] == p.AnalogReadReply(2, 200)
+        assert type(outcomes[3]) is UsageError and "refused" in str(outcomes[3])
+        assert link.state.value == "ready" and len(board.queries) == 4  # no resync probe
+
+        async def answer_next() -> None:
+            await board.wait_queries(5)
+            board.answer(4)
+
+        async with anyio.create_task_group() as tg:  # and the link goes on
+            tg.start_soon(answer_next)
+            assert await link.request(p.AnalogRead(5)) == p.AnalogReadReply(5, 500)
+
+
+async def test_an_unknown_server_failure_is_of_unknown_fate(session: zenoh.Session) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    async with Transport(stream, name="remote") as link, anyio.create_task_group() as tg:
+        stream.relay_failures_to(link.relay_failure)
+
+        async def fail_it() -> None:
+            await board.wait_queries(1)
+            board.answer(0, lambda q: q.reply_err(b'{"error": "SomeNewError", "message": "x"}'))
+
+        tg.start_soon(fail_it)
+        with pytest.raises(LinkResyncError, match="SomeNewError on the server"):
+            await link.request(p.AnalogRead(1))
 
 
 async def test_a_vanished_board_disconnects(session: zenoh.Session) -> None:
