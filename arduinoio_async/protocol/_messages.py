@@ -65,10 +65,13 @@ __all__ = [
     "FailsafeSafeState",
     "FailsafeSafeStateReply",
     "FailsafeTripped",
+    "GpioChange",
     "GpioConfig",
     "GpioConfigReply",
     "GpioRead",
     "GpioReadReply",
+    "GpioWatch",
+    "GpioWatchReply",
     "GpioWrite",
     "GpioWriteReply",
     "I2CConfig",
@@ -419,6 +422,26 @@ class PinRelease(Request[PinReleaseReply]):
     pin: Annotated[int, U8]
 
 
+@_reply(ClassTag.GPIO, 0x05)
+@dataclass(frozen=True, slots=True)
+class GpioWatchReply(Reply):
+    pin: Annotated[int, U8]
+    enable: Annotated[bool, U8]
+
+
+@_request(GpioWatchReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class GpioWatch(Request[GpioWatchReply]):
+    """Report every change of a GPIO input as a GpioChange event (``enable`` 1) or stop.
+
+    The pin must be a GPIO input; the subscription ends with ``enable`` 0, a new
+    configuration of the pin, its release or a reset.
+    """
+
+    pin: Annotated[int, U8]
+    enable: Annotated[bool, U8]
+
+
 # ---- ANALOG (0x03) ------------------------------------------------------------------------
 
 
@@ -750,6 +773,31 @@ class FailsafeTripped(Event):
     """The link watchdog fired and applied the safe states."""
 
 
+@_event(0x03)
+@dataclass(frozen=True, slots=True)
+class GpioChange(Event):
+    """A watched input changed, seen by its pin-change interrupt (docs/protocol.md 7.4).
+
+    ``state`` is the level now and the edge that led to it (ROSE or FELL);
+    ``sequence`` counts every change event the board produced, sent or not (a full
+    transmit buffer drops one), so the host sees a loss as a gap; ``timestamp_us`` is
+    the board's clock when the interrupt ran.
+    """
+
+    pin: Annotated[int, U8]
+    state: Annotated[GpioState, U8]
+    sequence: Annotated[int, U16]
+    timestamp_us: Annotated[int, U32]
+
+    def __post_init__(self) -> None:
+        if self.state not in (GpioState.HIGH | GpioState.ROSE, GpioState.FELL):
+            raise ValueError(f"GPIO change state {int(self.state):#04x} is not an edge")
+
+    @property
+    def level(self) -> bool:
+        return bool(self.state & GpioState.HIGH)
+
+
 # ---- error replies ----------------------------------------------------------------------------
 
 
@@ -803,6 +851,7 @@ IDEMPOTENT_WRITES: tuple[type[Request[Any]], ...] = (
     SetSession,
     GpioConfig,
     GpioWrite,
+    GpioWatch,
     PinRelease,
     I2CConfig,
     PwmConfig,

@@ -32,6 +32,7 @@ _SOFT_PWM = pin_mask(Function.SOFT_PWM)
 _SERVO = pin_mask(Function.SERVO_PWM)
 _COUNTER = pin_mask(Function.COUNTER)
 _INPUT = pin_mask(Function.DIGITAL_INPUT)
+_CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 def _has(mask: int, pin: int) -> bool:
@@ -45,6 +46,7 @@ class _Pin:
     rose: bool = False
     fell: bool = False
     edge: p.Edge = p.Edge.RISING  # what a counter on this pin counts
+    watched: bool = False  # GpioWatch: its changes are sent as GpioChange events
 
 
 @dataclass
@@ -67,6 +69,8 @@ class FakeBoard:
     #: Replies whose bytes the faults changed (dropped, inserted, flipped, garbage).
     corrupted_replies: int = 0
     session: int = 0
+    #: GpioChange events dropped because the modelled transmit buffer was full.
+    changes_dropped: int = 0
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
@@ -81,6 +85,12 @@ class FakeBoard:
         self._booted = 0.0
         self.stream = StreamModel()
         self.failsafe = FailsafeModel()
+        self.change_sequence = 0
+        # The firmware sends change events from its interrupt into the transmit buffer,
+        # dropping one that does not fit: a bounded queue models that buffer.
+        self._changes_in, self._changes_out = anyio.create_memory_object_stream[p.GpioChange](
+            p.TX_BUFFER_SIZE // _CHANGE_FRAME_BYTES
+        )
         self._handlers: dict[type[Any], Callable[[Any], p.Frame]] = {
             p.Reset: self._reset,
             p.ReadId: lambda r: p.ReadIdReply(self.board_id),
@@ -93,6 +103,7 @@ class FakeBoard:
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
             p.GpioWrite: self._gpio_write,
+            p.GpioWatch: self._gpio_watch,
             p.PinRelease: self._release,
             p.AnalogRead: self._analog_read,
             p.AnalogReadAll: lambda r: p.AnalogReadAllReply(tuple(self.analog)),
@@ -117,6 +128,7 @@ class FakeBoard:
         self._booted = anyio.current_time()
         self._task_group.start_soon(self._serve, self._board_stream)
         self._task_group.start_soon(self._watchdog)
+        self._task_group.start_soon(self._send_changes)
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
@@ -147,6 +159,25 @@ class FakeBoard:
                 self.stream.fell |= 1 << pin
             if pin in self.counters and state.role == "counter":
                 self.counters[pin] += level == (state.edge is p.Edge.RISING)
+            if state.watched and state.role == "input":
+                self._report_change(pin, level)
+
+    def _report_change(self, pin: int, level: bool) -> None:
+        edge = p.GpioState.HIGH | p.GpioState.ROSE if level else p.GpioState.FELL
+        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
+        event = p.GpioChange(pin, edge, self.change_sequence, board_us)
+        self.change_sequence = (self.change_sequence + 1) & 0xFFFF
+        try:
+            self._changes_in.send_nowait(event)
+        except anyio.WouldBlock:
+            self.changes_dropped += 1  # its sequence number is used up, as on the board
+
+    async def _send_changes(self) -> None:
+        async for event in self._changes_out:
+            try:
+                await self._send(self._board_stream, event.encode())
+            except (anyio.BrokenResourceError, anyio.ClosedResourceError):
+                return
 
     def role(self, pin: int) -> str:
         return self._pins[pin].role
@@ -291,6 +322,7 @@ class FakeBoard:
         pin.role = "output" if output else "input"
         pin.pull_up = bool(flags & p.GpioFlags.PULL_UP)
         pin.rose = pin.fell = False
+        pin.watched = False  # a new configuration ends a subscription
         if output:
             self.levels[request.pin] = bool(flags & p.GpioFlags.INITIAL_HIGH)
         elif pin.pull_up and request.pin not in self._driven:
@@ -316,6 +348,15 @@ class FakeBoard:
             return self._error(request, E.PIN_NOT_CONFIGURED)
         self.levels[request.pin] = request.value
         return p.GpioWriteReply(request.pin, request.value)
+
+    def _gpio_watch(self, request: p.GpioWatch) -> p.Frame:
+        if not _has(_DIGITAL, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        pin = self._pins[request.pin]
+        if pin.role != "input":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        pin.watched = request.enable
+        return p.GpioWatchReply(request.pin, request.enable)
 
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not _has(_DIGITAL, request.pin):
@@ -490,7 +531,7 @@ def _changes_output(request: p.Frame) -> bool:
     """Requests the firmware refuses while its failsafe is tripped (``dispatch.c``)."""
     tag = request.LAYOUT.class_tag
     if tag == p.ClassTag.GPIO:
-        return not isinstance(request, p.GpioRead)
+        return not isinstance(request, p.GpioRead | p.GpioWatch)
     return tag == p.ClassTag.PWM
 
 

@@ -112,7 +112,7 @@ static void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x03, 0xFF, 0x00, 0x01, 0xC2,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x07, 0xFF, 0x00, 0x01, 0xC2,
                      0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
@@ -132,6 +132,73 @@ static void test_misc(void)
     take();
     EXPECT(outn == 3 && out[0] == 1 && out[1] == 1 && out[2] == 0);
     EXPECT(fake_reset_done);
+}
+
+/* GPIO_WATCH and the GPIO_CHANGE events sent from the pin-change interrupt */
+static void expect_change(int line, uint8_t pin, uint8_t state, uint16_t seq, uint32_t us)
+{
+    uint8_t want[11] = {AIO_CT_EVENT, AIO_DT_EVENT_GPIO_CHANGE, pin, state,
+                        (uint8_t)(seq >> 8), (uint8_t)seq, (uint8_t)(us >> 24),
+                        (uint8_t)(us >> 16), (uint8_t)(us >> 8), (uint8_t)us, 0};
+    want[10] = xor_of(want, 10);
+    take();
+    checks++;
+    if (outn != 11 || memcmp(out, want, 11)) {
+        failures++;
+        printf("%s:%d: FAIL\n", __FILE__, line);
+        dump("expected", want, 11);
+        dump("got", out, outn);
+    }
+}
+
+static void test_gpio_changes(void)
+{
+    board();
+    CHECK(B(2, 5, 7, 1), B(0x82, 5, AIO_ERR_PIN_NOT_CONFIGURED)); /* not an input */
+    CHECK(B(2, 1, 13, 0x01), B(2, 1, 13, 0x01));
+    CHECK(B(2, 5, 13, 1), B(0x82, 5, AIO_ERR_PIN_NOT_CONFIGURED)); /* an output */
+    CHECK(B(2, 5, 1, 1), B(0x82, 5, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 1, 7, 0x00), B(2, 1, 7, 0x00));
+    CHECK(B(2, 5, 7, 2), B(0x82, 5, AIO_ERR_VALUE_OUT_OF_RANGE));
+    fake_drive(7, 1); /* not watched yet: no event */
+    take();
+    EXPECT(outn == 0);
+    CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
+    fake_fine_now = 2u * 1234u;
+    fake_drive(7, 0);
+    expect_change(__LINE__, 7, AIO_GPIO_STATE_FELL, 0, 1234);
+    fake_drive(7, 0); /* no change, no event */
+    take();
+    EXPECT(outn == 0);
+    fake_fine_now = 2u * 5000u;
+    fake_drive(7, 1);
+    expect_change(__LINE__, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE, 1, 5000);
+    /* the READ latch is independent of the events */
+    CHECK(B(2, 2, 7), B(2, 2, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE | AIO_GPIO_STATE_FELL));
+    /* a full transmit buffer drops the event; its sequence number is used up */
+    fake_tx_capacity = 5;
+    fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
+    fake_tx_capacity = 192;
+    fake_drive(7, 1);
+    expect_change(__LINE__, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE, 3, 5000);
+    /* unsubscribe */
+    CHECK(B(2, 5, 7, 0), B(2, 5, 7, 0));
+    fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
+    /* reconfiguring or releasing ends the subscription */
+    CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
+    CHECK(B(2, 1, 7, 0x04), B(2, 1, 7, 0x04));
+    fake_drive(7, 1);
+    take();
+    EXPECT(outn == 0);
+    CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
+    CHECK(B(2, 4, 7), B(2, 4, 7));
+    fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
 }
 
 /* ------------------------------------------------------------ GPIO */
@@ -817,6 +884,7 @@ int main(void)
     test_table();
     test_misc();
     test_gpio();
+    test_gpio_changes();
     test_analog();
     test_i2c();
     test_pwm();
