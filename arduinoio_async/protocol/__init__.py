@@ -114,12 +114,15 @@ from ._messages import (
     StreamStartReply,
     StreamStop,
     StreamStopReply,
+    Transaction,
+    TransactionReply,
     WriteId,
     WriteIdReply,
     sample_payload_size,
     stream_fits_link,
     stream_min_period_us,
 )
+from ._transaction import pack_items, result_size, unpack_results
 
 
 def encode(message: Frame) -> bytes:
@@ -236,11 +239,16 @@ __all__ = [
     "StreamStartReply",
     "StreamStop",
     "StreamStopReply",
+    "Transaction",
+    "TransactionReply",
     "WriteId",
     "WriteIdReply",
     "checksum",
     "encode",
+    "pack_items",
+    "result_size",
     "sample_payload_size",
     "stream_fits_link",
     "stream_min_period_us",
+    "unpack_results",
 ]

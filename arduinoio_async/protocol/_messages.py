@@ -107,6 +107,8 @@ __all__ = [
     "StreamStartReply",
     "StreamStop",
     "StreamStopReply",
+    "Transaction",
+    "TransactionReply",
     "WriteId",
     "WriteIdReply",
     "sample_payload_size",
@@ -340,6 +342,26 @@ class ReadPinRolesReply(Reply):
 @dataclass(frozen=True, slots=True)
 class ReadPinRoles(Request[ReadPinRolesReply]):
     """Which digital pins are GPIO inputs, GPIO outputs, PWM (servo or software) or counters."""
+
+
+@_reply(ClassTag.MISC, 0x09)
+@dataclass(frozen=True, slots=True)
+class TransactionReply(Reply):
+    """Every item's reply frame (or error reply) without its checksum, in item order."""
+
+    results: Annotated[bytes, Blob(MAX_BLOB)]
+
+
+@_request(TransactionReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class Transaction(Request[TransactionReply]):
+    """Several requests run back to back on the board, one reply with every result.
+
+    ``items`` holds the request frames without their checksums (docs/protocol.md 7.5);
+    build it with :func:`~arduinoio_async.protocol.pack_items`.
+    """
+
+    items: Annotated[bytes, Blob(MAX_BLOB)]
 
 
 # ---- GPIO (0x02) --------------------------------------------------------------------------

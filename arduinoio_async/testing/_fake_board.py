@@ -120,6 +120,7 @@ class FakeBoard:
             p.FailsafeArm: self._failsafe_arm,
             p.FailsafeSafeState: self._failsafe_safe_state,
             p.FailsafeDisarm: self._failsafe_disarm,
+            p.Transaction: self._transaction,
         }
 
     async def __aenter__(self) -> FakeBoard:
@@ -358,6 +359,23 @@ class FakeBoard:
         pin.watched = request.enable
         return p.GpioWatchReply(request.pin, request.enable)
 
+    def _transaction(self, request: p.Transaction) -> p.Frame:
+        """The firmware's order: check the whole list, then run the items one by one."""
+        items = _split_items(request.items)
+        if items is None:
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        results = bytearray()
+        for raw in items:
+            layout = p.REQUEST_TYPES[(raw[0], raw[1])].LAYOUT
+            try:
+                item = layout.decode(raw + bytes((p.checksum(raw),)))
+            except ValueError:
+                reply: p.Frame = p.ErrorReply(raw[0], raw[1], E.VALUE_OUT_OF_RANGE)
+            else:
+                reply = self._answer(item)
+            results += reply.encode()[:-1]
+        return p.TransactionReply(bytes(results))
+
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not _has(_DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
@@ -525,6 +543,37 @@ class FakeBoard:
         self.failsafe.armed, self.failsafe.tripped = False, True
         with contextlib.suppress(anyio.BrokenResourceError, anyio.ClosedResourceError):
             await self._send(self._board_stream, p.FailsafeTripped().encode())
+
+
+def _split_items(items: bytes) -> list[bytes] | None:
+    """The items of a transaction, or None when the board refuses the list as a whole
+    (unknown tags, a cut item, RESET or TRANSACTION inside, results over MAX_BLOB)."""
+    out: list[bytes] = []
+    pos = need = 0
+    while pos < len(items):
+        if len(items) - pos < 2:
+            return None
+        cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
+        if cls is None or cls in (p.Reset, p.Transaction):
+            return None
+        layout = cls.LAYOUT
+        size = layout.base_size - 1
+        if layout.length_offset >= 0:
+            if (
+                pos + layout.length_offset >= len(items)
+                or items[pos + layout.length_offset] > p.MAX_BLOB
+            ):
+                return None
+            size += items[pos + layout.length_offset]
+        if pos + size > len(items):
+            return None
+        result = cls.REPLY.LAYOUT.base_size - 1
+        if cls is p.I2CRead:
+            result += min(items[pos + 4], p.MAX_BLOB + 1)
+        need += max(result, p.ErrorReply.SIZE - 1)
+        out.append(items[pos : pos + size])
+        pos += size
+    return out if out and need <= p.MAX_BLOB else None
 
 
 def _changes_output(request: p.Frame) -> bool:

@@ -8,6 +8,7 @@
 #include "hal.h"
 #include "pins.h"
 #include "stream.h"
+#include "transaction.h"
 
 #ifndef BAUD
 #define BAUD 115200UL
@@ -77,6 +78,8 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         session = aio_be16(rq->data);
         p = aio_put16(p, session);
         break;
+    case AIO_DT_MISC_TRANSACTION:
+        return transaction_handle(rq, rp);
     case AIO_DT_MISC_READ_PIN_ROLES:
         p = aio_put16(p, role_mask(ROLE_GPIO_IN));
         p = aio_put16(p, role_mask(ROLE_GPIO_OUT));

@@ -201,6 +201,46 @@ static void test_gpio_changes(void)
     EXPECT(outn == 0);
 }
 
+/* ------------------------------------------------------------ TRANSACTION */
+static void test_transaction(void)
+{
+    board();
+    CHECK(B(2, 1, 13, 0x01), B(2, 1, 13, 0x01));
+    CHECK(B(2, 1, 7, 0x00), B(2, 1, 7, 0x00));
+    fake_drive(7, 1);
+    /* write D13, read it back, read D7: back to back, every result in order */
+    CHECK(B(1, 9, 10, 2, 3, 13, 0, 2, 2, 13, 2, 2, 7),
+          B(1, 9, 12, 2, 3, 13, 0, 2, 2, 13, 0, 2, 2, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE));
+    EXPECT(fake_pin_level[13] == 0);
+    /* a refused item leaves its error reply; the next item still runs */
+    CHECK(B(1, 9, 8, 2, 3, 7, 1, 2, 3, 13, 1),
+          B(1, 9, 7, 0x82, 3, AIO_ERR_PIN_NOT_CONFIGURED, 2, 3, 13, 1));
+    EXPECT(fake_pin_level[13] == 1);
+    /* the whole list is checked first: a refused list changes nothing */
+    CHECK(B(1, 9, 0), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE));                  /* empty */
+    CHECK(B(1, 9, 6, 2, 3, 13, 0, 2, 9), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* unknown */
+    CHECK(B(1, 9, 6, 2, 3, 13, 0, 2, 2), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* cut */
+    CHECK(B(1, 9, 6, 2, 3, 13, 0, 1, 1), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* reset */
+    CHECK(B(1, 9, 7, 2, 3, 13, 0, 1, 9, 0), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* nested */
+    CHECK(B(1, 9, 10, 2, 3, 13, 0, 3, 3, 3, 3, 3, 3), /* 4 + 3 x 14 result bytes > 32 */
+          B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE));
+    EXPECT(fake_pin_level[13] == 1);
+    /* variable-length items: an I2C write of two bytes (bus off: a per-item error) */
+    CHECK(B(1, 9, 7, 4, 3, 0x50, 0, 2, 0xAA, 0xBB),
+          B(1, 9, 3, 0x84, 3, AIO_ERR_I2C_NOT_CONFIGURED));
+    /* six servo widths at once */
+    board();
+    {
+        uint8_t pin;
+        for (pin = 2; pin <= 7; pin++)
+            CHECK(B(5, 1, pin, 0, 0), B(5, 1, pin, 0, 0));
+    }
+    CHECK(B(1, 9, 30, 5, 2, 2, 0x05, 0xDC, 5, 2, 3, 0x05, 0xDD, 5, 2, 4, 0x05, 0xDE, 5, 2, 5,
+            0x05, 0xDF, 5, 2, 6, 0x05, 0xE0, 5, 2, 7, 0x05, 0xE1),
+          B(1, 9, 30, 5, 2, 2, 0x05, 0xDC, 5, 2, 3, 0x05, 0xDD, 5, 2, 4, 0x05, 0xDE, 5, 2, 5,
+            0x05, 0xDF, 5, 2, 6, 0x05, 0xE0, 5, 2, 7, 0x05, 0xE1));
+}
+
 /* ------------------------------------------------------------ GPIO */
 static void test_gpio(void)
 {
@@ -885,6 +925,7 @@ int main(void)
     test_misc();
     test_gpio();
     test_gpio_changes();
+    test_transaction();
     test_analog();
     test_i2c();
     test_pwm();
