@@ -141,6 +141,8 @@ class Feature(IntFlag):
     FAILSAFE = 0x0200
     #: GpioWatch and GpioChange events (extension, docs/protocol.md 7.4).
     GPIO_CHANGES = 0x0400
+    #: TRANSACTION: several requests in one frame (extension, docs/protocol.md 7.5).
+    TRANSACTIONS = 0x0800
 
 
 #: The firmware answers nothing to a half-received frame until the line has been idle this
