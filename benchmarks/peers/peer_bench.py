@@ -130,6 +130,7 @@ AIO = "arduinoio"
 A_SEQUENTIAL = "arduinoio_async: write, then read"
 A_PIPELINED = "arduinoio_async: write + read pipelined"
 A_EVENT = "arduinoio_async: write + change event"
+A_TRANSACTION = "arduinoio_async: write + read in one transaction"
 
 
 @asynccontextmanager
@@ -185,6 +186,26 @@ async def project_a_event(uno: VirtualUno, n: int) -> list[float]:
                     raise AssertionError(f"D3 changed to {change.level}, D2 was set to {level}")
             if changes.lost:
                 raise AssertionError(f"{changes.lost} change events lost")
+    return samples
+
+
+async def project_a_transaction(uno: VirtualUno, n: int) -> list[float]:
+    """D2 written and D3 read in one TRANSACTION frame, run back to back on the board."""
+    samples = []
+    async with project_board(uno) as board:
+        await board.digital_output(D2)
+        await board.digital_input(D3)
+        level = False
+        for _ in range(n):
+            await anyio.sleep(random.uniform(0.0, 0.005))
+            level = not level
+            t0 = time.perf_counter()
+            async with board.transaction() as tx:
+                tx.add(p.GpioWrite(D2, level))
+                read = tx.add(p.GpioRead(D3))
+            samples.append((time.perf_counter() - t0) * 1e3)
+            if read.result().level != level:
+                raise AssertionError(f"D3 reads {read.result().level}, D2 was set to {level}")
     return samples
 
 
@@ -339,6 +360,8 @@ class Bench:
                         samples.setdefault((name, "a", link), []).extend(got_ms)
                     got_ms = await project_a_event(aio, per_round)
                     samples.setdefault((A_EVENT, "a", link), []).extend(got_ms)
+                    got_ms = await project_a_transaction(aio, per_round)
+                    samples.setdefault((A_TRANSACTION, "a", link), []).extend(got_ms)
                     got_ms = await project_b(aio, per_round)
                     key = ("arduinoio_async: read ID", "b", link)
                     samples.setdefault(key, []).extend(got_ms)
