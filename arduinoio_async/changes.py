@@ -44,7 +44,14 @@ if TYPE_CHECKING:
     from .board import Board
     from .protocol.pins import DigitalPin
 
-__all__ = ["DEFAULT_CHANGE_BUFFER", "Change", "ChangeStream", "watch_changes"]
+__all__ = [
+    "DEFAULT_CHANGE_BUFFER",
+    "Change",
+    "ChangeStream",
+    "CountReports",
+    "watch_changes",
+    "watch_counter",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -187,3 +194,82 @@ async def watch_changes(
 
 #: Watchers per board and pin, so that one block's end keeps the others' subscription.
 _watchers: weakref.WeakKeyDictionary[Board, collections.Counter[int]] = weakref.WeakKeyDictionary()
+
+
+class CountReports:
+    """Async iterator over a watched counter's reports (``CounterReport`` events).
+
+    A report the board could not send shows as a count that advanced by more than
+    ``every``: :attr:`missed` counts those reports; a full buffer drops the oldest
+    (:attr:`dropped`).
+    """
+
+    def __init__(self, link: Transport, pin: int, every: int, buffer: int) -> None:
+        if buffer < 1:
+            raise ValueRangeError("report buffer (reports)", buffer, "1 and up")
+        self.pin = pin
+        self.every = every
+        self.buffer_size = buffer
+        self.received = 0
+        self.missed = 0
+        self.dropped = 0
+        self._last: int | None = None
+        self._buffer: collections.deque[p.CounterReport] = collections.deque()
+        self._arrived = anyio.Event()
+        self._closed: BaseException | None = None
+        self._unsubscribe = link.subscribe(self._on_event)
+        self._stop_state = link.on_state_change(self._on_state)
+
+    def _on_event(self, event: p.Event) -> None:
+        if not isinstance(event, p.CounterReport) or event.pin != self.pin:
+            return
+        if self._last is not None:
+            advanced = (event.count - self._last) & 0xFFFFFFFF
+            self.missed += max(0, advanced // self.every - 1)
+        self._last = event.count
+        self.received += 1
+        if len(self._buffer) >= self.buffer_size:
+            self._buffer.popleft()
+            self.dropped += 1
+        self._buffer.append(event)
+        self._arrived.set()
+
+    def _on_state(self, state: LinkState) -> None:
+        if state is LinkState.CLOSED:
+            self._closed = BoardDisconnectedError("the link closed while watching a counter")
+            self._arrived.set()
+
+    def __aiter__(self) -> CountReports:
+        return self
+
+    async def __anext__(self) -> p.CounterReport:
+        while not self._buffer:
+            if self._closed is not None:
+                raise self._closed
+            self._arrived = anyio.Event()
+            await self._arrived.wait()
+        return self._buffer.popleft()
+
+    def detach(self) -> None:
+        self._unsubscribe()
+        self._stop_state()
+
+
+@asynccontextmanager
+async def watch_counter(
+    board: Board, pin: DigitalPin, every: int, buffer: int = DEFAULT_CHANGE_BUFFER
+) -> AsyncIterator[CountReports]:
+    """Reports of counter ``pin`` every ``every`` counts for the block."""
+    if not 1 <= every <= 0xFFFF:
+        raise ValueRangeError("counter report interval (counts)", every, "1-65535")
+    link = board.link
+    reports = CountReports(link, pin, every, buffer)
+    try:
+        await board.request(p.CounterWatch(pin, every))
+        yield reports
+    finally:
+        try:
+            with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
+                await link.request(p.CounterWatch(pin, 0))
+        finally:
+            reports.detach()

@@ -16,7 +16,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 from . import protocol as p
-from .changes import DEFAULT_CHANGE_BUFFER, Change, ChangeStream, watch_changes
+from .changes import (
+    DEFAULT_CHANGE_BUFFER,
+    Change,
+    ChangeStream,
+    CountReports,
+    watch_changes,
+    watch_counter,
+)
 from .errors import ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
 
@@ -275,6 +282,13 @@ class Counter(_PinHandle):
     async def reset(self) -> int:
         """Clear the counter; returns the count it had (read and clear are atomic)."""
         return (await self.board.request(p.CounterReset(self.pin))).count
+
+    def reports(
+        self, every: int, *, buffer: int = DEFAULT_CHANGE_BUFFER
+    ) -> AbstractAsyncContextManager[CountReports]:
+        """``async with counter.reports(every=100) as reports: async for r in reports:``
+        the board reports the count every ``every`` counts (extension; 1-65535)."""
+        return watch_counter(self.board, self.pin, every, buffer)
 
 
 @dataclass

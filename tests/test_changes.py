@@ -11,7 +11,7 @@ import anyio
 import anyio.lowlevel
 import pytest
 
-from arduinoio_async import D3, D5, D7
+from arduinoio_async import D2, D3, D5, D7
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.changes import Change
@@ -170,3 +170,21 @@ async def test_watching_needs_an_input_and_many_tasks_can_watch_at_once() -> Non
                     fake.drive(pin, not fake.levels[pin])
                 await anyio.lowlevel.checkpoint()
         assert counts == {3: 10, 7: 10}
+
+
+async def test_a_watched_counter_reports_every_n_counts() -> None:
+    async with connected() as (board, fake):
+        counter = await board.counter(D2, edge=p.Edge.RISING)
+        with pytest.raises(BoardError):
+            await board.request(p.CounterWatch(3, 5))  # D3 is no counter
+        async with counter.reports(every=3) as reports:
+            for _ in range(7):
+                fake.drive(2, True)
+                fake.drive(2, False)
+            with anyio.fail_after(2):
+                got = [await reports.__anext__(), await reports.__anext__()]
+        assert [r.count for r in got] == [3, 6]
+        assert reports.missed == reports.dropped == 0
+        fake.drive(2, True)  # the block ended the watch: no report follows
+        assert await counter.read() == 8
+        assert reports.received == 2

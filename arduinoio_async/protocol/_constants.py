@@ -143,6 +143,8 @@ class Feature(IntFlag):
     GPIO_CHANGES = 0x0400
     #: TRANSACTION: several requests in one frame (extension, docs/protocol.md 7.5).
     TRANSACTIONS = 0x0800
+    #: COUNTER WATCH and CounterReport events (extension, docs/protocol.md 7.4).
+    COUNTER_REPORTS = 0x1000
 
 
 #: The firmware answers nothing to a half-received frame until the line has been idle this

@@ -54,8 +54,11 @@ __all__ = [
     "CounterConfigReply",
     "CounterRead",
     "CounterReadReply",
+    "CounterReport",
     "CounterReset",
     "CounterResetReply",
+    "CounterWatch",
+    "CounterWatchReply",
     "ErrorReply",
     "Event",
     "FailsafeArm",
@@ -656,6 +659,22 @@ class CounterReset(Request[CounterResetReply]):
     pin: Annotated[int, U8]
 
 
+@_reply(ClassTag.COUNTER, 0x04)
+@dataclass(frozen=True, slots=True)
+class CounterWatchReply(Reply):
+    pin: Annotated[int, U8]
+    every: Annotated[int, U16]
+
+
+@_request(CounterWatchReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class CounterWatch(Request[CounterWatchReply]):
+    """Send a CounterReport every ``every`` counts (0 stops); ends with a new CONFIG."""
+
+    pin: Annotated[int, U8]
+    every: Annotated[int, U16]
+
+
 # ---- STREAM (0x07, extension) ---------------------------------------------------------------
 
 
@@ -820,6 +839,20 @@ class GpioChange(Event):
         return bool(self.state & GpioState.HIGH)
 
 
+@_event(0x04)
+@dataclass(frozen=True, slots=True)
+class CounterReport(Event):
+    """A watched counter reached another ``every`` counts (docs/protocol.md 7.4).
+
+    ``count`` is the count when the interrupt ran; a report the transmit buffer had no
+    room for is dropped, which the next report's count shows.
+    """
+
+    pin: Annotated[int, U8]
+    count: Annotated[int, U32]
+    timestamp_us: Annotated[int, U32]
+
+
 # ---- error replies ----------------------------------------------------------------------------
 
 
@@ -880,6 +913,7 @@ IDEMPOTENT_WRITES: tuple[type[Request[Any]], ...] = (
     PwmSet,
     FailsafeSafeState,
     FailsafeDisarm,
+    CounterWatch,
 )
 for _cls in READ_ONLY_REQUESTS:
     _cls.READS_ONLY = True

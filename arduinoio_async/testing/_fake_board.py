@@ -47,6 +47,8 @@ class _Pin:
     fell: bool = False
     edge: p.Edge = p.Edge.RISING  # what a counter on this pin counts
     watched: bool = False  # GpioWatch: its changes are sent as GpioChange events
+    report_every: int = 0  # CounterWatch: a CounterReport every this many counts
+    since_report: int = 0
 
 
 @dataclass
@@ -69,7 +71,8 @@ class FakeBoard:
     #: Replies whose bytes the faults changed (dropped, inserted, flipped, garbage).
     corrupted_replies: int = 0
     session: int = 0
-    #: GpioChange events dropped because the modelled transmit buffer was full.
+    #: GpioChange and CounterReport events dropped because the modelled transmit buffer
+    #: was full.
     changes_dropped: int = 0
 
     def __post_init__(self) -> None:
@@ -88,7 +91,7 @@ class FakeBoard:
         self.change_sequence = 0
         # The firmware sends change events from its interrupt into the transmit buffer,
         # dropping one that does not fit: a bounded queue models that buffer.
-        self._changes_in, self._changes_out = anyio.create_memory_object_stream[p.GpioChange](
+        self._changes_in, self._changes_out = anyio.create_memory_object_stream[p.Event](
             p.TX_BUFFER_SIZE // _CHANGE_FRAME_BYTES
         )
         self._handlers: dict[type[Any], Callable[[Any], p.Frame]] = {
@@ -115,6 +118,7 @@ class FakeBoard:
             p.CounterConfig: self._counter_config,
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
+            p.CounterWatch: self._counter_watch,
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -159,7 +163,10 @@ class FakeBoard:
             else:
                 self.stream.fell |= 1 << pin
             if pin in self.counters and state.role == "counter":
-                self.counters[pin] += level == (state.edge is p.Edge.RISING)
+                counted = level == (state.edge is p.Edge.RISING)
+                self.counters[pin] += counted
+                if counted and state.report_every:
+                    self._report_count(pin, state)
             if state.watched and state.role == "input":
                 self._report_change(pin, level)
 
@@ -172,6 +179,18 @@ class FakeBoard:
             self._changes_in.send_nowait(event)
         except anyio.WouldBlock:
             self.changes_dropped += 1  # its sequence number is used up, as on the board
+
+    def _report_count(self, pin: int, state: _Pin) -> None:
+        state.since_report += 1
+        if state.since_report < state.report_every:
+            return
+        state.since_report = 0
+        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
+        report = p.CounterReport(pin, self.counters[pin] & 0xFFFFFFFF, board_us)
+        try:
+            self._changes_in.send_nowait(report)
+        except anyio.WouldBlock:
+            self.changes_dropped += 1
 
     async def _send_changes(self) -> None:
         async for event in self._changes_out:
@@ -449,6 +468,7 @@ class FakeBoard:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         state.role = "counter"
         state.edge = p.Edge(request.edge)
+        state.report_every = state.since_report = 0  # a new configuration ends a watch
         self.counters[request.pin] = 0
         return p.CounterConfigReply(request.pin, request.edge)
 
@@ -462,6 +482,15 @@ class FakeBoard:
             self.counters[request.pin] = 0
             return p.CounterResetReply(request.pin, count)
         return p.CounterReadReply(request.pin, count)
+
+    def _counter_watch(self, request: p.CounterWatch) -> p.Frame:
+        if not _has(_COUNTER, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        state = self._pins[request.pin]
+        if state.role != "counter":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        state.report_every, state.since_report = request.every, 0
+        return p.CounterWatchReply(request.pin, request.every)
 
     # ---- extensions: stream and failsafe ----------------------------------------------------
 

@@ -112,7 +112,7 @@ static void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x0F, 0xFF, 0x00, 0x01, 0xC2,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x1F, 0xFF, 0x00, 0x01, 0xC2,
                      0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
@@ -197,6 +197,45 @@ static void test_gpio_changes(void)
     CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
     CHECK(B(2, 4, 7), B(2, 4, 7));
     fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
+}
+
+/* COUNTER WATCH: a COUNTER_REPORT from the counter's interrupt every N counts */
+static void test_counter_reports(void)
+{
+    uint8_t i;
+    board();
+    CHECK(B(6, 4, 2, 0, 3), B(0x86, 4, AIO_ERR_PIN_NOT_CONFIGURED)); /* not a counter */
+    CHECK(B(6, 4, 4, 0, 3), B(0x86, 4, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(6, 1, 2, AIO_EDGE_RISING), B(6, 1, 2, AIO_EDGE_RISING));
+    CHECK(B(6, 4, 2, 0, 3), B(6, 4, 2, 0, 3));
+    fake_fine_now = 2u * 777u;
+    for (i = 0; i < 7; i++) {
+        fake_drive(2, 1);
+        fake_drive(2, 0);
+        take();
+        if (i == 2 || i == 5) {
+            uint8_t want[12] = {AIO_CT_EVENT, AIO_DT_EVENT_COUNTER_REPORT, 2, 0, 0, 0,
+                                (uint8_t)(i + 1), 0, 0, 0x03, 0x09, 0};
+            want[11] = xor_of(want, 11);
+            EXPECT(outn == 12 && !memcmp(out, want, 12));
+        } else {
+            EXPECT(outn == 0);
+        }
+    }
+    CHECK(B(6, 4, 2, 0, 0), B(6, 4, 2, 0, 0)); /* stop */
+    for (i = 0; i < 4; i++) {
+        fake_drive(2, 1);
+        fake_drive(2, 0);
+    }
+    take();
+    EXPECT(outn == 0);
+    CHECK(B(6, 2, 2), B(6, 2, 2, 0, 0, 0, 11));
+    /* a new configuration ends the watch */
+    CHECK(B(6, 4, 2, 0, 1), B(6, 4, 2, 0, 1));
+    CHECK(B(6, 1, 2, AIO_EDGE_RISING), B(6, 1, 2, AIO_EDGE_RISING));
+    fake_drive(2, 1);
     take();
     EXPECT(outn == 0);
 }
@@ -926,6 +965,7 @@ int main(void)
     test_gpio();
     test_gpio_changes();
     test_transaction();
+    test_counter_reports();
     test_analog();
     test_i2c();
     test_pwm();

@@ -50,6 +50,11 @@ static const aio_vector_step_t aio_vectors_counter[] = {
     {19, -1, 0, 5, {2, 1, 2, 1, 0}, 4, {130, 1, 8, 139}},
     {20, -1, 0, 4, {2, 4, 2, 4}, 4, {2, 4, 2, 4}},
     {21, -1, 0, 4, {6, 2, 2, 6}, 4, {134, 2, 7, 131}},
+    {24, -1, 0, 6, {6, 4, 2, 0, 10, 10}, 4, {134, 4, 7, 133}},
+    {25, -1, 0, 5, {6, 1, 2, 1, 4}, 5, {6, 1, 2, 1, 4}},
+    {26, -1, 0, 6, {6, 4, 2, 0, 10, 10}, 6, {6, 4, 2, 0, 10, 10}},
+    {27, -1, 0, 6, {6, 4, 2, 0, 0, 0}, 6, {6, 4, 2, 0, 0, 0}},
+    {28, -1, 0, 6, {6, 4, 5, 0, 1, 6}, 4, {134, 4, 6, 132}},
 };
 
 static const aio_vector_step_t aio_vectors_failsafe[] = {
@@ -117,7 +122,7 @@ static const aio_vector_step_t aio_vectors_i2c[] = {
 
 static const aio_vector_step_t aio_vectors_misc[] = {
     {6, -1, 0, 3, {1, 2, 3}, 5, {1, 2, 1, 2, 0}},
-    {7, -1, 0, 3, {1, 4, 5}, 13, {1, 4, 1, 0, 1, 15, 255, 0, 1, 194, 0, 128, 182}},
+    {7, -1, 0, 3, {1, 4, 5}, 13, {1, 4, 1, 0, 1, 31, 255, 0, 1, 194, 0, 128, 166}},
     {8, -1, 0, 3, {1, 3, 2}, 5, {1, 3, -1, -1, -1}},
     {9, -1, 0, 3, {1, 6, 7}, 6, {1, 6, 0, 0, 0, 7}},
     {10, -1, 0, 5, {1, 7, 18, 52, 32}, 5, {1, 7, 18, 52, 32}},
@@ -172,7 +177,7 @@ static const aio_vector_step_t aio_vectors_transaction[] = {
 
 static const aio_vector_file_t aio_vector_files[] = {
     {"analog", 0x0007, 8, aio_vectors_analog},
-    {"counter", 0x0007, 18, aio_vectors_counter},
+    {"counter", 0x0007, 23, aio_vectors_counter},
     {"failsafe", 0x0007, 10, aio_vectors_failsafe},
     {"gpio", 0x0007, 32, aio_vectors_gpio},
     {"i2c", 0x0007, 12, aio_vectors_i2c},

@@ -102,3 +102,24 @@ async def test_a_write_on_d2_arrives_as_a_change_of_its_jumper_d3(
         await out.write(False)
         assert (await board.gpio(D3).read()).fell
         assert changes.pending() == 0
+
+
+async def test_a_counter_reports_every_10_generated_pulses(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=1, baud=1_000_000)
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        counter = await board.counter(D2)
+        async with counter.reports(every=10) as reports:
+            await uno.pulses("D2", count=1000, high_us=200, low_us=300)  # 2 kHz for 0.5 s
+            got = []
+            with anyio.fail_after(20):
+                async for report in reports:
+                    got.append(report)
+                    if len(got) == 100:
+                        break
+        assert [r.count for r in got] == list(range(10, 1001, 10))
+        assert reports.missed == reports.dropped == 0
+        spacing = [b.timestamp_us - a.timestamp_us for a, b in itertools.pairwise(got)]
+        assert all(abs(s - 5000) <= 50 for s in spacing), (min(spacing), max(spacing))
+        assert await counter.read() == 1000
