@@ -50,6 +50,7 @@ from .handles import (
 from .protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
 from .protocol.pins import require as require_capable
 from .streaming import DEFAULT_BUFFER, SampleStream, stream_request
+from .transactions import Transaction
 from .transport import (
     DEFAULT_TIMEOUT,
     LinkState,
@@ -273,6 +274,11 @@ class Board:
         except FailsafeTrippedError:
             self._tripped()  # the refusal may be the first news of the trip
             raise
+
+    def transaction(self) -> Transaction:
+        """Requests run back to back in one frame: ``async with board.transaction() as tx:
+        d3 = tx.add(p.GpioRead(D3))`` (extension; see :mod:`arduinoio_async.transactions`)."""
+        return Transaction(self)
 
     def _check_free(self, pin: DigitalPin, handle: _PinHandle) -> None:
         current = self._roles.get(pin)

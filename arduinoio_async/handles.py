@@ -10,10 +10,20 @@ Values are checked before anything is sent, with errors that say what is allowed
 
 from __future__ import annotations
 
+from collections.abc import AsyncGenerator, AsyncIterator, Callable
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 from . import protocol as p
+from .changes import (
+    DEFAULT_CHANGE_BUFFER,
+    Change,
+    ChangeStream,
+    CountReports,
+    watch_changes,
+    watch_counter,
+)
 from .errors import StaleHandleError, ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
 
@@ -98,7 +108,49 @@ class DigitalOutput(_PinHandle):
         return reply.level
 
 
-class DigitalInput(_PinHandle):
+class _Watchable(_PinHandle):
+    """Input change events (extension, :mod:`arduinoio_async.changes`)."""
+
+    async def _as_input(self) -> None:
+        """Make the pin an input if it is not one (Gpio); DigitalInput already is."""
+
+    def watch(
+        self,
+        *,
+        buffer: int = DEFAULT_CHANGE_BUFFER,
+        callback: Callable[[Change], None] | None = None,
+    ) -> AbstractAsyncContextManager[ChangeStream]:
+        """``async with pin.watch() as changes: async for change in changes: ...``: the
+        board reports each change of this input until the block ends."""
+
+        @asynccontextmanager
+        async def scope() -> AsyncIterator[ChangeStream]:
+            await self._as_input()
+            async with watch_changes(self.board, self.pin, buffer, callback) as stream:
+                yield stream
+
+        return scope()
+
+    async def changes(self, *, buffer: int = DEFAULT_CHANGE_BUFFER) -> AsyncGenerator[Change, None]:
+        """``async for change in board.gpio(D3).changes():`` each change as it happens.
+
+        Leaving the loop early unsubscribes when the generator is closed (at once with
+        ``contextlib.aclosing``, else when the event loop finalizes it); :meth:`watch`
+        ends the subscription exactly at the end of its block.
+        """
+        async with self.watch(buffer=buffer) as stream:
+            async for change in stream:
+                yield change
+
+    def on_change(
+        self, callback: Callable[[Change], None]
+    ) -> AbstractAsyncContextManager[ChangeStream]:
+        """``async with pin.on_change(cb):`` calls ``cb(change)`` for each change while the
+        block runs (on the link's reader: keep it short; exceptions are logged)."""
+        return self.watch(callback=callback)
+
+
+class DigitalInput(_Watchable):
     """A digital input on D2-D13, optionally with pull-up."""
 
     ROLE = "digital input"
@@ -118,7 +170,7 @@ def _input_config(pin: DigitalPin, pull_up: bool) -> p.GpioConfig:
     return p.GpioConfig(pin, p.GpioFlags.PULL_UP if pull_up else p.GpioFlags.INPUT)
 
 
-class Gpio(_PinHandle):
+class Gpio(_Watchable):
     """A digital pin that becomes an output on its first write, an input on its first read.
 
     For robot code that just wants ``await board.gpio(D2).write(True)``.  Reading a pin
@@ -151,6 +203,10 @@ class Gpio(_PinHandle):
         self.check_usable()
         await self.board._configure(self.pin, self, _input_config(self.pin, pull_up))
         self.direction = "input"
+
+    async def _as_input(self) -> None:
+        if self.direction != "input":
+            await self.configure_input()
 
 
 class AnalogInput:
@@ -247,6 +303,14 @@ class Counter(_PinHandle):
         """Clear the counter; returns the count it had (read and clear are atomic)."""
         self.check_usable()
         return (await self.board.request(p.CounterReset(self.pin))).count
+
+    def reports(
+        self, every: int, *, buffer: int = DEFAULT_CHANGE_BUFFER
+    ) -> AbstractAsyncContextManager[CountReports]:
+        """``async with counter.reports(every=100) as reports: async for r in reports:``
+        the board reports the count every ``every`` counts (extension; 1-65535)."""
+        self.check_usable()
+        return watch_counter(self.board, self.pin, every, buffer)
 
 
 @dataclass

@@ -139,6 +139,12 @@ class Feature(IntFlag):
     EEPROM_ID = 0x0080
     STREAM = 0x0100
     FAILSAFE = 0x0200
+    #: GpioWatch and GpioChange events (extension, docs/protocol.md 7.4).
+    GPIO_CHANGES = 0x0400
+    #: TRANSACTION: several requests in one frame (extension, docs/protocol.md 7.5).
+    TRANSACTIONS = 0x0800
+    #: COUNTER WATCH and CounterReport events (extension, docs/protocol.md 7.4).
+    COUNTER_REPORTS = 0x1000
 
 
 #: The firmware answers nothing to a half-received frame until the line has been idle this

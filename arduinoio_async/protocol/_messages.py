@@ -54,8 +54,11 @@ __all__ = [
     "CounterConfigReply",
     "CounterRead",
     "CounterReadReply",
+    "CounterReport",
     "CounterReset",
     "CounterResetReply",
+    "CounterWatch",
+    "CounterWatchReply",
     "ErrorReply",
     "Event",
     "FailsafeArm",
@@ -65,10 +68,13 @@ __all__ = [
     "FailsafeSafeState",
     "FailsafeSafeStateReply",
     "FailsafeTripped",
+    "GpioChange",
     "GpioConfig",
     "GpioConfigReply",
     "GpioRead",
     "GpioReadReply",
+    "GpioWatch",
+    "GpioWatchReply",
     "GpioWrite",
     "GpioWriteReply",
     "I2CConfig",
@@ -104,6 +110,8 @@ __all__ = [
     "StreamStartReply",
     "StreamStop",
     "StreamStopReply",
+    "Transaction",
+    "TransactionReply",
     "WriteId",
     "WriteIdReply",
     "sample_payload_size",
@@ -339,6 +347,26 @@ class ReadPinRoles(Request[ReadPinRolesReply]):
     """Which digital pins are GPIO inputs, GPIO outputs, PWM (servo or software) or counters."""
 
 
+@_reply(ClassTag.MISC, 0x09)
+@dataclass(frozen=True, slots=True)
+class TransactionReply(Reply):
+    """Every item's reply frame (or error reply) without its checksum, in item order."""
+
+    results: Annotated[bytes, Blob(MAX_BLOB)]
+
+
+@_request(TransactionReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class Transaction(Request[TransactionReply]):
+    """Several requests run back to back on the board, one reply with every result.
+
+    ``items`` holds the request frames without their checksums (docs/protocol.md 7.5);
+    build it with :func:`~arduinoio_async.protocol.pack_items`.
+    """
+
+    items: Annotated[bytes, Blob(MAX_BLOB)]
+
+
 # ---- GPIO (0x02) --------------------------------------------------------------------------
 
 
@@ -417,6 +445,26 @@ class PinRelease(Request[PinReleaseReply]):
     """Free a digital pin from any role (GPIO, PWM, counter): it becomes a plain input."""
 
     pin: Annotated[int, U8]
+
+
+@_reply(ClassTag.GPIO, 0x05)
+@dataclass(frozen=True, slots=True)
+class GpioWatchReply(Reply):
+    pin: Annotated[int, U8]
+    enable: Annotated[bool, U8]
+
+
+@_request(GpioWatchReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class GpioWatch(Request[GpioWatchReply]):
+    """Report every change of a GPIO input as a GpioChange event (``enable`` 1) or stop.
+
+    The pin must be a GPIO input; the subscription ends with ``enable`` 0, a new
+    configuration of the pin, its release or a reset.
+    """
+
+    pin: Annotated[int, U8]
+    enable: Annotated[bool, U8]
 
 
 # ---- ANALOG (0x03) ------------------------------------------------------------------------
@@ -611,6 +659,22 @@ class CounterReset(Request[CounterResetReply]):
     pin: Annotated[int, U8]
 
 
+@_reply(ClassTag.COUNTER, 0x04)
+@dataclass(frozen=True, slots=True)
+class CounterWatchReply(Reply):
+    pin: Annotated[int, U8]
+    every: Annotated[int, U16]
+
+
+@_request(CounterWatchReply, extension=True)
+@dataclass(frozen=True, slots=True)
+class CounterWatch(Request[CounterWatchReply]):
+    """Send a CounterReport every ``every`` counts (0 stops); ends with a new CONFIG."""
+
+    pin: Annotated[int, U8]
+    every: Annotated[int, U16]
+
+
 # ---- STREAM (0x07, extension) ---------------------------------------------------------------
 
 
@@ -750,6 +814,45 @@ class FailsafeTripped(Event):
     """The link watchdog fired and applied the safe states."""
 
 
+@_event(0x03)
+@dataclass(frozen=True, slots=True)
+class GpioChange(Event):
+    """A watched input changed, seen by its pin-change interrupt (docs/protocol.md 7.4).
+
+    ``state`` is the level now and the edge that led to it (ROSE or FELL);
+    ``sequence`` counts every change event the board produced, sent or not (a full
+    transmit buffer drops one), so the host sees a loss as a gap; ``timestamp_us`` is
+    the board's clock when the interrupt ran.
+    """
+
+    pin: Annotated[int, U8]
+    state: Annotated[GpioState, U8]
+    sequence: Annotated[int, U16]
+    timestamp_us: Annotated[int, U32]
+
+    def __post_init__(self) -> None:
+        if self.state not in (GpioState.HIGH | GpioState.ROSE, GpioState.FELL):
+            raise ValueError(f"GPIO change state {int(self.state):#04x} is not an edge")
+
+    @property
+    def level(self) -> bool:
+        return bool(self.state & GpioState.HIGH)
+
+
+@_event(0x04)
+@dataclass(frozen=True, slots=True)
+class CounterReport(Event):
+    """A watched counter reached another ``every`` counts (docs/protocol.md 7.4).
+
+    ``count`` is the count when the interrupt ran; a report the transmit buffer had no
+    room for is dropped, which the next report's count shows.
+    """
+
+    pin: Annotated[int, U8]
+    count: Annotated[int, U32]
+    timestamp_us: Annotated[int, U32]
+
+
 # ---- error replies ----------------------------------------------------------------------------
 
 
@@ -803,12 +906,14 @@ IDEMPOTENT_WRITES: tuple[type[Request[Any]], ...] = (
     SetSession,
     GpioConfig,
     GpioWrite,
+    GpioWatch,
     PinRelease,
     I2CConfig,
     PwmConfig,
     PwmSet,
     FailsafeSafeState,
     FailsafeDisarm,
+    CounterWatch,
 )
 for _cls in READ_ONLY_REQUESTS:
     _cls.READS_ONLY = True

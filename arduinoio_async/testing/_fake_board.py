@@ -32,6 +32,7 @@ _SOFT_PWM = pin_mask(Function.SOFT_PWM)
 _SERVO = pin_mask(Function.SERVO_PWM)
 _COUNTER = pin_mask(Function.COUNTER)
 _INPUT = pin_mask(Function.DIGITAL_INPUT)
+_CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 def _has(mask: int, pin: int) -> bool:
@@ -45,6 +46,9 @@ class _Pin:
     rose: bool = False
     fell: bool = False
     edge: p.Edge = p.Edge.RISING  # what a counter on this pin counts
+    watched: bool = False  # GpioWatch: its changes are sent as GpioChange events
+    report_every: int = 0  # CounterWatch: a CounterReport every this many counts
+    since_report: int = 0
 
 
 @dataclass
@@ -67,6 +71,9 @@ class FakeBoard:
     #: Replies whose bytes the faults changed (dropped, inserted, flipped, garbage).
     corrupted_replies: int = 0
     session: int = 0
+    #: GpioChange and CounterReport events dropped because the modelled transmit buffer
+    #: was full.
+    changes_dropped: int = 0
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
@@ -81,6 +88,12 @@ class FakeBoard:
         self._booted = 0.0
         self.stream = StreamModel()
         self.failsafe = FailsafeModel()
+        self.change_sequence = 0
+        # The firmware sends change events from its interrupt into the transmit buffer,
+        # dropping one that does not fit: a bounded queue models that buffer.
+        self._changes_in, self._changes_out = anyio.create_memory_object_stream[p.Event](
+            p.TX_BUFFER_SIZE // _CHANGE_FRAME_BYTES
+        )
         self._handlers: dict[type[Any], Callable[[Any], p.Frame]] = {
             p.Reset: self._reset,
             p.ReadId: lambda r: p.ReadIdReply(self.board_id),
@@ -93,6 +106,7 @@ class FakeBoard:
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
             p.GpioWrite: self._gpio_write,
+            p.GpioWatch: self._gpio_watch,
             p.PinRelease: self._release,
             p.AnalogRead: self._analog_read,
             p.AnalogReadAll: lambda r: p.AnalogReadAllReply(tuple(self.analog)),
@@ -104,11 +118,13 @@ class FakeBoard:
             p.CounterConfig: self._counter_config,
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
+            p.CounterWatch: self._counter_watch,
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
             p.FailsafeSafeState: self._failsafe_safe_state,
             p.FailsafeDisarm: self._failsafe_disarm,
+            p.Transaction: self._transaction,
         }
 
     async def __aenter__(self) -> FakeBoard:
@@ -117,6 +133,7 @@ class FakeBoard:
         self._booted = anyio.current_time()
         self._task_group.start_soon(self._serve, self._board_stream)
         self._task_group.start_soon(self._watchdog)
+        self._task_group.start_soon(self._send_changes)
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
@@ -146,7 +163,41 @@ class FakeBoard:
             else:
                 self.stream.fell |= 1 << pin
             if pin in self.counters and state.role == "counter":
-                self.counters[pin] += level == (state.edge is p.Edge.RISING)
+                counted = level == (state.edge is p.Edge.RISING)
+                self.counters[pin] += counted
+                if counted and state.report_every:
+                    self._report_count(pin, state)
+            if state.watched and state.role == "input":
+                self._report_change(pin, level)
+
+    def _report_change(self, pin: int, level: bool) -> None:
+        edge = p.GpioState.HIGH | p.GpioState.ROSE if level else p.GpioState.FELL
+        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
+        event = p.GpioChange(pin, edge, self.change_sequence, board_us)
+        self.change_sequence = (self.change_sequence + 1) & 0xFFFF
+        try:
+            self._changes_in.send_nowait(event)
+        except anyio.WouldBlock:
+            self.changes_dropped += 1  # its sequence number is used up, as on the board
+
+    def _report_count(self, pin: int, state: _Pin) -> None:
+        state.since_report += 1
+        if state.since_report < state.report_every:
+            return
+        state.since_report = 0
+        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
+        report = p.CounterReport(pin, self.counters[pin] & 0xFFFFFFFF, board_us)
+        try:
+            self._changes_in.send_nowait(report)
+        except anyio.WouldBlock:
+            self.changes_dropped += 1
+
+    async def _send_changes(self) -> None:
+        async for event in self._changes_out:
+            try:
+                await self._send(self._board_stream, event.encode())
+            except (anyio.BrokenResourceError, anyio.ClosedResourceError):
+                return
 
     def role(self, pin: int) -> str:
         return self._pins[pin].role
@@ -291,6 +342,7 @@ class FakeBoard:
         pin.role = "output" if output else "input"
         pin.pull_up = bool(flags & p.GpioFlags.PULL_UP)
         pin.rose = pin.fell = False
+        pin.watched = False  # a new configuration ends a subscription
         if output:
             self.levels[request.pin] = bool(flags & p.GpioFlags.INITIAL_HIGH)
         elif pin.pull_up and request.pin not in self._driven:
@@ -316,6 +368,32 @@ class FakeBoard:
             return self._error(request, E.PIN_NOT_CONFIGURED)
         self.levels[request.pin] = request.value
         return p.GpioWriteReply(request.pin, request.value)
+
+    def _gpio_watch(self, request: p.GpioWatch) -> p.Frame:
+        if not _has(_DIGITAL, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        pin = self._pins[request.pin]
+        if pin.role != "input":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        pin.watched = request.enable
+        return p.GpioWatchReply(request.pin, request.enable)
+
+    def _transaction(self, request: p.Transaction) -> p.Frame:
+        """The firmware's order: check the whole list, then run the items one by one."""
+        items = _split_items(request.items)
+        if items is None:
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        results = bytearray()
+        for raw in items:
+            layout = p.REQUEST_TYPES[(raw[0], raw[1])].LAYOUT
+            try:
+                item = layout.decode(raw + bytes((p.checksum(raw),)))
+            except ValueError:
+                reply: p.Frame = p.ErrorReply(raw[0], raw[1], E.VALUE_OUT_OF_RANGE)
+            else:
+                reply = self._answer(item)
+            results += reply.encode()[:-1]
+        return p.TransactionReply(bytes(results))
 
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not _has(_DIGITAL, request.pin):
@@ -390,6 +468,7 @@ class FakeBoard:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         state.role = "counter"
         state.edge = p.Edge(request.edge)
+        state.report_every = state.since_report = 0  # a new configuration ends a watch
         self.counters[request.pin] = 0
         return p.CounterConfigReply(request.pin, request.edge)
 
@@ -403,6 +482,15 @@ class FakeBoard:
             self.counters[request.pin] = 0
             return p.CounterResetReply(request.pin, count)
         return p.CounterReadReply(request.pin, count)
+
+    def _counter_watch(self, request: p.CounterWatch) -> p.Frame:
+        if not _has(_COUNTER, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        state = self._pins[request.pin]
+        if state.role != "counter":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        state.report_every, state.since_report = request.every, 0
+        return p.CounterWatchReply(request.pin, request.every)
 
     # ---- extensions: stream and failsafe ----------------------------------------------------
 
@@ -486,11 +574,42 @@ class FakeBoard:
             await self._send(self._board_stream, p.FailsafeTripped().encode())
 
 
+def _split_items(items: bytes) -> list[bytes] | None:
+    """The items of a transaction, or None when the board refuses the list as a whole
+    (unknown tags, a cut item, RESET or TRANSACTION inside, results over MAX_BLOB)."""
+    out: list[bytes] = []
+    pos = need = 0
+    while pos < len(items):
+        if len(items) - pos < 2:
+            return None
+        cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
+        if cls is None or cls in (p.Reset, p.Transaction):
+            return None
+        layout = cls.LAYOUT
+        size = layout.base_size - 1
+        if layout.length_offset >= 0:
+            if (
+                pos + layout.length_offset >= len(items)
+                or items[pos + layout.length_offset] > p.MAX_BLOB
+            ):
+                return None
+            size += items[pos + layout.length_offset]
+        if pos + size > len(items):
+            return None
+        result = cls.REPLY.LAYOUT.base_size - 1
+        if cls is p.I2CRead:
+            result += min(items[pos + 4], p.MAX_BLOB + 1)
+        need += max(result, p.ErrorReply.SIZE - 1)
+        out.append(items[pos : pos + size])
+        pos += size
+    return out if out and need <= p.MAX_BLOB else None
+
+
 def _changes_output(request: p.Frame) -> bool:
     """Requests the firmware refuses while its failsafe is tripped (``dispatch.c``)."""
     tag = request.LAYOUT.class_tag
     if tag == p.ClassTag.GPIO:
-        return not isinstance(request, p.GpioRead)
+        return not isinstance(request, p.GpioRead | p.GpioWatch)
     return tag == p.ClassTag.PWM
 
 

@@ -129,6 +129,8 @@ async def firmata_booted(uno: VirtualUno) -> None:
 AIO = "arduinoio"
 A_SEQUENTIAL = "arduinoio_async: write, then read"
 A_PIPELINED = "arduinoio_async: write + read pipelined"
+A_EVENT = "arduinoio_async: write + change event"
+A_TRANSACTION = "arduinoio_async: write + read in one transaction"
 
 
 @asynccontextmanager
@@ -160,6 +162,50 @@ async def project_a(uno: VirtualUno, n: int, pipelined: bool) -> list[float]:
             samples.append((time.perf_counter() - t0) * 1e3)
             if state.level != level:
                 raise AssertionError(f"D3 reads {state.level}, D2 was set to {level}")
+    return samples
+
+
+async def project_a_event(uno: VirtualUno, n: int) -> list[float]:
+    """D2 written, D3 watched: the host knows D3 when the board's change event arrives
+    (it is sent from the pin-change interrupt, before the write's reply)."""
+    samples = []
+    async with project_board(uno) as board:
+        d2 = board.gpio(D2)
+        level = False
+        await d2.write(level)
+        async with board.gpio(D3).watch() as changes:
+            for _ in range(n):
+                await anyio.sleep(random.uniform(0.0, 0.005))
+                level = not level
+                t0 = time.perf_counter()
+                async with anyio.create_task_group() as tg:
+                    tg.start_soon(d2.write, level)
+                    change = await changes.__anext__()
+                    samples.append((time.perf_counter() - t0) * 1e3)
+                if change.level != level or change.pin != 3:
+                    raise AssertionError(f"D3 changed to {change.level}, D2 was set to {level}")
+            if changes.lost:
+                raise AssertionError(f"{changes.lost} change events lost")
+    return samples
+
+
+async def project_a_transaction(uno: VirtualUno, n: int) -> list[float]:
+    """D2 written and D3 read in one TRANSACTION frame, run back to back on the board."""
+    samples = []
+    async with project_board(uno) as board:
+        await board.digital_output(D2)
+        await board.digital_input(D3)
+        level = False
+        for _ in range(n):
+            await anyio.sleep(random.uniform(0.0, 0.005))
+            level = not level
+            t0 = time.perf_counter()
+            async with board.transaction() as tx:
+                tx.add(p.GpioWrite(D2, level))
+                read = tx.add(p.GpioRead(D3))
+            samples.append((time.perf_counter() - t0) * 1e3)
+            if read.result().level != level:
+                raise AssertionError(f"D3 reads {read.result().level}, D2 was set to {level}")
     return samples
 
 
@@ -312,6 +358,10 @@ class Bench:
                     for name, pipelined in ((A_SEQUENTIAL, False), (A_PIPELINED, True)):
                         got_ms = await project_a(aio, per_round, pipelined)
                         samples.setdefault((name, "a", link), []).extend(got_ms)
+                    got_ms = await project_a_event(aio, per_round)
+                    samples.setdefault((A_EVENT, "a", link), []).extend(got_ms)
+                    got_ms = await project_a_transaction(aio, per_round)
+                    samples.setdefault((A_TRANSACTION, "a", link), []).extend(got_ms)
                     got_ms = await project_b(aio, per_round)
                     key = ("arduinoio_async: read ID", "b", link)
                     samples.setdefault(key, []).extend(got_ms)

@@ -25,7 +25,7 @@ uint8_t dispatch_error(uint8_t ct, uint8_t dt, uint8_t code, uint8_t *frame)
 static uint8_t changes_output(const aio_request_t *rq)
 {
     if (rq->ct == AIO_CT_GPIO)
-        return rq->dt != AIO_DT_GPIO_READ;
+        return rq->dt != AIO_DT_GPIO_READ && rq->dt != AIO_DT_GPIO_WATCH;
     return rq->ct == AIO_CT_PWM;
 }
 

@@ -4,6 +4,13 @@
  * Inputs are watched by pin-change interrupts: gpio_pin_change() latches
  * rising and falling edges per pin until a READ of that pin (and, separately,
  * until the next stream sample).
+ *
+ * Watched inputs (GPIO_WATCH, protocol.md 7.4) also report each change the
+ * interrupt sees as a GPIO_CHANGE event, sent from the interrupt itself: one
+ * event per pin and interrupt, stamped with the board clock.  A pulse shorter
+ * than the interrupt's latency shows no change and is not reported; an event
+ * that does not fit the transmit buffer is dropped, its sequence number used
+ * up, so the host sees the loss as a gap.
  */
 #include "gpio.h"
 
@@ -14,13 +21,43 @@ static volatile uint16_t watch;       /* GPIO inputs */
 static volatile uint16_t last_levels;
 static volatile uint16_t rose, fell;  /* for READ */
 static volatile uint16_t s_rose, s_fell; /* for stream samples */
+static volatile uint16_t notify;      /* watched inputs: GPIO_CHANGE events */
+static uint16_t change_seq;           /* sequence number of the next event */
 
 void gpio_init(void)
 {
     watch = 0;
-    rose = fell = s_rose = s_fell = 0;
+    rose = fell = s_rose = s_fell = notify = 0;
+    change_seq = 0;
     last_levels = 0;
     hal_edge_watch(0);
+}
+
+/* One GPIO_CHANGE event per changed watched pin (interrupt context). */
+static void report(uint16_t changed, uint16_t levels) __attribute__((noinline));
+static void report(uint16_t changed, uint16_t levels)
+{
+    uint8_t frame[AIO_REPLY_LEN_EVENT_GPIO_CHANGE + 3u], *p, pin, i, cs;
+    uint32_t now = hal_micros();
+
+    for (pin = 2; pin < 14; pin++) {
+        if (!(changed >> pin & 1u))
+            continue;
+        p = frame;
+        *p++ = AIO_CT_EVENT;
+        *p++ = AIO_DT_EVENT_GPIO_CHANGE;
+        *p++ = pin;
+        *p++ = (levels >> pin & 1u) ? (uint8_t)(AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE)
+                                    : (uint8_t)AIO_GPIO_STATE_FELL;
+        p = aio_put16(p, change_seq);
+        change_seq++;
+        p = aio_put32(p, now);
+        cs = 0;
+        for (i = 0; i < sizeof frame - 1u; i++)
+            cs ^= frame[i];
+        *p = cs;
+        hal_tx_send(frame, sizeof frame); /* dropped if it does not fit */
+    }
 }
 
 void gpio_pin_change(uint16_t levels)
@@ -31,6 +68,8 @@ void gpio_pin_change(uint16_t levels)
     fell |= (uint16_t)(changed & ~levels);
     s_rose |= (uint16_t)(changed & levels);
     s_fell |= (uint16_t)(changed & ~levels);
+    if (changed & notify)
+        report((uint16_t)(changed & notify), levels);
 }
 
 void gpio_take_stream_edges(uint16_t *r, uint16_t *f)
@@ -50,6 +89,7 @@ static void set_watch(uint8_t pin, uint8_t on)
         watch |= bit;
     else
         watch &= (uint16_t)~bit;
+    notify &= (uint16_t)~bit; /* a new role or configuration ends a subscription */
     last_levels = (uint16_t)((last_levels & ~bit) | (hal_pin_levels() & bit));
     rose &= (uint16_t)~bit;
     fell &= (uint16_t)~bit;
@@ -93,7 +133,7 @@ static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp)
     uint16_t bit;
 
     if (rq->dt != AIO_DT_GPIO_CONFIG && rq->dt != AIO_DT_GPIO_READ &&
-        rq->dt != AIO_DT_GPIO_PIN_RELEASE)
+        rq->dt != AIO_DT_GPIO_PIN_RELEASE && rq->dt != AIO_DT_GPIO_WATCH)
         return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
         return AIO_ERR_PIN_NOT_CAPABLE;
@@ -137,6 +177,18 @@ static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp)
         rp->data[1] = state;
         rp->len = 2;
         return 0;
+    case AIO_DT_GPIO_WATCH:
+        if (arg > 1)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        if (role != ROLE_GPIO_IN)
+            return AIO_ERR_PIN_NOT_CONFIGURED;
+        s = hal_irq_save();
+        if (arg)
+            notify |= bit;
+        else
+            notify &= (uint16_t)~bit;
+        hal_irq_restore(s);
+        return aio_echo(rq, rp);
     default: /* AIO_DT_GPIO_PIN_RELEASE */
         pins_release(pin);
         return aio_echo(rq, rp);

@@ -8,6 +8,7 @@
 #include "hal.h"
 #include "pins.h"
 #include "stream.h"
+#include "transaction.h"
 
 #ifndef BAUD
 #define BAUD 115200UL
@@ -16,7 +17,8 @@
 #define FEATURES                                                                         \
     (AIO_FEATURE_GPIO | AIO_FEATURE_ANALOG | AIO_FEATURE_I2C | AIO_FEATURE_SERVO_PWM |   \
      AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
-     AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE)
+     AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE | AIO_FEATURE_GPIO_CHANGES | \
+     AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS)
 
 uint8_t misc_reset_pending;
 static uint16_t session;
@@ -77,6 +79,8 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         session = aio_be16(rq->data);
         p = aio_put16(p, session);
         break;
+    case AIO_DT_MISC_TRANSACTION:
+        return transaction_handle(rq, rp);
     case AIO_DT_MISC_READ_PIN_ROLES:
         p = aio_put16(p, role_mask(ROLE_GPIO_IN));
         p = aio_put16(p, role_mask(ROLE_GPIO_OUT));

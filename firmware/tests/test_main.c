@@ -113,7 +113,7 @@ static void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x03, 0xFF, 0x00, 0x01, 0xC2,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x1F, 0xFF, 0x00, 0x01, 0xC2,
                      0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
@@ -133,6 +133,152 @@ static void test_misc(void)
     take();
     EXPECT(outn == 3 && out[0] == 1 && out[1] == 1 && out[2] == 0);
     EXPECT(fake_reset_done);
+}
+
+/* GPIO_WATCH and the GPIO_CHANGE events sent from the pin-change interrupt */
+static void expect_change(int line, uint8_t pin, uint8_t state, uint16_t seq, uint32_t us)
+{
+    uint8_t want[11] = {AIO_CT_EVENT, AIO_DT_EVENT_GPIO_CHANGE, pin, state,
+                        (uint8_t)(seq >> 8), (uint8_t)seq, (uint8_t)(us >> 24),
+                        (uint8_t)(us >> 16), (uint8_t)(us >> 8), (uint8_t)us, 0};
+    want[10] = xor_of(want, 10);
+    take();
+    checks++;
+    if (outn != 11 || memcmp(out, want, 11)) {
+        failures++;
+        printf("%s:%d: FAIL\n", __FILE__, line);
+        dump("expected", want, 11);
+        dump("got", out, outn);
+    }
+}
+
+static void test_gpio_changes(void)
+{
+    board();
+    CHECK(B(2, 5, 7, 1), B(0x82, 5, AIO_ERR_PIN_NOT_CONFIGURED)); /* not an input */
+    CHECK(B(2, 1, 13, 0x01), B(2, 1, 13, 0x01));
+    CHECK(B(2, 5, 13, 1), B(0x82, 5, AIO_ERR_PIN_NOT_CONFIGURED)); /* an output */
+    CHECK(B(2, 5, 1, 1), B(0x82, 5, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 1, 7, 0x00), B(2, 1, 7, 0x00));
+    CHECK(B(2, 5, 7, 2), B(0x82, 5, AIO_ERR_VALUE_OUT_OF_RANGE));
+    fake_drive(7, 1); /* not watched yet: no event */
+    take();
+    EXPECT(outn == 0);
+    CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
+    fake_fine_now = 2u * 1234u;
+    fake_drive(7, 0);
+    expect_change(__LINE__, 7, AIO_GPIO_STATE_FELL, 0, 1234);
+    fake_drive(7, 0); /* no change, no event */
+    take();
+    EXPECT(outn == 0);
+    fake_fine_now = 2u * 5000u;
+    fake_drive(7, 1);
+    expect_change(__LINE__, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE, 1, 5000);
+    /* the READ latch is independent of the events */
+    CHECK(B(2, 2, 7), B(2, 2, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE | AIO_GPIO_STATE_FELL));
+    /* a full transmit buffer drops the event; its sequence number is used up */
+    fake_tx_capacity = 5;
+    fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
+    fake_tx_capacity = 192;
+    fake_drive(7, 1);
+    expect_change(__LINE__, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE, 3, 5000);
+    /* unsubscribe */
+    CHECK(B(2, 5, 7, 0), B(2, 5, 7, 0));
+    fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
+    /* reconfiguring or releasing ends the subscription */
+    CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
+    CHECK(B(2, 1, 7, 0x04), B(2, 1, 7, 0x04));
+    fake_drive(7, 1);
+    take();
+    EXPECT(outn == 0);
+    CHECK(B(2, 5, 7, 1), B(2, 5, 7, 1));
+    CHECK(B(2, 4, 7), B(2, 4, 7));
+    fake_drive(7, 0);
+    take();
+    EXPECT(outn == 0);
+}
+
+/* COUNTER WATCH: a COUNTER_REPORT from the counter's interrupt every N counts */
+static void test_counter_reports(void)
+{
+    uint8_t i;
+    board();
+    CHECK(B(6, 4, 2, 0, 3), B(0x86, 4, AIO_ERR_PIN_NOT_CONFIGURED)); /* not a counter */
+    CHECK(B(6, 4, 4, 0, 3), B(0x86, 4, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(6, 1, 2, AIO_EDGE_RISING), B(6, 1, 2, AIO_EDGE_RISING));
+    CHECK(B(6, 4, 2, 0, 3), B(6, 4, 2, 0, 3));
+    fake_fine_now = 2u * 777u;
+    for (i = 0; i < 7; i++) {
+        fake_drive(2, 1);
+        fake_drive(2, 0);
+        take();
+        if (i == 2 || i == 5) {
+            uint8_t want[12] = {AIO_CT_EVENT, AIO_DT_EVENT_COUNTER_REPORT, 2, 0, 0, 0,
+                                (uint8_t)(i + 1), 0, 0, 0x03, 0x09, 0};
+            want[11] = xor_of(want, 11);
+            EXPECT(outn == 12 && !memcmp(out, want, 12));
+        } else {
+            EXPECT(outn == 0);
+        }
+    }
+    CHECK(B(6, 4, 2, 0, 0), B(6, 4, 2, 0, 0)); /* stop */
+    for (i = 0; i < 4; i++) {
+        fake_drive(2, 1);
+        fake_drive(2, 0);
+    }
+    take();
+    EXPECT(outn == 0);
+    CHECK(B(6, 2, 2), B(6, 2, 2, 0, 0, 0, 11));
+    /* a new configuration ends the watch */
+    CHECK(B(6, 4, 2, 0, 1), B(6, 4, 2, 0, 1));
+    CHECK(B(6, 1, 2, AIO_EDGE_RISING), B(6, 1, 2, AIO_EDGE_RISING));
+    fake_drive(2, 1);
+    take();
+    EXPECT(outn == 0);
+}
+
+/* ------------------------------------------------------------ TRANSACTION */
+static void test_transaction(void)
+{
+    board();
+    CHECK(B(2, 1, 13, 0x01), B(2, 1, 13, 0x01));
+    CHECK(B(2, 1, 7, 0x00), B(2, 1, 7, 0x00));
+    fake_drive(7, 1);
+    /* write D13, read it back, read D7: back to back, every result in order */
+    CHECK(B(1, 9, 10, 2, 3, 13, 0, 2, 2, 13, 2, 2, 7),
+          B(1, 9, 12, 2, 3, 13, 0, 2, 2, 13, 0, 2, 2, 7, AIO_GPIO_STATE_HIGH | AIO_GPIO_STATE_ROSE));
+    EXPECT(fake_pin_level[13] == 0);
+    /* a refused item leaves its error reply; the next item still runs */
+    CHECK(B(1, 9, 8, 2, 3, 7, 1, 2, 3, 13, 1),
+          B(1, 9, 7, 0x82, 3, AIO_ERR_PIN_NOT_CONFIGURED, 2, 3, 13, 1));
+    EXPECT(fake_pin_level[13] == 1);
+    /* the whole list is checked first: a refused list changes nothing */
+    CHECK(B(1, 9, 0), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE));                  /* empty */
+    CHECK(B(1, 9, 6, 2, 3, 13, 0, 2, 9), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* unknown */
+    CHECK(B(1, 9, 6, 2, 3, 13, 0, 2, 2), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* cut */
+    CHECK(B(1, 9, 6, 2, 3, 13, 0, 1, 1), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* reset */
+    CHECK(B(1, 9, 7, 2, 3, 13, 0, 1, 9, 0), B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE)); /* nested */
+    CHECK(B(1, 9, 10, 2, 3, 13, 0, 3, 3, 3, 3, 3, 3), /* 4 + 3 x 14 result bytes > 32 */
+          B(0x81, 9, AIO_ERR_VALUE_OUT_OF_RANGE));
+    EXPECT(fake_pin_level[13] == 1);
+    /* variable-length items: an I2C write of two bytes (bus off: a per-item error) */
+    CHECK(B(1, 9, 7, 4, 3, 0x50, 0, 2, 0xAA, 0xBB),
+          B(1, 9, 3, 0x84, 3, AIO_ERR_I2C_NOT_CONFIGURED));
+    /* six servo widths at once */
+    board();
+    {
+        uint8_t pin;
+        for (pin = 2; pin <= 7; pin++)
+            CHECK(B(5, 1, pin, 0, 0), B(5, 1, pin, 0, 0));
+    }
+    CHECK(B(1, 9, 30, 5, 2, 2, 0x05, 0xDC, 5, 2, 3, 0x05, 0xDD, 5, 2, 4, 0x05, 0xDE, 5, 2, 5,
+            0x05, 0xDF, 5, 2, 6, 0x05, 0xE0, 5, 2, 7, 0x05, 0xE1),
+          B(1, 9, 30, 5, 2, 2, 0x05, 0xDC, 5, 2, 3, 0x05, 0xDD, 5, 2, 4, 0x05, 0xDE, 5, 2, 5,
+            0x05, 0xDF, 5, 2, 6, 0x05, 0xE0, 5, 2, 7, 0x05, 0xE1));
 }
 
 /* ------------------------------------------------------------ GPIO */
@@ -855,6 +1001,9 @@ int main(void)
     test_table();
     test_misc();
     test_gpio();
+    test_gpio_changes();
+    test_transaction();
+    test_counter_reports();
     test_analog();
     test_i2c();
     test_pwm();

@@ -53,8 +53,9 @@ def test_peer_benchmark_tiny_run_writes_rows_and_renders(tmp_path: Path) -> None
             for r in project:
                 assert isinstance(r["p50_ms"], float) and r["p50_ms"] > 0
                 assert isinstance(r["mean_ms"], float) and r["rate_per_s"] is None
-        # (a) is measured two ways; (c) at 115200 and 1,000,000 baud; (d) 1 and 8 tasks
-        assert len(find("arduinoio", "a", link)) == 2
+        # (a) is measured four ways (write then read, pipelined, change event, one
+        # transaction); (c) at 115200 and 1,000,000 baud; (d) 1 and 8 tasks
+        assert len(find("arduinoio", "a", link)) == 4
         assert {r["baud"] for r in find("arduinoio", "c", link)} == {115200, 1000000}
         assert all("lost 0" in str(r["client"]) for r in find("arduinoio", "c", link))
         writes = find("arduinoio", "d", link)

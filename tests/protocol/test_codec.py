@@ -215,6 +215,16 @@ def test_a_stream_sample_with_a_payload_that_contradicts_its_mask_is_garbage() -
     assert not frames_of(out)
 
 
+@pytest.mark.parametrize("state", [0x00, 0x01, 0x02, 0x05, 0x06, 0x07])
+def test_a_gpio_change_that_is_not_one_edge_is_garbage(state: int) -> None:
+    good = p.GpioChange(pin=3, state=p.GpioState.FELL, sequence=9, timestamp_us=1234)
+    raw = bytearray(good.encode())
+    raw[3] = state  # only HIGH|ROSE (0x03) and FELL (0x04) describe one change
+    raw[-1] = p.checksum(raw[:-1])
+    out = p.Decoder.from_board().feed(bytes(raw))
+    assert not frames_of(out)
+
+
 def test_stream_admission_rule_matches_the_documented_limits() -> None:
     four = 0b1111
     assert p.stream_min_period_us(four, p.StreamFlags.NONE, 115200) == 2350

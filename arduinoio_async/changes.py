@@ -1,0 +1,275 @@
+"""Input change events pushed by the board (protocol extension, docs/protocol.md 7.4).
+
+A watched GPIO input reports each change its pin-change interrupt sees as a
+:class:`~arduinoio_async.protocol.GpioChange` frame, so the host learns of an edge one
+frame time after it happened instead of one round trip after it asked.  The rules:
+
+* **Coalescing (board)**: the interrupt compares the levels with the levels it saw last;
+  one event per changed pin and interrupt.  A pulse shorter than the interrupt's latency
+  (a few microseconds) shows no change and is not reported; two pins changing together
+  give two events with the same timestamp.
+* **Overflow (board)**: an event that does not fit the transmit buffer is dropped; its
+  sequence number is used up, so the host counts it in :attr:`ChangeStream.gaps`.  The
+  sequence numbers count the events of all watched pins of the board together, so a gap
+  names no pin: a consumer that needs every edge of one pin watches only that pin.
+* **Overflow (host)**: when the consumer falls behind and ``buffer`` changes wait, the
+  **oldest** is dropped (the newest level is the one that matters) and counted in
+  :attr:`ChangeStream.dropped`.
+* A callback (:meth:`Gpio.on_change <arduinoio_async.handles.Gpio.on_change>`) runs on the
+  link's reader for each change; an exception in it is logged and never reaches the link.
+
+The subscription ends with the ``watch`` block, a new configuration of the pin, its
+release, or a reset of the board (a reconnect does not restore it).
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import logging
+import time
+import weakref
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import anyio
+
+from . import protocol as p
+from .errors import ArduinoIOError, BoardDisconnectedError, ValueRangeError
+from .transport import LinkState, Transport
+
+if TYPE_CHECKING:
+    from .board import Board
+    from .protocol.pins import DigitalPin
+
+__all__ = [
+    "DEFAULT_CHANGE_BUFFER",
+    "Change",
+    "ChangeStream",
+    "CountReports",
+    "watch_changes",
+    "watch_counter",
+]
+
+logger = logging.getLogger(__name__)
+
+DEFAULT_CHANGE_BUFFER = 1000
+
+
+@dataclass(frozen=True, slots=True)
+class Change:
+    """One change of a watched input, as its pin-change interrupt saw it."""
+
+    pin: int
+    #: The level after the change: True after a rising edge, False after a falling one.
+    level: bool
+    #: The board's sequence number of the event (all watched pins share the count).
+    sequence: int
+    #: The board's microsecond clock when the interrupt ran (wraps after 71 minutes).
+    board_time_us: int
+    #: ``time.monotonic()`` when the frame was decoded on the host.
+    host_time: float
+
+    @property
+    def rose(self) -> bool:
+        return self.level
+
+    @property
+    def fell(self) -> bool:
+        return not self.level
+
+    @classmethod
+    def from_event(cls, event: p.GpioChange, host_time: float) -> Change:
+        return cls(event.pin, event.level, event.sequence, event.timestamp_us, host_time)
+
+
+class ChangeStream:
+    """Async iterator over the changes of one pin (see the module docstring for the rules).
+
+    With ``callback`` the changes go to it instead of the buffer.
+    """
+
+    def __init__(
+        self,
+        link: Transport,
+        pin: int,
+        buffer: int = DEFAULT_CHANGE_BUFFER,
+        callback: Callable[[Change], None] | None = None,
+    ) -> None:
+        if buffer < 1:
+            raise ValueRangeError("change buffer (changes)", buffer, "1 and up")
+        self.pin = pin
+        self.buffer_size = buffer
+        self.received = 0
+        self.gaps = 0
+        self.dropped = 0
+        self._callback = callback
+        self._buffer: collections.deque[Change] = collections.deque()
+        self._arrived = anyio.Event()
+        self._expected: int | None = None
+        self._closed: BaseException | None = None
+        self._unsubscribe = link.subscribe(self._on_event)
+        self._stop_state = link.on_state_change(self._on_state)
+
+    @property
+    def lost(self) -> int:
+        """Changes that never reached the consumer: sequence gaps plus buffer overflow."""
+        return self.gaps + self.dropped
+
+    def _on_event(self, event: p.Event) -> None:
+        if not isinstance(event, p.GpioChange):
+            return
+        if self._expected is not None and event.sequence != self._expected:
+            self.gaps += (event.sequence - self._expected) & 0xFFFF
+        self._expected = (event.sequence + 1) & 0xFFFF
+        if event.pin != self.pin:
+            return
+        change = Change.from_event(event, time.monotonic())
+        self.received += 1
+        if self._callback is not None:
+            try:
+                self._callback(change)
+            except Exception:  # a user's bug must not hurt the link
+                logger.exception("change callback %r failed on %r", self._callback, change)
+            return
+        if len(self._buffer) >= self.buffer_size:
+            self._buffer.popleft()
+            self.dropped += 1
+        self._buffer.append(change)
+        self._arrived.set()
+
+    def _on_state(self, state: LinkState) -> None:
+        if state is LinkState.CLOSED:
+            self._closed = BoardDisconnectedError("the link closed while watching changes")
+            self._arrived.set()
+
+    def __aiter__(self) -> ChangeStream:
+        return self
+
+    async def __anext__(self) -> Change:
+        while not self._buffer:
+            if self._closed is not None:
+                raise self._closed
+            self._arrived = anyio.Event()
+            await self._arrived.wait()
+        return self._buffer.popleft()
+
+    def pending(self) -> int:
+        """Changes buffered and not yet consumed."""
+        return len(self._buffer)
+
+    def detach(self) -> None:
+        self._unsubscribe()
+        self._stop_state()
+
+
+@asynccontextmanager
+async def watch_changes(
+    board: Board,
+    pin: DigitalPin,
+    buffer: int = DEFAULT_CHANGE_BUFFER,
+    callback: Callable[[Change], None] | None = None,
+) -> AsyncIterator[ChangeStream]:
+    """Subscribe ``pin`` (already a GPIO input) for the block; unsubscribe after it."""
+    link = board.link
+    stream = ChangeStream(link, pin, buffer, callback)
+    watchers = _watchers.setdefault(board, collections.Counter())
+    watchers[pin] += 1  # the board's subscription ends with the last watcher of the pin
+    try:
+        await board.request(p.GpioWatch(pin, True))
+        yield stream
+    finally:
+        watchers[pin] -= 1
+        try:
+            if not watchers[pin]:
+                # a failure means the link is gone or the pin was reconfigured: nothing
+                # is watched any more either way
+                with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
+                    await link.request(p.GpioWatch(pin, False))
+        finally:
+            stream.detach()
+
+
+#: Watchers per board and pin, so that one block's end keeps the others' subscription.
+_watchers: weakref.WeakKeyDictionary[Board, collections.Counter[int]] = weakref.WeakKeyDictionary()
+
+
+class CountReports:
+    """Async iterator over a watched counter's reports (``CounterReport`` events).
+
+    A report the board could not send shows as a count that advanced by more than
+    ``every``: :attr:`missed` counts those reports; a full buffer drops the oldest
+    (:attr:`dropped`).
+    """
+
+    def __init__(self, link: Transport, pin: int, every: int, buffer: int) -> None:
+        if buffer < 1:
+            raise ValueRangeError("report buffer (reports)", buffer, "1 and up")
+        self.pin = pin
+        self.every = every
+        self.buffer_size = buffer
+        self.received = 0
+        self.missed = 0
+        self.dropped = 0
+        self._last: int | None = None
+        self._buffer: collections.deque[p.CounterReport] = collections.deque()
+        self._arrived = anyio.Event()
+        self._closed: BaseException | None = None
+        self._unsubscribe = link.subscribe(self._on_event)
+        self._stop_state = link.on_state_change(self._on_state)
+
+    def _on_event(self, event: p.Event) -> None:
+        if not isinstance(event, p.CounterReport) or event.pin != self.pin:
+            return
+        if self._last is not None:
+            advanced = (event.count - self._last) & 0xFFFFFFFF
+            self.missed += max(0, advanced // self.every - 1)
+        self._last = event.count
+        self.received += 1
+        if len(self._buffer) >= self.buffer_size:
+            self._buffer.popleft()
+            self.dropped += 1
+        self._buffer.append(event)
+        self._arrived.set()
+
+    def _on_state(self, state: LinkState) -> None:
+        if state is LinkState.CLOSED:
+            self._closed = BoardDisconnectedError("the link closed while watching a counter")
+            self._arrived.set()
+
+    def __aiter__(self) -> CountReports:
+        return self
+
+    async def __anext__(self) -> p.CounterReport:
+        while not self._buffer:
+            if self._closed is not None:
+                raise self._closed
+            self._arrived = anyio.Event()
+            await self._arrived.wait()
+        return self._buffer.popleft()
+
+    def detach(self) -> None:
+        self._unsubscribe()
+        self._stop_state()
+
+
+@asynccontextmanager
+async def watch_counter(
+    board: Board, pin: DigitalPin, every: int, buffer: int = DEFAULT_CHANGE_BUFFER
+) -> AsyncIterator[CountReports]:
+    """Reports of counter ``pin`` every ``every`` counts for the block."""
+    if not 1 <= every <= 0xFFFF:
+        raise ValueRangeError("counter report interval (counts)", every, "1-65535")
+    link = board.link
+    reports = CountReports(link, pin, every, buffer)
+    try:
+        await board.request(p.CounterWatch(pin, every))
+        yield reports
+    finally:
+        try:
+            with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
+                await link.request(p.CounterWatch(pin, 0))
+        finally:
+            reports.detach()

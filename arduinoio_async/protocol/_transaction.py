@@ -1,0 +1,89 @@
+"""Transactions (extension, docs/protocol.md 7.5): several requests in one frame.
+
+The items of a TRANSACTION request are request frames without their checksums, one after
+the other; the reply holds each item's reply frame (or error reply) without its
+checksum, in the same order.  The board checks the whole list before it runs any item
+(known tags, whole frames, no RESET or nested TRANSACTION, every possible reply fits
+the reply), so an item list it refuses has changed nothing; then it runs the items back
+to back, and an item the board refuses does not stop the ones after it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from ._constants import ERROR_FLAG, MAX_BLOB, ErrorCode
+from ._layout import checksum
+from ._messages import ErrorReply, I2CRead, Reply, Request, Reset, Transaction
+
+__all__ = ["pack_items", "result_size", "unpack_results"]
+
+#: Requests a transaction cannot carry: RESET restarts the board mid-list, and a
+#: transaction inside a transaction would make the reply's size unbounded.
+NOT_IN_TRANSACTIONS: tuple[type[Request[Any]], ...] = (Reset, Transaction)
+
+
+def result_size(request: Request[Any]) -> int:
+    """Bytes the item's result takes in the reply (its reply frame without checksum).
+
+    An error reply (3 bytes) is never longer than a reply frame (at least CT DT).
+    """
+    layout = request.REPLY.LAYOUT
+    size = layout.base_size - 1
+    if isinstance(request, I2CRead):
+        size += request.length
+    return max(size, ErrorReply.SIZE - 1)
+
+
+def pack_items(requests: Sequence[Request[Any]]) -> bytes:
+    """The ``items`` of a Transaction; ValueError when the board would refuse the list."""
+    if not requests:
+        raise ValueError("a transaction needs at least one request")
+    for request in requests:
+        if isinstance(request, NOT_IN_TRANSACTIONS):
+            raise ValueError(f"{type(request).__name__} cannot be part of a transaction")
+    items = b"".join(request.encode()[:-1] for request in requests)
+    if len(items) > MAX_BLOB:
+        raise ValueError(f"the requests take {len(items)} bytes; a transaction holds {MAX_BLOB}")
+    results = sum(result_size(request) for request in requests)
+    if results > MAX_BLOB:
+        raise ValueError(f"the replies would take {results} bytes; a transaction holds {MAX_BLOB}")
+    return items
+
+
+def unpack_results(
+    requests: Sequence[Request[Any]], results: bytes
+) -> tuple[Reply | ErrorReply, ...]:
+    """Each item's reply or error reply; ValueError when ``results`` does not answer
+    ``requests`` item for item (a corrupt frame the 8-bit checksum let through)."""
+    out: list[Reply | ErrorReply] = []
+    pos = 0
+    for request in requests:
+        first = results[pos] if pos < len(results) else None
+        if first is not None and first & ERROR_FLAG:
+            raw = results[pos : pos + ErrorReply.SIZE - 1]
+            if len(raw) != ErrorReply.SIZE - 1:
+                raise ValueError("transaction results end inside an error reply")
+            error = ErrorReply(raw[0] & ~ERROR_FLAG, raw[1], ErrorCode(raw[2]))
+            if not error.answers(request):
+                raise ValueError(f"item error {error} does not answer {request}")
+            out.append(error)
+            pos += len(raw)
+            continue
+        layout = request.REPLY.LAYOUT
+        size = layout.base_size - 1
+        if layout.length_offset >= 0 and pos + layout.length_offset < len(results):
+            size += results[pos + layout.length_offset]
+        raw = results[pos : pos + size]
+        if len(raw) != size:
+            raise ValueError(f"transaction results end inside the reply to {request}")
+        reply = layout.decode(raw + bytes((checksum(raw),)))
+        assert isinstance(reply, Reply)
+        if not request.matches(reply):
+            raise ValueError(f"item reply {reply} does not answer {request}")
+        out.append(reply)
+        pos += size
+    if pos != len(results):
+        raise ValueError(f"{len(results) - pos} bytes left over after the last item's result")
+    return tuple(out)
