@@ -30,6 +30,8 @@ async def main() -> None:
                 if state.fell:
                     presses += 1
                     print(f"press {presses} (button {'held' if not state.level else 'up'})")
+                if state.rose and presses:
+                    print(f"release {presses}")
                 await anyio.sleep(0.02)
         print(f"{presses} presses counted")
 

@@ -75,7 +75,17 @@ async def test_virtual_uno(vf: VectorFile, virtual_uno_factory: VirtualUnoFactor
     try:
         link = RawLink(stream)
         await wait_answering(link)
-        await run_vectors(vf, link, uno.drive)
+
+        async def drive(pin: int, level: bool) -> None:
+            """Drive, then let 50 us of simulated time pass: the pin-change interrupt must
+            see each level (two drives applied in one slice would look like none)."""
+            await uno.drive(pin, level)
+            start = (await uno.status())["sim_us"]
+            with anyio.fail_after(5):
+                while (await uno.status())["sim_us"] < start + 50:
+                    await anyio.lowlevel.checkpoint()
+
+        await run_vectors(vf, link, drive)
     finally:
         await stream.aclose()
 
