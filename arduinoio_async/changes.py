@@ -37,8 +37,9 @@ from typing import TYPE_CHECKING
 import anyio
 
 from . import protocol as p
-from .errors import ArduinoIOError, BoardDisconnectedError, ValueRangeError
-from .transport import LinkState, Transport
+from ._event_queue import EventQueue
+from .errors import ArduinoIOError, ValueRangeError
+from .transport import Transport
 
 if TYPE_CHECKING:
     from .board import Board
@@ -85,11 +86,13 @@ class Change:
         return cls(event.pin, event.level, event.sequence, event.timestamp_us, host_time)
 
 
-class ChangeStream:
+class ChangeStream(EventQueue[Change]):
     """Async iterator over the changes of one pin (see the module docstring for the rules).
 
     With ``callback`` the changes go to it instead of the buffer.
     """
+
+    WHAT = "changes"
 
     def __init__(
         self,
@@ -98,20 +101,11 @@ class ChangeStream:
         buffer: int = DEFAULT_CHANGE_BUFFER,
         callback: Callable[[Change], None] | None = None,
     ) -> None:
-        if buffer < 1:
-            raise ValueRangeError("change buffer (changes)", buffer, "1 and up")
         self.pin = pin
-        self.buffer_size = buffer
-        self.received = 0
         self.gaps = 0
-        self.dropped = 0
         self._callback = callback
-        self._buffer: collections.deque[Change] = collections.deque()
-        self._arrived = anyio.Event()
         self._expected: int | None = None
-        self._closed: BaseException | None = None
-        self._unsubscribe = link.subscribe(self._on_event)
-        self._stop_state = link.on_state_change(self._on_state)
+        super().__init__(link, buffer)
 
     @property
     def lost(self) -> int:
@@ -127,42 +121,14 @@ class ChangeStream:
         if event.pin != self.pin:
             return
         change = Change.from_event(event, time.monotonic())
-        self.received += 1
-        if self._callback is not None:
-            try:
-                self._callback(change)
-            except Exception:  # a user's bug must not hurt the link
-                logger.exception("change callback %r failed on %r", self._callback, change)
+        if self._callback is None:
+            self._put(change)
             return
-        if len(self._buffer) >= self.buffer_size:
-            self._buffer.popleft()
-            self.dropped += 1
-        self._buffer.append(change)
-        self._arrived.set()
-
-    def _on_state(self, state: LinkState) -> None:
-        if state is LinkState.CLOSED:
-            self._closed = BoardDisconnectedError("the link closed while watching changes")
-            self._arrived.set()
-
-    def __aiter__(self) -> ChangeStream:
-        return self
-
-    async def __anext__(self) -> Change:
-        while not self._buffer:
-            if self._closed is not None:
-                raise self._closed
-            self._arrived = anyio.Event()
-            await self._arrived.wait()
-        return self._buffer.popleft()
-
-    def pending(self) -> int:
-        """Changes buffered and not yet consumed."""
-        return len(self._buffer)
-
-    def detach(self) -> None:
-        self._unsubscribe()
-        self._stop_state()
+        self.received += 1
+        try:
+            self._callback(change)
+        except Exception:  # a user's bug must not hurt the link
+            logger.exception("change callback %r failed on %r", self._callback, change)
 
 
 @asynccontextmanager
@@ -196,7 +162,7 @@ async def watch_changes(
 _watchers: weakref.WeakKeyDictionary[Board, collections.Counter[int]] = weakref.WeakKeyDictionary()
 
 
-class CountReports:
+class CountReports(EventQueue[p.CounterReport]):
     """Async iterator over a watched counter's reports (``CounterReport`` events).
 
     A report the board could not send shows as a count that advanced by more than
@@ -204,21 +170,14 @@ class CountReports:
     (:attr:`dropped`).
     """
 
+    WHAT = "a counter"
+
     def __init__(self, link: Transport, pin: int, every: int, buffer: int) -> None:
-        if buffer < 1:
-            raise ValueRangeError("report buffer (reports)", buffer, "1 and up")
         self.pin = pin
         self.every = every
-        self.buffer_size = buffer
-        self.received = 0
         self.missed = 0
-        self.dropped = 0
         self._last: int | None = None
-        self._buffer: collections.deque[p.CounterReport] = collections.deque()
-        self._arrived = anyio.Event()
-        self._closed: BaseException | None = None
-        self._unsubscribe = link.subscribe(self._on_event)
-        self._stop_state = link.on_state_change(self._on_state)
+        super().__init__(link, buffer)
 
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.CounterReport) or event.pin != self.pin:
@@ -227,32 +186,7 @@ class CountReports:
             advanced = (event.count - self._last) & 0xFFFFFFFF
             self.missed += max(0, advanced // self.every - 1)
         self._last = event.count
-        self.received += 1
-        if len(self._buffer) >= self.buffer_size:
-            self._buffer.popleft()
-            self.dropped += 1
-        self._buffer.append(event)
-        self._arrived.set()
-
-    def _on_state(self, state: LinkState) -> None:
-        if state is LinkState.CLOSED:
-            self._closed = BoardDisconnectedError("the link closed while watching a counter")
-            self._arrived.set()
-
-    def __aiter__(self) -> CountReports:
-        return self
-
-    async def __anext__(self) -> p.CounterReport:
-        while not self._buffer:
-            if self._closed is not None:
-                raise self._closed
-            self._arrived = anyio.Event()
-            await self._arrived.wait()
-        return self._buffer.popleft()
-
-    def detach(self) -> None:
-        self._unsubscribe()
-        self._stop_state()
+        self._put(event)
 
 
 @asynccontextmanager

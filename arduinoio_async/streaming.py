@@ -15,18 +15,16 @@ consumer.  Nothing is lost silently:
 
 from __future__ import annotations
 
-import collections
 import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import anyio
-
 from . import protocol as p
-from .errors import BoardDisconnectedError, ValueRangeError
+from ._event_queue import EventQueue
+from .errors import ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
-from .transport import LinkState, Transport
+from .transport import Transport
 
 __all__ = ["DEFAULT_BUFFER", "Sample", "SampleStream", "stream_request"]
 
@@ -113,24 +111,16 @@ def stream_request(
     return p.StreamStart(mask, flags, period_us)
 
 
-class SampleStream:
+class SampleStream(EventQueue[Sample]):
     """Async iterator over the samples of a running stream (see the module docstring)."""
 
+    WHAT = "a stream"
+
     def __init__(self, link: Transport, request: p.StreamStart, buffer: int) -> None:
-        if buffer < 1:
-            raise ValueRangeError("stream buffer (samples)", buffer, "1 and up")
         self.request = request
-        self.buffer_size = buffer
-        self.received = 0
         self.gaps = 0
-        self.dropped = 0
-        self._link = link
-        self._buffer: collections.deque[Sample] = collections.deque()
-        self._arrived = anyio.Event()
         self._expected: int | None = None
-        self._unsubscribe = link.subscribe(self._on_event)
-        self._stop_state = link.on_state_change(self._on_state)
-        self._closed: BaseException | None = None
+        super().__init__(link, buffer)
 
     @property
     def lost(self) -> int:
@@ -142,37 +132,12 @@ class SampleStream:
             return
         sample = Sample.from_frame(event, time.monotonic())
         self._count_gap(sample.sequence)
-        self.received += 1
-        if len(self._buffer) >= self.buffer_size:
-            self._buffer.popleft()
-            self.dropped += 1
-        self._buffer.append(sample)
-        self._arrived.set()
+        self._put(sample)
 
     def _count_gap(self, sequence: int) -> None:
         if self._expected is not None and sequence != self._expected:
             self.gaps += (sequence - self._expected) & 0xFFFF
         self._expected = (sequence + 1) & 0xFFFF
-
-    def _on_state(self, state: LinkState) -> None:
-        if state is LinkState.CLOSED:
-            self._closed = BoardDisconnectedError("the link closed while streaming")
-            self._arrived.set()
-
-    def __aiter__(self) -> SampleStream:
-        return self
-
-    async def __anext__(self) -> Sample:
-        while not self._buffer:
-            if self._closed is not None:
-                raise self._closed
-            self._arrived = anyio.Event()
-            await self._arrived.wait()
-        return self._buffer.popleft()
-
-    def pending(self) -> int:
-        """Samples buffered and not yet consumed."""
-        return len(self._buffer)
 
     def finish(self, next_sequence: int) -> None:
         """Account for samples sent before the stop but never received."""
@@ -181,7 +146,3 @@ class SampleStream:
         elif next_sequence:
             self.gaps += next_sequence
         self.detach()
-
-    def detach(self) -> None:
-        self._unsubscribe()
-        self._stop_state()
