@@ -14,12 +14,8 @@ import sys
 from .._resources import project_path
 from ._constants import DEFAULT_BAUD, FAST_BAUD, STREAM_FRAME_OVERHEAD, ClassTag, StreamFlags
 from ._layout import Layout
-from ._messages import (
-    EVENT_TYPES,
-    REQUEST_TYPES,
-    sample_payload_size,
-    stream_min_period_us,
-)
+from ._messages import EVENT_TYPES, REQUEST_TYPES
+from .commands.stream import sample_payload_size, stream_min_period_us
 
 __all__ = ["DOC_PATH", "main", "render_layouts", "splice"]
 

@@ -64,8 +64,9 @@ from ._constants import RX_FIFO_SIZE
 from ._decoder import Decoded, Decoder, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
 from ._layout import Frame
-from ._messages import ErrorReply, Event, ReadCapabilities, ReadId, ReadIdReply, Reply, Request
-from ._messages import WriteId as _WriteId
+from ._messages import ErrorReply, Event, Reply, Request
+from .commands.misc import ReadCapabilities, ReadId, ReadIdReply
+from .commands.misc import WriteId as _WriteId
 
 __all__ = [
     "MAX_ATTEMPTS",

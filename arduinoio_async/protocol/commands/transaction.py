@@ -1,4 +1,5 @@
-"""Transactions (extension, docs/protocol.md 7.5): several requests in one frame.
+"""TRANSACTION (extension, docs/protocol.md 7.5), run by ``firmware/src/transaction.c``:
+several requests in one frame.
 
 The items of a TRANSACTION request are request frames without their checksums, one after
 the other; the reply holds each item's reply frame (or error reply) without its
@@ -11,13 +12,34 @@ to back, and an item the board refuses does not stop the ones after it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Annotated, Any
 
-from ._constants import ERROR_FLAG, MAX_BLOB, ErrorCode
-from ._layout import checksum
-from ._messages import ErrorReply, I2CRead, Reply, Request, Reset, Transaction
+from .._constants import ERROR_FLAG, MAX_BLOB, ClassTag, ErrorCode
+from .._layout import Blob, checksum
+from .._messages import ErrorReply, Reply, Request, reply_frame, request_frame
+from .i2c import I2CRead
+from .misc import Reset
 
-__all__ = ["pack_items", "result_size", "unpack_results"]
+__all__ = ["Transaction", "TransactionReply", "pack_items", "result_size", "unpack_results"]
+
+
+@reply_frame(ClassTag.MISC, 0x09)
+class TransactionReply(Reply):
+    """Every item's reply frame (or error reply) without its checksum, in item order."""
+
+    results: Annotated[bytes, Blob(MAX_BLOB)]
+
+
+@request_frame(TransactionReply, extension=True)
+class Transaction(Request[TransactionReply]):
+    """Several requests run back to back on the board, one reply with every result.
+
+    ``items`` holds the request frames without their checksums (docs/protocol.md 7.5);
+    build it with :func:`~arduinoio_async.protocol.pack_items`.
+    """
+
+    items: Annotated[bytes, Blob(MAX_BLOB)]
+
 
 #: Requests a transaction cannot carry: RESET restarts the board mid-list, and a
 #: transaction inside a transaction would make the reply's size unbounded.

@@ -1,0 +1,113 @@
+"""STREAM commands (class tag 0x07, extension) and samples, handled by ``firmware/src/stream.c``.
+
+A timer interrupt samples analog channels, levels, edges and counters every
+``period_us`` and pushes one StreamSample each; the board admits a stream only when its
+frames leave a quarter of the link for command replies (:func:`stream_fits_link`).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from .._constants import (
+    MAX_BLOB,
+    STREAM_FRAME_OVERHEAD,
+    STREAM_LINK_SHARE_DEN,
+    STREAM_LINK_SHARE_NUM,
+    STREAM_MIN_PERIOD_US,
+    STREAM_PERIOD_STEP_US,
+    ClassTag,
+    StreamFlags,
+)
+from .._layout import U8, U16, U32, Blob
+from .._messages import Event, Reply, Request, echo, event_frame, reply_frame, request_frame
+
+__all__ = [
+    "StreamSample",
+    "StreamStart",
+    "StreamStartReply",
+    "StreamStop",
+    "StreamStopReply",
+    "sample_payload_size",
+    "stream_fits_link",
+    "stream_min_period_us",
+]
+
+
+@echo
+class _Sampled:
+    analog_mask: Annotated[int, U8]
+    flags: Annotated[StreamFlags, U8]
+
+
+@echo
+class _Start(_Sampled):
+    period_us: Annotated[int, U16]
+
+
+@reply_frame(ClassTag.STREAM, 0x01)
+class StreamStartReply(_Start, Reply): ...
+
+
+#: Not idempotent: a new start restarts the sequence numbers.
+@request_frame(StreamStartReply, extension=True)
+class StreamStart(_Start, Request[StreamStartReply]):
+    """Sample from a timer interrupt every ``period_us`` and push one StreamSample each."""
+
+
+@reply_frame(ClassTag.STREAM, 0x02)
+class StreamStopReply(Reply):
+    """``next_sequence``: the sequence number the next sample would have had."""
+
+    next_sequence: Annotated[int, U16]
+
+
+#: Not idempotent: a repeat could hide a stream started in between.
+@request_frame(StreamStopReply, extension=True)
+class StreamStop(Request[StreamStopReply]):
+    """Stop the stream; no sample frame follows this reply."""
+
+
+@event_frame(0x01)
+class StreamSample(_Sampled, Event):
+    """One sample of a running stream; ``payload`` holds the values in the documented order.
+
+    Order: one u16 per analog channel in ``analog_mask`` (lowest channel first), then if
+    LEVELS: u16 levels of D0-D15 (bit n = Dn), if EDGES: u16 rose, u16 fell (latched since
+    the previous sample), if COUNTERS: u32 count of D2, u32 count of D3.
+    """
+
+    sequence: Annotated[int, U16]
+    timestamp_us: Annotated[int, U32]
+    payload: Annotated[bytes, Blob(MAX_BLOB)]
+
+    def __post_init__(self) -> None:
+        if len(self.payload) != sample_payload_size(self.analog_mask, self.flags):
+            raise ValueError("stream sample payload does not match its mask and flags")
+
+
+def sample_payload_size(analog_mask: int, flags: StreamFlags) -> int:
+    """Bytes of values a sample with this channel mask and these flags carries."""
+    size = 2 * (analog_mask & 0x3F).bit_count()
+    if flags & StreamFlags.LEVELS:
+        size += 2
+    if flags & StreamFlags.EDGES:
+        size += 4
+    if flags & StreamFlags.COUNTERS:
+        size += 8
+    return size
+
+
+def stream_fits_link(frame_bytes: int, period_us: int, baud: int) -> bool:
+    """The board's admission rule: the frames need at most 3/4 of the link's byte rate."""
+    needed = frame_bytes * 10 * 1_000_000 * STREAM_LINK_SHARE_DEN
+    return needed <= STREAM_LINK_SHARE_NUM * period_us * baud
+
+
+def stream_min_period_us(analog_mask: int, flags: StreamFlags, baud: int) -> int:
+    """Shortest period the board accepts for this sample layout at ``baud``."""
+    frame_bytes = STREAM_FRAME_OVERHEAD + sample_payload_size(analog_mask, flags)
+    period = STREAM_MIN_PERIOD_US
+    while not stream_fits_link(frame_bytes, period, baud):
+        period += STREAM_PERIOD_STEP_US
+    return period
