@@ -7,7 +7,7 @@ Each message is a frozen dataclass whose annotations are its wire layout (see
 common (tags, pin, channel, address...): that is how a client proves a reply belongs to the
 request it is waiting for.
 
-The messages themselves live in ``commands``, one module per class tag as in
+The messages themselves live in ``commands``, one module for each command module of
 ``firmware/src``; they register here when that package is imported (the ``protocol``
 package imports it, so the tables below are full whenever ``protocol`` is).  The fields a
 reply echoes are declared once, in an :func:`echo` dataclass both the request and its
@@ -104,7 +104,7 @@ def echo(cls: type[T]) -> type[T]:
 
 @echo
 class OnePin:
-    """The digital pin a command addresses, echoed by its reply."""
+    """The digital pin a frame is about; a reply echoes it, an event names it."""
 
     pin: Annotated[int, U8]
 
