@@ -89,6 +89,7 @@ E = TypeVar("E", bound=type[Event])
 
 
 def _message(cls: T) -> T:
+    """Messages are values (frozen) and many are built per second (slots)."""
     return cast(T, dataclass(frozen=True, slots=True)(cast(type[Any], cls)))
 
 

@@ -34,7 +34,7 @@ class _Config(OnePin):
 class CounterConfigReply(_Config, Reply): ...
 
 
-#: Not idempotent: a new configuration restarts the count.
+# Not idempotent: a new configuration restarts the count.
 @request_frame(CounterConfigReply)
 class CounterConfig(_Config, Request[CounterConfigReply]):
     """Count edges on D2 (INT0) or D3 (INT1); the count starts at zero."""
@@ -58,6 +58,7 @@ class CounterRead(OnePin, Request[CounterReadReply]):
 class CounterResetReply(_Count, Reply): ...
 
 
+# Not idempotent: it clears the count.
 @request_frame(CounterResetReply, extension=True)
 class CounterReset(OnePin, Request[CounterResetReply]):
     """Read and clear a counter in one step, so no event falls between the two."""

@@ -33,7 +33,7 @@ class _Timeout:
 class FailsafeArmReply(_Timeout, Reply): ...
 
 
-#: Not idempotent: a repeat could hide a trip in between.
+# Not idempotent: a repeat could hide a trip in between.
 @request_frame(FailsafeArmReply, extension=True)
 class FailsafeArm(_Timeout, Request[FailsafeArmReply]):
     """Arm the link watchdog; clears a tripped state.  Every valid request feeds it."""

@@ -62,7 +62,7 @@ class GpioReadReply(OnePin, Reply):
         return bool(self.state & GpioState.FELL)
 
 
-#: Not idempotent: a read clears the latched edges.
+# Not idempotent: a read clears the latched edges.
 @request_frame(GpioReadReply)
 class GpioRead(OnePin, Request[GpioReadReply]):
     """Read the level and the edges latched since the previous read (then cleared)."""

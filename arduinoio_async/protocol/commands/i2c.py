@@ -60,7 +60,7 @@ class I2CWriteReply(_Register, Reply):
     length: Annotated[int, U8]
 
 
-#: Not idempotent: a device may count or queue writes.
+# Not idempotent: a device may count or queue writes.
 @request_frame(I2CWriteReply)
 class I2CWrite(_Register, Request[I2CWriteReply]):
     """Write the register offset followed by ``data`` (7-bit address)."""

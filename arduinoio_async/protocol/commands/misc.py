@@ -104,7 +104,7 @@ class WriteIdReply(_BoardId, Reply):
     """Sent after the ID has been written to EEPROM and read back."""
 
 
-#: Not idempotent: EEPROM wear, and the board answers with its new ID.
+# Not idempotent: EEPROM wear, and the board answers with its new ID.
 @request_frame(WriteIdReply, extension=True)
 class WriteId(_BoardId, Request[WriteIdReply]):
     """Store a new 16-bit board ID in EEPROM."""

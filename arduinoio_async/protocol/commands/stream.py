@@ -49,7 +49,7 @@ class _Start(_Sampled):
 class StreamStartReply(_Start, Reply): ...
 
 
-#: Not idempotent: a new start restarts the sequence numbers.
+# Not idempotent: a new start restarts the sequence numbers.
 @request_frame(StreamStartReply, extension=True)
 class StreamStart(_Start, Request[StreamStartReply]):
     """Sample from a timer interrupt every ``period_us`` and push one StreamSample each."""
@@ -62,7 +62,7 @@ class StreamStopReply(Reply):
     next_sequence: Annotated[int, U16]
 
 
-#: Not idempotent: a repeat could hide a stream started in between.
+# Not idempotent: a repeat could hide a stream started in between.
 @request_frame(StreamStopReply, extension=True)
 class StreamStop(Request[StreamStopReply]):
     """Stop the stream; no sample frame follows this reply."""
