@@ -12,7 +12,7 @@ keepalive heartbeat live in :mod:`arduinoio_async.board.failsafe`.
 from __future__ import annotations
 
 import random
-from collections.abc import AsyncIterator, Awaitable, Callable, Mapping, Sequence
+from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
 from typing import Any, TypeVar
 
@@ -50,7 +50,7 @@ from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 from ..transactions import Transaction
 from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_stream
 from ..transport._ready import wait_ready
-from .failsafe import Failsafe, FailsafeConfig
+from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
 
 __all__ = ["READY_TIMEOUT", "Board"]
@@ -496,16 +496,9 @@ class Board:
         return self._failsafe.heartbeat_interval()
 
     async def keepalive(
-        self,
-        link: Transport,
-        *,
-        on_reset: Callable[[], Awaitable[None]] | None = None,
-        on_trip: Callable[[], Awaitable[None]] | None = None,
+        self, link: Transport, *, on_reset: Recovery | None = None, on_trip: Recovery | None = None
     ) -> None:
-        """Poll the board's status while the link is idle, until it closes.
-
-        Feeds the failsafe, notices a trip that no event reported, and (with
-        ``on_reset``) a board that has reset by itself; a failing ``on_reset`` or
-        ``on_trip`` is logged and tried again at the next heartbeat, never raised.
-        """
+        """Keep ``link`` alive until it closes: status polls while it is idle feed the
+        failsafe and notice a trip no event reported, or (``on_reset``) a board that reset
+        by itself; a failing recovery is logged and tried at the next poll, never raised."""
         await self._failsafe.keepalive(link, on_reset=on_reset, on_trip=on_trip)

@@ -28,7 +28,7 @@ from ..transport import LinkState, Transport
 if TYPE_CHECKING:
     from .board import Board
 
-__all__ = ["HEARTBEATS_PER_TIMEOUT", "IDLE_HEARTBEAT", "Failsafe", "FailsafeConfig"]
+__all__ = ["HEARTBEATS_PER_TIMEOUT", "IDLE_HEARTBEAT", "Failsafe", "FailsafeConfig", "Recovery"]
 
 logger = logging.getLogger(__name__)
 
@@ -36,6 +36,9 @@ logger = logging.getLogger(__name__)
 IDLE_HEARTBEAT = 0.25
 #: With the failsafe armed the host polls this many times per timeout while idle.
 HEARTBEATS_PER_TIMEOUT = 4
+
+#: What the keepalive runs when the board reset by itself or its failsafe fired.
+Recovery = Callable[[], Awaitable[None]]
 
 
 @dataclass(frozen=True)
@@ -156,11 +159,7 @@ class Failsafe:
         return min(IDLE_HEARTBEAT, self.config.timeout_ms / 1000 / HEARTBEATS_PER_TIMEOUT)
 
     async def keepalive(
-        self,
-        link: Transport,
-        *,
-        on_reset: Callable[[], Awaitable[None]] | None = None,
-        on_trip: Callable[[], Awaitable[None]] | None = None,
+        self, link: Transport, *, on_reset: Recovery | None = None, on_trip: Recovery | None = None
     ) -> None:
         """Poll the board's status while ``link`` is idle, until it closes.
 
@@ -190,7 +189,7 @@ class Failsafe:
             if self.tripped and on_trip is not None:
                 await self._recover(on_trip, "re-arming after a failsafe trip")
 
-    async def _recover(self, action: Callable[[], Awaitable[None]], what: str) -> None:
+    async def _recover(self, action: Recovery, what: str) -> None:
         """Run a recovery; a board or link failure during it is logged, never raised.
 
         The keepalive runs next to other boards' tasks: a restore that fails because the
