@@ -449,7 +449,7 @@ class Board:
         async with run_stream(self.link, request, buffer, self.capabilities.baud) as samples:
             yield samples
 
-    # ---- failsafe (extension; :mod:`arduinoio_async.board.failsafe`) -------------------------
+    # ---- failsafe and keepalive (extension; :mod:`arduinoio_async.board.failsafe`) ---------
 
     @property
     def failsafe(self) -> FailsafeConfig | None:
@@ -474,11 +474,10 @@ class Board:
     ) -> None:
         """Arm the board's link watchdog.
 
-        ``safe_states`` maps output handles to what they do when the host falls silent
-        for ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no
-        pulses) for servo and soft-PWM outputs.  The library's heartbeat keeps the
-        watchdog fed while this process runs; a killed process, a pulled cable or a
-        blocked event loop lets it fire.
+        ``safe_states`` maps output handles to what they do when the host falls silent for
+        ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no pulses)
+        for servo and soft-PWM outputs.  The keepalive feeds the watchdog while this
+        process runs; a killed process, a pulled cable or a blocked event loop lets it fire.
         """
         await self._failsafe.arm(timeout_ms, safe_states)
 
@@ -488,8 +487,6 @@ class Board:
     async def rearm_failsafe(self, *, restore: bool = True) -> None:
         """After a trip: arm again and (by default) put every output back as it was."""
         await self._failsafe.rearm(restore=restore)
-
-    # ---- keepalive ---------------------------------------------------------------------
 
     def heartbeat_interval(self) -> float:
         """How long the link may stay idle before the keepalive polls the board."""
