@@ -55,17 +55,18 @@ class PinRoles(Mapping[DigitalPin, Claim]):
 
     def __init__(self, owner: object) -> None:
         self._owner = owner
-        self._claims: dict[DigitalPin, Claim] = {}
+        #: Plain (handle, setup) pairs: amended on every write, so no Claim is built there.
+        self._claims: dict[DigitalPin, tuple[PinHandle, p.Request[Any]]] = {}
         self._i2c: I2CBus | None = None
 
     def __repr__(self) -> str:
-        held = ", ".join(f"{pin.name}: {claim.role}" for pin, claim in self._claims.items())
+        held = ", ".join(f"{pin.name}: {claim.role}" for pin, claim in self.items())
         return f"<PinRoles {{{held}}}>"
 
     # ---- reading -----------------------------------------------------------------------
 
     def __getitem__(self, pin: DigitalPin) -> Claim:
-        return self._claims[pin]
+        return Claim(*self._claims[pin])
 
     def __iter__(self) -> Iterator[DigitalPin]:
         return iter(self._claims)
@@ -76,7 +77,7 @@ class PinRoles(Mapping[DigitalPin, Claim]):
     def holder(self, pin: DigitalPin) -> PinHandle | None:
         """The handle holding ``pin``, or None if the pin has no role."""
         claim = self._claims.get(pin)
-        return None if claim is None else claim.handle
+        return None if claim is None else claim[0]
 
     @property
     def i2c(self) -> I2CBus | None:
@@ -88,7 +89,7 @@ class PinRoles(Mapping[DigitalPin, Claim]):
 
         The pins' set-ups in the order they were first claimed, then the I2C speed.
         """
-        requests: list[p.Request[Any]] = [claim.setup for claim in self._claims.values()]
+        requests: list[p.Request[Any]] = [setup for _handle, setup in self._claims.values()]
         if self._i2c is not None:
             requests.append(p.I2CConfig(self._i2c.speed))
         return requests
@@ -104,8 +105,8 @@ class PinRoles(Mapping[DigitalPin, Claim]):
             )
         handle.check_usable()
         current = self._claims.get(handle.pin)
-        if current is not None and current.handle is not handle:
-            raise PinRoleError(handle.pin.name, current.role, handle.ROLE)
+        if current is not None and current[0] is not handle:
+            raise PinRoleError(handle.pin.name, current[0].ROLE, handle.ROLE)
 
     def claim(self, handle: PinHandle, setup: p.Request[Any]) -> Claim | None:
         """Record that ``handle`` holds its pin, set up by ``setup``.
@@ -115,19 +116,19 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         handle's own earlier set-up, or None) for :meth:`withdraw` if the board refuses.
         """
         self.check_free(handle)
-        previous = self._claims.get(handle.pin)
-        self._claims[handle.pin] = Claim(handle, setup)
+        previous = self.get(handle.pin)
+        self._claims[handle.pin] = (handle, setup)
         return previous
 
     def withdraw(self, handle: PinHandle, previous: Claim | None) -> None:
         """Undo :meth:`claim` after its set-up failed: put back ``previous`` (None: free)."""
         current = self._claims.get(handle.pin)
-        if current is None or current.handle is not handle:
+        if current is None or current[0] is not handle:
             return  # released meanwhile: nothing of ours to undo
         if previous is None:
             del self._claims[handle.pin]
         else:
-            self._claims[handle.pin] = previous
+            self._claims[handle.pin] = (previous.handle, previous.setup)
 
     def amend(self, handle: PinHandle, setup: p.Request[Any]) -> None:
         """The pin's set-up changed (a level written, a pulse width set): replay ``setup``.
@@ -136,16 +137,17 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         record of a role that has ended.
         """
         current = self._claims.get(handle.pin)
-        if current is not None and current.handle is handle:
-            self._claims[handle.pin] = Claim(handle, setup)
+        if current is not None and current[0] is handle:
+            self._claims[handle.pin] = (handle, setup)
 
     def release(self, pin: DigitalPin) -> PinHandle | None:
         """The role of ``pin`` ended: forget it and mark its handle released (returned)."""
         claim = self._claims.pop(pin, None)
         if claim is None:
             return None
-        claim.handle.released = True
-        return claim.handle
+        handle = claim[0]
+        handle.released = True
+        return handle
 
     def set_i2c(self, bus: I2CBus) -> None:
         """The I2C bus is on at ``bus.speed`` (A4/A5 are no longer analog inputs)."""
