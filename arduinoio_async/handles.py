@@ -2,8 +2,10 @@
 
 A handle knows its board and its pin, never the port: when a board is replaced by a fresh
 connection (reset, replug) the manager re-attaches the same :class:`Board`, and every
-handle keeps working.  Handles record the configuration they set up (direction, pull-up,
-last pulse, edge, speed) with the board, which replays it after a reconnect.
+handle keeps working.  Handles take their pin through :meth:`Board.set_up
+<arduinoio_async.board.Board.set_up>` and record every later change of their set-up
+(direction, pull-up, last pulse) in the board's public role table
+(:class:`~arduinoio_async.board.PinRoles`), which the board replays after a reconnect.
 
 Values are checked before anything is sent, with errors that say what is allowed.
 """
@@ -37,10 +39,13 @@ __all__ = [
     "DigitalOutput",
     "Gpio",
     "I2CBus",
+    "PinHandle",
     "PinState",
     "PulseOutput",
     "Servo",
     "SoftPwm",
+    "input_setup",
+    "output_setup",
 ]
 
 
@@ -62,8 +67,12 @@ class PinState(NamedTuple):
         return cls(reply.level, reply.rose, reply.fell)
 
 
-class _PinHandle:
-    """Shared behaviour: the board, the pin and releasing the pin's role."""
+class PinHandle:
+    """What every pin handle shares: its board, its pin, and the role it holds there.
+
+    The board's :class:`~arduinoio_async.board.PinRoles` records which handle holds each
+    pin; a handle whose role ended is marked :attr:`released` and refuses to touch the pin.
+    """
 
     ROLE: str = "pin"
 
@@ -91,7 +100,7 @@ class _PinHandle:
         await self.board.release(self.pin)
 
 
-class DigitalOutput(_PinHandle):
+class DigitalOutput(PinHandle):
     """A digital output on D2-D13."""
 
     ROLE = "digital output"
@@ -99,7 +108,7 @@ class DigitalOutput(_PinHandle):
     async def write(self, value: bool) -> None:
         self.check_usable()
         reply = await self.board.request(p.GpioWrite(self.pin, bool(value)))
-        self.board._remember(self.pin, self, _output_config(self.pin, reply.value))
+        self.board.roles.amend(self, output_setup(self.pin, reply.value))
 
     async def read(self) -> bool:
         """The level the pin drives now."""
@@ -108,7 +117,7 @@ class DigitalOutput(_PinHandle):
         return reply.level
 
 
-class _Watchable(_PinHandle):
+class _Watchable(PinHandle):
     """Input change events (extension, :mod:`arduinoio_async.changes`)."""
 
     async def _as_input(self) -> None:
@@ -161,12 +170,14 @@ class DigitalInput(_Watchable):
         return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
 
 
-def _output_config(pin: DigitalPin, level: bool) -> p.GpioConfig:
+def output_setup(pin: DigitalPin, level: bool) -> p.GpioConfig:
+    """The request that makes ``pin`` an output driving ``level`` (its role's replay record)."""
     flags = p.GpioFlags.OUTPUT | (p.GpioFlags.INITIAL_HIGH if level else p.GpioFlags.INPUT)
     return p.GpioConfig(pin, flags)
 
 
-def _input_config(pin: DigitalPin, pull_up: bool) -> p.GpioConfig:
+def input_setup(pin: DigitalPin, pull_up: bool) -> p.GpioConfig:
+    """The request that makes ``pin`` an input, with or without its pull-up."""
     return p.GpioConfig(pin, p.GpioFlags.PULL_UP if pull_up else p.GpioFlags.INPUT)
 
 
@@ -186,22 +197,22 @@ class Gpio(_Watchable):
     async def write(self, value: bool) -> None:
         self.check_usable()
         if self.direction != "output":
-            await self.board._configure(self.pin, self, _output_config(self.pin, bool(value)))
+            await self.board.set_up(self, output_setup(self.pin, bool(value)))
             self.direction = "output"
             return
         reply = await self.board.request(p.GpioWrite(self.pin, bool(value)))
-        self.board._remember(self.pin, self, _output_config(self.pin, reply.value))
+        self.board.roles.amend(self, output_setup(self.pin, reply.value))
 
     async def read(self) -> PinState:
         self.check_usable()
         if self.direction is None:
-            await self.board._configure(self.pin, self, _input_config(self.pin, False))
+            await self.board.set_up(self, input_setup(self.pin, False))
             self.direction = "input"
         return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
 
     async def configure_input(self, *, pull_up: bool = False) -> None:
         self.check_usable()
-        await self.board._configure(self.pin, self, _input_config(self.pin, pull_up))
+        await self.board.set_up(self, input_setup(self.pin, pull_up))
         self.direction = "input"
 
     async def _as_input(self) -> None:
@@ -230,7 +241,7 @@ class AnalogInput:
         return await self.read() * self.vref / 1024
 
 
-class PulseOutput(_PinHandle):
+class PulseOutput(PinHandle):
     """Servo pulses every 20 ms; subclasses fix the pins and the resolution."""
 
     STEP_US = 1
@@ -260,7 +271,7 @@ class PulseOutput(_PinHandle):
         pulse_us = self.check_pulse(int(pulse_us))
         reply = await self.board.request(p.PwmSet(self.pin, pulse_us))
         self.pulse_us = reply.pulse_us
-        self.board._remember(self.pin, self, p.PwmConfig(self.pin, reply.pulse_us))
+        self.board.roles.amend(self, p.PwmConfig(self.pin, reply.pulse_us))
 
     async def set_angle(
         self, degrees: float, *, min_us: int = p.PULSE_MIN_US, max_us: int = p.PULSE_MAX_US
@@ -290,7 +301,7 @@ class SoftPwm(PulseOutput):
     STEP_US = p.SOFT_PWM_STEP_US
 
 
-class Counter(_PinHandle):
+class Counter(PinHandle):
     """An event counter on D2 (INT0) or D3 (INT1)."""
 
     ROLE = "event counter"

@@ -17,16 +17,19 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import AsyncIterator, Sequence
+from contextlib import asynccontextmanager
 from dataclasses import dataclass
+
+import anyio
 
 from . import protocol as p
 from ._event_queue import EventQueue
-from .errors import ValueRangeError
+from .errors import ArduinoIOError, LinkCapacityError, ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
 from .transport import Transport
 
-__all__ = ["DEFAULT_BUFFER", "Sample", "SampleStream", "stream_request"]
+__all__ = ["DEFAULT_BUFFER", "Sample", "SampleStream", "run_stream", "stream_request"]
 
 DEFAULT_BUFFER = 1000
 
@@ -146,3 +149,35 @@ class SampleStream(EventQueue[Sample]):
         elif next_sequence:
             self.gaps += next_sequence
         self.detach()
+
+
+@asynccontextmanager
+async def run_stream(
+    link: Transport, request: p.StreamStart, buffer: int, baud: int
+) -> AsyncIterator[SampleStream]:
+    """Start ``request`` on ``link``, yield its samples, stop it when the block ends.
+
+    The body of :meth:`Board.stream <arduinoio_async.board.Board.stream>`.  A period the
+    link cannot carry comes back as :class:`LinkCapacityError` naming the shortest period
+    at ``baud``; the stop (shielded from cancellation) accounts for samples never received.
+    """
+    samples = SampleStream(link, request, buffer)
+    try:
+        await link.request(request)
+    except LinkCapacityError as exc:
+        samples.detach()
+        shortest = p.stream_min_period_us(request.analog_mask, request.flags, baud)
+        raise LinkCapacityError(exc.code, exc.request, min_period_us=shortest, baud=baud) from exc
+    except BaseException:
+        samples.detach()
+        raise
+    try:
+        yield samples
+    finally:
+        with anyio.CancelScope(shield=True):
+            try:
+                stopped = await link.request(p.StreamStop())
+            except ArduinoIOError:
+                samples.detach()
+            else:
+                samples.finish(stopped.next_sequence)

@@ -46,9 +46,9 @@ from .handles import (
     DigitalOutput,
     Gpio,
     I2CBus,
+    PinHandle,
     PinState,
     PulseOutput,
-    _PinHandle,
 )
 from .protocol.pins import AnalogPin, CounterPin, DigitalPin, ServoPin, SoftPwmPin
 from .streaming import Sample, SampleStream
@@ -95,7 +95,7 @@ class _Blocking:
 
 
 class _BlockingPin(_Blocking):
-    handle: _PinHandle
+    handle: PinHandle
 
     @property
     def pin(self) -> DigitalPin:

@@ -21,7 +21,8 @@ import anyio
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, PinRoleError, UsageError
-from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PulseOutput, _PinHandle
+from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PulseOutput
+from ..handles import PinHandle as _PinHandle
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._sources import Activity, ActivitySource, StreamSource
 
@@ -61,14 +62,13 @@ class PinRole:
     handle: _PinHandle | None = None
 
 
-def _board_roles(board: Board) -> dict[DigitalPin, tuple[_PinHandle, p.Request[Any]]]:
+def _board_roles(board: Board) -> Mapping[DigitalPin, tuple[_PinHandle, p.Request[Any]]]:
     """The board's record of configured pins (handle and the request that set it up).
 
-    The one place the monitor reads a private attribute of :class:`Board`: the record the
-    board keeps to replay roles after a reset is exactly what the page must show.
+    :attr:`Board.roles`: the record the board keeps to replay roles after a reset is
+    exactly what the page must show.
     """
-    roles: dict[DigitalPin, tuple[_PinHandle, p.Request[Any]]] = board._roles
-    return roles
+    return board.roles
 
 
 def _role_of(handle: _PinHandle, config: p.Request[Any]) -> PinRole:

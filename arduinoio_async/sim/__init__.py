@@ -4,23 +4,28 @@ Tests and benchmarks open :attr:`VirtualUno.port` with pyserial exactly like a r
 ``/dev/ttyACM0``, and steer the simulated circuit (analog voltages, pin drives, pulses,
 faults, unplug/replug) through the harness's control socket.  See
 ``firmware/sim/README.md`` for the harness itself.
+
+* :mod:`.virtual_uno`: :class:`VirtualUno` (launcher and control client) and its results;
+* :mod:`.harness`: finding the harness and firmware, and the simulator's errors.
 """
 
-from ._board import (
+from ._demo import example_arguments, example_board, port_or_virtual_uno
+from .harness import (
+    SimulatorError,
+    SimulatorNotAvailable,
+    find_firmware_elf,
+    find_harness_binary,
+    find_test_firmware,
+)
+from .virtual_uno import (
     CircuitPin,
     FirmwareCycles,
     Fixture,
     PulseStats,
-    SimulatorError,
-    SimulatorNotAvailable,
     UsbBridge,
     VirtualUno,
-    find_firmware_elf,
-    find_harness_binary,
-    find_test_firmware,
     start_virtual_unos,
 )
-from ._demo import example_arguments, example_board, port_or_virtual_uno
 
 __all__ = [
     "CircuitPin",

@@ -14,7 +14,7 @@ from contextlib import asynccontextmanager
 
 from .. import protocol as p
 from ..board import Board
-from ._board import Fixture, VirtualUno
+from .virtual_uno import Fixture, VirtualUno
 
 __all__ = ["example_arguments", "example_board", "port_or_virtual_uno"]
 

@@ -17,7 +17,8 @@ from typing import Any
 
 import anyio
 
-from ._board import SimulatorError, SimulatorNotAvailable, start_virtual_unos
+from .harness import SimulatorError, SimulatorNotAvailable
+from .virtual_uno import start_virtual_unos
 
 __all__ = ["build_parser", "main"]
 

@@ -17,7 +17,8 @@ from typing import Any, Protocol
 import pytest
 import pytest_asyncio
 
-from ._board import SimulatorNotAvailable, VirtualUno
+from .harness import SimulatorNotAvailable
+from .virtual_uno import VirtualUno
 
 __all__ = ["VirtualUnoFactory", "virtual_uno_factory"]
 

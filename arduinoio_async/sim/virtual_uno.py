@@ -4,8 +4,7 @@ The harness is a separate C process because simavr is a C library that is not th
 and must be paced against the wall clock in a tight loop; Python only starts it, reads the
 one JSON line it prints when ready, and talks to its JSON-lines control socket.  Tests then
 open :attr:`VirtualUno.port` with pyserial exactly as they would open a real Uno.  Where
-the harness binary and the firmware come from (a clone's build, the package, a per-user
-cache, environment overrides) is decided in :mod:`arduinoio_async._resources`.
+the harness binary and the firmware come from is :mod:`.harness`.
 """
 
 from __future__ import annotations
@@ -26,44 +25,27 @@ import anyio.abc
 import anyio.to_thread
 from anyio.streams.buffered import BufferedByteReceiveStream
 
-from .. import _resources
-from ..errors import ArduinoIOError
+from .harness import (
+    INSTALL_HINT,
+    SimulatorError,
+    SimulatorNotAvailable,
+    find_firmware_elf,
+    find_harness_binary,
+)
 
 __all__ = [
     "CircuitPin",
     "FirmwareCycles",
     "Fixture",
     "PulseStats",
-    "SimulatorError",
-    "SimulatorNotAvailable",
     "UsbBridge",
     "VirtualUno",
-    "find_firmware_elf",
-    "find_harness_binary",
-    "find_test_firmware",
     "start_virtual_unos",
 ]
 
 Fixture = Literal["open", "loopback", "r2r"]
 UsbBridge = Literal["none", "16u2"]
 PinName = int | str
-
-_INSTALL_HINT = (
-    "from a clone: `make firmware sim` (needs `apt-get install simavr libsimavr-dev libelf-dev "
-    "gcc-avr avr-libc`); installed from a wheel, the harness is built on first use and needs "
-    f"`sudo apt-get install {' '.join(_resources.HARNESS_PACKAGES)}`"
-)
-
-
-class SimulatorNotAvailable(ArduinoIOError):
-    """The virtual Uno cannot run here: harness binary, firmware ELF or simavr is missing.
-
-    A distinct class lets test suites skip (instead of fail) on machines without simavr.
-    """
-
-
-class SimulatorError(ArduinoIOError):
-    """The harness refused a control command or stopped unexpectedly."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,45 +96,6 @@ class FirmwareCycles:
     def samples_us(self) -> tuple[float, ...]:
         """The samples in microseconds, which is what latency budgets are written in."""
         return tuple(s / 16.0 for s in self.samples)
-
-
-def find_harness_binary() -> Path:
-    """Locate ``virtual-uno``, building it into the user cache if needed (see ``_resources``).
-
-    ``$ARDUINOIO_SIM_BIN`` wins.  Blocking (a first build takes a few seconds): async code
-    calls it through :func:`anyio.to_thread.run_sync`.
-    """
-    try:
-        return _resources.harness_binary()
-    except _resources.ResourceNotFound as exc:
-        raise SimulatorNotAvailable(
-            f"virtual Uno harness unavailable: {exc}; {_INSTALL_HINT}"
-        ) from exc
-
-
-def find_firmware_elf(baud: int) -> Path:
-    """Locate the project firmware ELF for ``baud`` (``$ARDUINOIO_FIRMWARE_DIR`` overrides)."""
-    try:
-        return _resources.firmware_image(baud, "elf")
-    except _resources.ResourceNotFound as exc:
-        raise SimulatorNotAvailable(str(exc)) from exc
-
-
-def find_test_firmware(baud: int) -> Path:
-    """Locate the harness's own echo/test firmware (``firmware/sim/testfw``, clones only)."""
-    tree = _resources.source_tree()
-    env = os.environ.get(_resources.ENV_SIM_BIN)
-    directory = (
-        Path(env).parent
-        if env
-        else (tree / "firmware" / "sim" / "build" if tree is not None else None)
-    )
-    path = directory / f"testfw-{baud}.elf" if directory is not None else None
-    if path is None or not path.is_file():
-        raise SimulatorNotAvailable(
-            f"test firmware testfw-{baud}.elf not found (a clone builds it with `make sim`)"
-        )
-    return path
 
 
 def _pin_arg(pin: PinName) -> PinName:
@@ -233,7 +176,7 @@ class VirtualUno:
         binary = self._binary or find_harness_binary()
         if not binary.is_file():
             raise SimulatorNotAvailable(
-                f"virtual Uno harness not found at {binary}: {_INSTALL_HINT}"
+                f"virtual Uno harness not found at {binary}: {INSTALL_HINT}"
             )
         args = [str(binary)]
         if self.bootloader is not None:
@@ -243,7 +186,7 @@ class VirtualUno:
         elf = self._elf or (None if self.bootloader is not None else find_firmware_elf(self.baud))
         if elf is not None:
             if not elf.is_file():
-                raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {_INSTALL_HINT}")
+                raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {INSTALL_HINT}")
             args += ["--elf", str(elf)]
         args += ["--baud", str(self.baud), "--fixture", self.fixture]
         args += ["--usb-bridge", self.usb_bridge, "--exit-with-parent"]
@@ -282,7 +225,7 @@ class VirtualUno:
             )
         except OSError as exc:
             self._close_stderr()
-            raise SimulatorNotAvailable(f"cannot run {args[0]}: {exc}; {_INSTALL_HINT}") from exc
+            raise SimulatorNotAvailable(f"cannot run {args[0]}: {exc}; {INSTALL_HINT}") from exc
         try:
             line = await self._read_ready_line()
             info = json.loads(line)
@@ -306,7 +249,7 @@ class VirtualUno:
             detail = self._stderr_text()
             if "error while loading shared libraries" in detail:
                 raise SimulatorNotAvailable(
-                    f"simavr libraries missing: {detail.strip()}; {_INSTALL_HINT}"
+                    f"simavr libraries missing: {detail.strip()}; {INSTALL_HINT}"
                 ) from exc
             raise SimulatorError(f"virtual Uno did not start: {detail.strip() or exc!r}") from exc
 

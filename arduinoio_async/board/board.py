@@ -1,88 +1,66 @@
-"""One I/O board: connection set-up, pin roles, and typed handles for every feature.
+"""One I/O board: connection set-up, and typed handles for every feature.
 
 ``Board`` sits on a :class:`~arduinoio_async.transport.Transport`.  It enforces Table III
 and the one-role-per-pin rule *before* anything is sent (the board would refuse too, but a
-local error names the pins that can do it and costs no round trip), and it keeps the
-configuration every handle set up, so that after a reset or replug the manager can replay
-it on the fresh board and hand back the same ``Board`` and the same handles.
+local error names the pins that can do it and costs no round trip).  The roles it gave are
+recorded in its public :class:`~arduinoio_async.board.roles.PinRoles` table
+(:attr:`Board.roles`), so that after a reset or replug the manager can replay them on the
+fresh board and hand back the same ``Board`` and the same handles.  The failsafe and the
+keepalive heartbeat live in :mod:`arduinoio_async.board.failsafe`.
 """
 
 from __future__ import annotations
 
-import logging
 import random
-from collections.abc import AsyncIterator, Awaitable, Callable, Mapping, Sequence
+from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
-from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import anyio
 import anyio.abc
 import anyio.lowlevel
 
-from . import protocol as p
-from .errors import (
-    ArduinoIOError,
+from .. import protocol as p
+from ..errors import (
     BoardDisconnectedError,
     BoardTimeoutError,
     FailsafeTrippedError,
-    LinkCapacityError,
     LinkError,
     PinRoleError,
     ProtocolError,
-    StaleHandleError,
     ValueRangeError,
 )
-from .handles import (
+from ..handles import (
     AnalogInput,
     Counter,
     DigitalInput,
     DigitalOutput,
     Gpio,
     I2CBus,
+    PinHandle,
     PulseOutput,
     Servo,
     SoftPwm,
-    _input_config,
-    _output_config,
-    _PinHandle,
+    input_setup,
+    output_setup,
 )
-from .protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
-from .protocol.pins import require as require_capable
-from .streaming import DEFAULT_BUFFER, SampleStream, stream_request
-from .transactions import Transaction
-from .transport import (
-    DEFAULT_TIMEOUT,
-    LinkState,
-    TraceHook,
-    Transport,
-    open_serial_stream,
-)
-from .transport._ready import wait_ready
+from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
+from ..protocol.pins import require as require_capable
+from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
+from ..transactions import Transaction
+from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_stream
+from ..transport._ready import wait_ready
+from .failsafe import Failsafe, FailsafeConfig, Recovery
+from .roles import PinRoles
 
 __all__ = ["READY_TIMEOUT", "Board"]
-
-logger = logging.getLogger(__name__)
 
 #: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
 #: opens and answers 1.6-2 s later.
 READY_TIMEOUT = 5.0
-#: Status poll interval of an idle link without failsafe (detects resets, costs ~1 frame).
-IDLE_HEARTBEAT = 0.25
-#: With the failsafe armed the host polls this many times per timeout while idle.
-HEARTBEATS_PER_TIMEOUT = 4
-
-
-@dataclass(frozen=True)
-class FailsafeConfig:
-    """An armed failsafe: the timeout and the safe state of each output pin."""
-
-    timeout_ms: int
-    safe_states: tuple[p.FailsafeSafeState, ...]
-
 
 R = TypeVar("R", bound=p.Reply)
-H = TypeVar("H", bound=_PinHandle)
+H = TypeVar("H", bound=PinHandle)
 PO = TypeVar("PO", bound=PulseOutput)
 
 
@@ -94,20 +72,16 @@ class Board:
         self.board_id = board_id
         self.capabilities = capabilities
         self.port = link.name
-        self._roles: dict[DigitalPin, tuple[_PinHandle, p.Request[Any]]] = {}
+        self._roles = PinRoles(self)
+        #: ``gpio(pin)`` hands out one Gpio per pin (until released), with a role or not yet.
         self._gpio: dict[DigitalPin, Gpio] = {}
-        self._i2c: I2CBus | None = None
         self.session = 0
         #: The session tag the board carried when this library last tagged it: 0 = a fresh
         #: boot nobody had tagged yet; any other value = an earlier program's tag (the board
         #: has not reset since that program connected).
         self.session_found = 0
-        self.failsafe: FailsafeConfig | None = None
-        self.failsafe_tripped = False
-        self._failsafe_listeners: list[Callable[[Board], None]] = []
-        self._unsubscribe: Callable[[], None] | None = None
-        self._heartbeat_changed = anyio.Event()
-        self._watch(link)
+        self._failsafe = Failsafe(self)
+        self._failsafe.listen(link)
 
     def __repr__(self) -> str:
         return f"<Board 0x{self.board_id:04X} on {self.port or 'nothing'}>"
@@ -132,7 +106,7 @@ class Board:
         a board served on the network (:mod:`arduinoio_async.network`).
         """
         if port.startswith("zenoh://"):
-            from .network import open_remote_board
+            from ..network import open_remote_board
 
             async with open_remote_board(port, timeout=timeout, ready_timeout=ready_timeout) as b:
                 yield b
@@ -224,35 +198,14 @@ class Board:
         self.capabilities = await link.request(p.ReadCapabilities())
         await self._handshake(link)
         await self._restore_on(link)
-        await self._arm_on(link)
-        self._watch(link)
+        await self._failsafe.arm_on(link)
+        self._failsafe.listen(link)
         self._link = link
 
     def detach(self, link: Transport | None = None) -> None:
         """Forget the link (if it is ``link``); calls fail with BoardDisconnectedError."""
         if link is None or self._link is link:
             self._link = None
-
-    def _watch(self, link: Transport) -> None:
-        """Listen for board-initiated frames (the failsafe's trip report) on ``link``."""
-        if self._unsubscribe is not None:
-            self._unsubscribe()
-        self._unsubscribe = link.subscribe(self._on_event)
-
-    def _on_event(self, event: p.Event) -> None:
-        if isinstance(event, p.FailsafeTripped):
-            self._tripped()
-
-    def _tripped(self) -> None:
-        if self.failsafe_tripped:
-            return
-        self.failsafe_tripped = True
-        logger.warning("%r: the failsafe fired", self)
-        for callback in list(self._failsafe_listeners):
-            try:
-                callback(self)
-            except Exception:  # a listener's bug must not hurt the link or the caller
-                logger.exception("%r: on_failsafe callback %r failed", self, callback)
 
     # ---- plumbing ---------------------------------------------------------------------------
 
@@ -272,7 +225,7 @@ class Board:
         try:
             return await self.link.request(request, timeout=timeout)
         except FailsafeTrippedError:
-            self._tripped()  # the refusal may be the first news of the trip
+            self._failsafe.notice_trip()  # the refusal may be the first news of the trip
             raise
 
     def transaction(self) -> Transaction:
@@ -280,38 +233,46 @@ class Board:
         d3 = tx.add(p.GpioRead(D3))`` (extension; see :mod:`arduinoio_async.transactions`)."""
         return Transaction(self)
 
-    def _check_free(self, pin: DigitalPin, handle: _PinHandle) -> None:
-        current = self._roles.get(pin)
-        if current is not None and current[0] is not handle:
-            raise PinRoleError(pin.name, current[0].ROLE, handle.ROLE)
+    # ---- pin roles ---------------------------------------------------------------------------
 
-    async def _configure(self, pin: DigitalPin, handle: _PinHandle, config: p.Request[Any]) -> None:
-        self._check_free(pin, handle)
-        await self.request(config)
-        self._roles[pin] = (handle, config)
+    @property
+    def roles(self) -> PinRoles:
+        """Which pin holds which role: ``board.roles[D4].handle``, ``.setup``, ``.role``.
 
-    def _remember(self, pin: DigitalPin, handle: _PinHandle, config: p.Request[Any]) -> None:
-        if pin in self._roles and self._roles[pin][0] is handle:
-            self._roles[pin] = (handle, config)
+        Read it freely (the monitor shows it); the handles and the board change it.
+        """
+        return self._roles
+
+    async def set_up(self, handle: PinHandle, setup: p.Request[Any]) -> None:
+        """Give ``handle`` its pin by sending ``setup``, and record it in :attr:`roles`.
+
+        What the typed handles do when they take a pin or change its direction.  A pin
+        another handle holds is refused with :class:`PinRoleError` before anything is
+        sent; the claim is made before the request goes out, so two tasks asking for the
+        same pin at once cannot both reach the board, and is undone if the board refuses.
+        """
+        roles = self._roles
+        previous = roles.claim(handle, setup)
+        try:
+            await self.request(setup)
+        except BaseException:
+            roles.withdraw(handle, previous)
+            raise
 
     def _new_handle(
         self, pin: object, function: Function, factory: Callable[[Board, DigitalPin], H]
     ) -> H:
         require_capable(pin, function)
         assert isinstance(pin, DigitalPin)
-        existing = self._roles.get(pin)
         handle = factory(self, pin)
-        if existing is not None:
-            raise PinRoleError(pin.name, existing[0].ROLE, handle.ROLE)
+        self._roles.check_free(handle)
         return handle
 
     async def release(self, pin: DigitalPin) -> None:
         """End whatever role ``pin`` has, on the board and here."""
         require_capable(pin, Function.DIGITAL_INPUT)
         await self.request(p.PinRelease(int(pin)))
-        role = self._roles.pop(pin, None)
-        if role is not None:
-            role[0].released = True
+        self._roles.release(pin)
         gpio = self._gpio.pop(pin, None)
         if gpio is not None:
             gpio.direction = None
@@ -322,10 +283,8 @@ class Board:
         await self._restore_on(self.link)
 
     async def _restore_on(self, link: Transport) -> None:
-        for _handle, config in list(self._roles.values()):
-            await link.request(config)
-        if self._i2c is not None:
-            await link.request(p.I2CConfig(self._i2c.speed))
+        for setup in self._roles.setups():
+            await link.request(setup)
 
     # ---- handles -----------------------------------------------------------------------------
 
@@ -335,23 +294,23 @@ class Board:
         handle = self._gpio.get(pin)
         if handle is None:
             handle = Gpio(self, pin)
-            self._check_free(pin, handle)
+            self._roles.check_free(handle)
             self._gpio[pin] = handle
         return handle
 
     async def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> DigitalOutput:
         handle = self._new_handle(pin, Function.DIGITAL_OUTPUT, DigitalOutput)
-        await self._configure(handle.pin, handle, _output_config(handle.pin, initial))
+        await self.set_up(handle, output_setup(handle.pin, initial))
         return handle
 
     async def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> DigitalInput:
         handle = self._new_handle(pin, Function.DIGITAL_INPUT, DigitalInput)
-        await self._configure(handle.pin, handle, _input_config(handle.pin, pull_up))
+        await self.set_up(handle, input_setup(handle.pin, pull_up))
         return handle
 
     def analog(self, pin: AnalogPin) -> AnalogInput:
         """An analog input (no configuration needed); A4/A5 are busy while I2C is on."""
-        if self._i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
+        if self._roles.i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
             raise PinRoleError(pin.name, "I2C", "analog input")
         return AnalogInput(self, pin)
 
@@ -364,7 +323,7 @@ class Board:
     ) -> PO:
         handle = self._new_handle(pin, function, cls)
         pulse_us = cls.check_pulse(pulse_us)
-        await self._configure(handle.pin, handle, p.PwmConfig(handle.pin, pulse_us))
+        await self.set_up(handle, p.PwmConfig(handle.pin, pulse_us))
         handle.pulse_us = pulse_us
         return handle
 
@@ -379,14 +338,15 @@ class Board:
     async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
         """An event counter on D2/D3 counting rising or falling edges, from zero."""
         handle = self._new_handle(pin, Function.COUNTER, Counter)
-        await self._configure(handle.pin, handle, p.CounterConfig(handle.pin, p.Edge(edge)))
+        await self.set_up(handle, p.CounterConfig(handle.pin, p.Edge(edge)))
         return handle
 
     async def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> I2CBus:
         """The I2C bridge on A4/A5 at 100 or 400 kHz."""
         reply = await self.request(p.I2CConfig(p.I2CSpeed(speed)))
-        self._i2c = I2CBus(self, reply.speed)
-        return self._i2c
+        bus = I2CBus(self, reply.speed)
+        self._roles.set_i2c(bus)
+        return bus
 
     # ---- misc ------------------------------------------------------------------------------
 
@@ -486,149 +446,56 @@ class Board:
         :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms)
-        link = self.link
-        samples = SampleStream(link, request, buffer)
-        try:
-            await link.request(request)
-        except LinkCapacityError as exc:
-            samples.detach()
-            baud = self.capabilities.baud
-            shortest = p.stream_min_period_us(request.analog_mask, request.flags, baud)
-            raise LinkCapacityError(
-                exc.code, exc.request, min_period_us=shortest, baud=baud
-            ) from exc
-        except BaseException:
-            samples.detach()
-            raise
-        try:
+        async with run_stream(self.link, request, buffer, self.capabilities.baud) as samples:
             yield samples
-        finally:
-            with anyio.CancelScope(shield=True):
-                try:
-                    stopped = await link.request(p.StreamStop())
-                except ArduinoIOError:
-                    samples.detach()
-                else:
-                    samples.finish(stopped.next_sequence)
 
-    # ---- failsafe (extension) ------------------------------------------------------------------
+    # ---- failsafe and keepalive (extension; :mod:`arduinoio_async.board.failsafe`) ---------
+
+    @property
+    def failsafe(self) -> FailsafeConfig | None:
+        """The armed failsafe (timeout and safe states), or None when it is not armed."""
+        return self._failsafe.config
+
+    @property
+    def failsafe_tripped(self) -> bool:
+        """True once the board reported that its failsafe fired, until it is armed again."""
+        return self._failsafe.tripped
+
+    @failsafe_tripped.setter
+    def failsafe_tripped(self, tripped: bool) -> None:
+        self._failsafe.tripped = tripped
 
     def on_failsafe(self, callback: Callable[[Board], None]) -> Callable[[], None]:
         """Call ``callback(board)`` when the board reports that its failsafe fired."""
-        self._failsafe_listeners.append(callback)
-        return lambda: self._failsafe_listeners.remove(callback)
+        return self._failsafe.on_trip(callback)
 
     async def arm_failsafe(
-        self, timeout_ms: int, safe_states: Mapping[_PinHandle, bool | int]
+        self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]
     ) -> None:
         """Arm the board's link watchdog.
 
-        ``safe_states`` maps output handles to what they do when the host falls silent
-        for ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no
-        pulses) for servo and soft-PWM outputs.  The library's heartbeat keeps the
-        watchdog fed while this process runs; a killed process, a pulled cable or a
-        blocked event loop lets it fire.
+        ``safe_states`` maps output handles to what they do when the host falls silent for
+        ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no pulses)
+        for servo and soft-PWM outputs.  The keepalive feeds the watchdog while this
+        process runs; a killed process, a pulled cable or a blocked event loop lets it fire.
         """
-        if (
-            isinstance(timeout_ms, bool)
-            or not isinstance(timeout_ms, int)
-            or not p.FAILSAFE_MIN_TIMEOUT_MS <= timeout_ms <= p.FAILSAFE_MAX_TIMEOUT_MS
-        ):
-            raise ValueRangeError(
-                "failsafe timeout (ms)",
-                timeout_ms,
-                f"a whole number of ms, {p.FAILSAFE_MIN_TIMEOUT_MS}-{p.FAILSAFE_MAX_TIMEOUT_MS}",
-            )
-        requests = []
-        for handle, state in safe_states.items():
-            if getattr(handle, "board", None) is not self:
-                raise StaleHandleError(
-                    repr(handle), f"belongs to another board, not to {self!r}; its pin is not ours"
-                )
-            handle.check_usable()
-            if isinstance(handle, PulseOutput):
-                pulse = handle.check_pulse(int(state))
-                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.PULSE, pulse))
-            elif isinstance(handle, DigitalOutput | Gpio):
-                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.LEVEL, int(bool(state))))
-            else:
-                raise PinRoleError(handle.pin.name, handle.ROLE, "failsafe output")
-        self.failsafe = FailsafeConfig(timeout_ms, tuple(requests))
-        await self._arm_on(self.link)
-        self._heartbeat_changed.set()
-
-    async def _arm_on(self, link: Transport) -> None:
-        if self.failsafe is None:
-            return
-        for request in self.failsafe.safe_states:
-            await link.request(request)
-        await link.request(p.FailsafeArm(self.failsafe.timeout_ms))
-        self.failsafe_tripped = False
+        await self._failsafe.arm(timeout_ms, safe_states)
 
     async def disarm_failsafe(self) -> None:
-        await self.request(p.FailsafeDisarm())
-        self.failsafe = None
-        self.failsafe_tripped = False
+        await self._failsafe.disarm()
 
     async def rearm_failsafe(self, *, restore: bool = True) -> None:
         """After a trip: arm again and (by default) put every output back as it was."""
-        link = self.link
-        await self._arm_on(link)
-        if restore:
-            await self._restore_on(link)
-
-    # ---- keepalive ---------------------------------------------------------------------
+        await self._failsafe.rearm(restore=restore)
 
     def heartbeat_interval(self) -> float:
-        if self.failsafe is None:
-            return IDLE_HEARTBEAT
-        return min(IDLE_HEARTBEAT, self.failsafe.timeout_ms / 1000 / HEARTBEATS_PER_TIMEOUT)
+        """How long the link may stay idle before the keepalive polls the board."""
+        return self._failsafe.heartbeat_interval()
 
     async def keepalive(
-        self,
-        link: Transport,
-        *,
-        on_reset: Callable[[], Awaitable[None]] | None = None,
-        on_trip: Callable[[], Awaitable[None]] | None = None,
+        self, link: Transport, *, on_reset: Recovery | None = None, on_trip: Recovery | None = None
     ) -> None:
-        """Poll the board's status while the link is idle, until it closes.
-
-        Feeds the failsafe, notices a trip that no event reported, and (with
-        ``on_reset``) a board that has reset by itself.
-        """
-        while link.state is not LinkState.CLOSED:
-            interval = self.heartbeat_interval()
-            wake = self._heartbeat_changed
-            with anyio.move_on_after(max(0.0, link.last_send + interval - anyio.current_time())):
-                await wake.wait()  # arming the failsafe shortens the interval at once
-            if wake.is_set():
-                self._heartbeat_changed = anyio.Event()
-            if anyio.current_time() - link.last_send < interval * 0.9:
-                continue  # other traffic fed the watchdog
-            try:
-                status = await link.request(p.ReadStatus())
-            except LinkError:
-                await anyio.lowlevel.checkpoint()
-                continue
-            if status.session != self.session:
-                if on_reset is not None:
-                    await self._recover(on_reset, "the restore after a reset")
-                continue
-            if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
-                self._tripped()
-            if self.failsafe_tripped and on_trip is not None:
-                await self._recover(on_trip, "re-arming after a failsafe trip")
-
-    async def _recover(self, action: Callable[[], Awaitable[None]], what: str) -> None:
-        """Run a recovery; a board or link failure during it is logged, never raised.
-
-        The keepalive runs next to other boards' tasks: a restore that fails because the
-        board reset again or its cable was pulled must not take them down.  The board's
-        session still differs (or the trip flag is still set), so the next heartbeat tries
-        again, and a closed link ends the keepalive.
-        """
-        try:
-            await action()
-        except ArduinoIOError as exc:
-            logger.warning("%r: %s failed: %s", self, what, exc)
-            await anyio.lowlevel.checkpoint()
+        """Keep ``link`` alive until it closes: status polls while it is idle feed the
+        failsafe and notice a trip no event reported, or (``on_reset``) a board that reset
+        by itself; a failing recovery is logged and tried at the next poll, never raised."""
+        await self._failsafe.keepalive(link, on_reset=on_reset, on_trip=on_trip)

@@ -1,0 +1,204 @@
+"""The failsafe and the keepalive: what keeps a board safe when its host falls silent.
+
+The board's failsafe is a link watchdog: once armed it puts chosen outputs into a safe
+state when no valid frame arrives for its timeout.  The host side, :class:`Failsafe`, keeps
+what was armed (to arm it again after a reset or a trip), hears the trip (the board's
+event, a refused request, or the status flag) and tells listeners, and runs the keepalive:
+an idle link gets a status poll often enough to feed the watchdog, which also notices a
+board that reset by itself.  Everything goes through the board's public API; the
+:class:`~arduinoio_async.board.Board` methods ``arm_failsafe``, ``keepalive``, ... hand
+over to it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Awaitable, Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import anyio
+import anyio.lowlevel
+
+from .. import protocol as p
+from ..errors import ArduinoIOError, LinkError, PinRoleError, StaleHandleError, ValueRangeError
+from ..handles import DigitalOutput, Gpio, PinHandle, PulseOutput
+from ..transport import LinkState, Transport
+
+if TYPE_CHECKING:
+    from .board import Board
+
+__all__ = ["HEARTBEATS_PER_TIMEOUT", "IDLE_HEARTBEAT", "Failsafe", "FailsafeConfig", "Recovery"]
+
+logger = logging.getLogger(__name__)
+
+#: Status poll interval of an idle link without failsafe (detects resets, costs ~1 frame).
+IDLE_HEARTBEAT = 0.25
+#: With the failsafe armed the host polls this many times per timeout while idle.
+HEARTBEATS_PER_TIMEOUT = 4
+
+#: What the keepalive runs when the board reset by itself or its failsafe fired.
+Recovery = Callable[[], Awaitable[None]]
+
+
+@dataclass(frozen=True)
+class FailsafeConfig:
+    """An armed failsafe: the timeout and the safe state of each output pin."""
+
+    timeout_ms: int
+    safe_states: tuple[p.FailsafeSafeState, ...]
+
+
+class Failsafe:
+    """One board's failsafe as the host runs it: what is armed, trip news, the keepalive."""
+
+    def __init__(self, board: Board) -> None:
+        self.board = board
+        #: The armed failsafe, or None when disarmed (kept to re-arm after a reset).
+        self.config: FailsafeConfig | None = None
+        self.tripped = False
+        self._listeners: list[Callable[[Board], None]] = []
+        self._unsubscribe: Callable[[], None] | None = None
+        self._heartbeat_changed = anyio.Event()
+
+    # ---- trip news ---------------------------------------------------------------------
+
+    def listen(self, link: Transport) -> None:
+        """Hear the board's trip report on ``link`` (and no longer on the previous link)."""
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+        self._unsubscribe = link.subscribe(self._on_event)
+
+    def _on_event(self, event: p.Event) -> None:
+        if isinstance(event, p.FailsafeTripped):
+            self.notice_trip()
+
+    def notice_trip(self) -> None:
+        """The failsafe fired: note it once and tell every listener."""
+        if self.tripped:
+            return
+        self.tripped = True
+        logger.warning("%r: the failsafe fired", self.board)
+        for callback in list(self._listeners):
+            try:
+                callback(self.board)
+            except Exception:  # a listener's bug must not hurt the link or the caller
+                logger.exception("%r: on_failsafe callback %r failed", self.board, callback)
+
+    def on_trip(self, callback: Callable[[Board], None]) -> Callable[[], None]:
+        """Call ``callback(board)`` when the failsafe fires; returns the unsubscriber."""
+        self._listeners.append(callback)
+        return lambda: self._listeners.remove(callback)
+
+    # ---- arming ------------------------------------------------------------------------
+
+    def checked_config(
+        self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]
+    ) -> FailsafeConfig:
+        """The failsafe ``timeout_ms`` and ``safe_states`` describe, checked before use."""
+        if (
+            isinstance(timeout_ms, bool)
+            or not isinstance(timeout_ms, int)
+            or not p.FAILSAFE_MIN_TIMEOUT_MS <= timeout_ms <= p.FAILSAFE_MAX_TIMEOUT_MS
+        ):
+            raise ValueRangeError(
+                "failsafe timeout (ms)",
+                timeout_ms,
+                f"a whole number of ms, {p.FAILSAFE_MIN_TIMEOUT_MS}-{p.FAILSAFE_MAX_TIMEOUT_MS}",
+            )
+        board = self.board
+        requests = []
+        for handle, state in safe_states.items():
+            if getattr(handle, "board", None) is not board:
+                raise StaleHandleError(
+                    repr(handle), f"belongs to another board, not to {board!r}; its pin is not ours"
+                )
+            handle.check_usable()
+            if isinstance(handle, PulseOutput):
+                pulse = handle.check_pulse(int(state))
+                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.PULSE, pulse))
+            elif isinstance(handle, DigitalOutput | Gpio):
+                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.LEVEL, int(bool(state))))
+            else:
+                raise PinRoleError(handle.pin.name, handle.ROLE, "failsafe output")
+        return FailsafeConfig(timeout_ms, tuple(requests))
+
+    async def arm(self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]) -> None:
+        """Check, keep and arm; the heartbeat speeds up at once (see ``Board.arm_failsafe``)."""
+        self.config = self.checked_config(timeout_ms, safe_states)
+        await self.arm_on(self.board.link)
+        self._heartbeat_changed.set()
+
+    async def arm_on(self, link: Transport) -> None:
+        """Send the kept safe states and arm, on ``link`` (a fresh boot's, when adopting)."""
+        if self.config is None:
+            return
+        for request in self.config.safe_states:
+            await link.request(request)
+        await link.request(p.FailsafeArm(self.config.timeout_ms))
+        self.tripped = False
+
+    async def disarm(self) -> None:
+        await self.board.request(p.FailsafeDisarm())
+        self.config = None
+        self.tripped = False
+
+    async def rearm(self, *, restore: bool = True) -> None:
+        """After a trip: arm again and (by default) put every pin role back as it was."""
+        link = self.board.link
+        await self.arm_on(link)
+        if restore:
+            for setup in self.board.roles.setups():
+                await link.request(setup)
+
+    # ---- keepalive ---------------------------------------------------------------------
+
+    def heartbeat_interval(self) -> float:
+        if self.config is None:
+            return IDLE_HEARTBEAT
+        return min(IDLE_HEARTBEAT, self.config.timeout_ms / 1000 / HEARTBEATS_PER_TIMEOUT)
+
+    async def keepalive(
+        self, link: Transport, *, on_reset: Recovery | None = None, on_trip: Recovery | None = None
+    ) -> None:
+        """Poll the board's status while ``link`` is idle, until it closes.
+
+        Feeds the failsafe, notices a trip that no event reported, and (with
+        ``on_reset``) a board that has reset by itself.
+        """
+        while link.state is not LinkState.CLOSED:
+            interval = self.heartbeat_interval()
+            wake = self._heartbeat_changed
+            with anyio.move_on_after(max(0.0, link.last_send + interval - anyio.current_time())):
+                await wake.wait()  # arming the failsafe shortens the interval at once
+            if wake.is_set():
+                self._heartbeat_changed = anyio.Event()
+            if anyio.current_time() - link.last_send < interval * 0.9:
+                continue  # other traffic fed the watchdog
+            try:
+                status = await link.request(p.ReadStatus())
+            except LinkError:
+                await anyio.lowlevel.checkpoint()
+                continue
+            if status.session != self.board.session:
+                if on_reset is not None:
+                    await self._recover(on_reset, "the restore after a reset")
+                continue
+            if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
+                self.notice_trip()
+            if self.tripped and on_trip is not None:
+                await self._recover(on_trip, "re-arming after a failsafe trip")
+
+    async def _recover(self, action: Recovery, what: str) -> None:
+        """Run a recovery; a board or link failure during it is logged, never raised.
+
+        The keepalive runs next to other boards' tasks: a restore that fails because the
+        board reset again or its cable was pulled must not take them down.  The board's
+        session still differs (or the trip flag is still set), so the next heartbeat tries
+        again, and a closed link ends the keepalive.
+        """
+        try:
+            await action()
+        except ArduinoIOError as exc:
+            logger.warning("%r: %s failed: %s", self.board, what, exc)
+            await anyio.lowlevel.checkpoint()
