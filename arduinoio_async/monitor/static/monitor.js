@@ -199,6 +199,7 @@
     fact("failsafe").textContent = snapshot.failsafe;
     fact("failsafe").dataset.tripped = snapshot.failsafe_tripped ? "true" : "false";
     renderStream(view, snapshot.stream);
+    renderChanges(view, snapshot.changes);
     for (const pin of snapshot.pins) renderPin(view, pin);
   }
 
@@ -208,6 +209,15 @@
     el.textContent = stream.running
       ? `${stream.period_ms} ms · ${stream.channels.join(" ") || "levels"} · ${stream.received} samples, ${stream.lost} lost`
       : `stopped${stream.error ? ": " + stream.error : ""}`;
+  }
+
+  // Inputs watched for change events: every edge counted, losses from sequence numbers.
+  function renderChanges(view, changes) {
+    const el = view.root.querySelector('[data-fact="changes"]');
+    el.dataset.running = changes.running ? "true" : "false";
+    el.textContent = changes.running
+      ? `${changes.pins.join(" ") || "no inputs"} · ${changes.received} events, ${changes.lost} lost`
+      : changes.error || "stopped";
   }
 
   function renderPin(view, pin) {
@@ -267,12 +277,12 @@
   function applySamples(message) {
     const view = boards[message.board];
     if (!view) return;
-    if (message.levels !== null) {
-      for (const [name, state] of Object.entries(view.pins)) {
-        const bit = 1 << Number(name.slice(1));
-        state.led.dataset.level = message.levels & bit ? "1" : "0";
-        if ((message.rose | message.fell) & bit) blink(state.led);
-      }
+    for (const [name, state] of Object.entries(view.pins)) {
+      const bit = 1 << Number(name.slice(1));
+      // data-source says where the level comes from: "changes" (pushed events) or "stream".
+      state.row.dataset.source = message.watched & bit ? "changes" : message.known & bit ? "stream" : "";
+      state.led.dataset.level = message.known & bit ? (message.levels & bit ? "1" : "0") : "";
+      if ((message.rose | message.fell) & bit) blink(state.led);
     }
     const pinNames = Object.keys(view.pins);
     pinNames.forEach((name, i) => {
@@ -284,6 +294,7 @@
       });
     }
     renderStream(view, message.stream);
+    renderChanges(view, message.changes);
     if (message.t.length) appendAnalog(view, message);
   }
 
