@@ -226,13 +226,12 @@ class StreamSource(SupervisedSource):
         self.enabled = enabled
         self.state = StreamState(period_ms=period_ms)
         self._analog_pins = analog_pins
-        if not enabled:
-            self.error = "switched off"
 
     def describe(self) -> dict[str, object]:
         s = self.state
         return {
             "kind": "firmware-timed stream",
+            "enabled": self.enabled,
             "running": self.running,
             "period_ms": s.period_ms,
             "channels": list(s.channels),

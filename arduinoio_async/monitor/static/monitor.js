@@ -206,7 +206,7 @@
   function renderStream(view, stream) {
     const el = view.root.querySelector('[data-fact="stream"]');
     el.dataset.running = stream.running ? "true" : "false";
-    el.textContent = stream.running
+    el.textContent = !stream.enabled ? "off (inputs: change events only)" : stream.running
       ? `${stream.period_ms} ms · ${stream.channels.join(" ") || "levels"} · ${stream.received} samples, ${stream.lost} lost`
       : `stopped${stream.error ? ": " + stream.error : ""}`;
   }
