@@ -8,15 +8,13 @@ previous sample") and shows the events the sequence numbers say were lost.  Noth
 polled for what the events deliver: one read per subscription gives the starting level,
 then only events change it.
 
-The subscriptions follow the board:
+The subscriptions follow the board (:class:`~._sources.SubscribingSource`):
 
 * a new set of inputs (a role changed on the page or in a program that embeds the
   monitor), a board that was reset (its session tag changed: the manager or the page
   restored its roles, but a reset ends every subscription on the board) or a new link
   (replug, a remote board that came back): every input is subscribed again and its level
-  read again.  The check is a look at the board object's own records every
-  :data:`SUPERVISE_INTERVAL`, with no traffic to the board; a closed link is noticed at
-  once.
+  read again.
 * the source's end (the monitor stops) unsubscribes every pin; a user's own watch of the
   same pin keeps its subscription (``watch_changes`` counts the watchers).
 
@@ -45,23 +43,14 @@ import anyio
 from .. import protocol as p
 from ..changes import Change, ChangeStream, watch_changes
 from ..protocol.pins import DigitalPin
-from ..transport import LinkState
-from ._sources import Activity, Emit, SupervisedSource
+from ._sources import Activity, Emit, PinKey, SubscribingSource
 
 if TYPE_CHECKING:
     from ..board import Board
 
-__all__ = ["SUPERVISE_INTERVAL", "ChangeSource", "ChangeState"]
+__all__ = ["ChangeSource", "ChangeState"]
 
 logger = logging.getLogger(__name__)
-
-#: How often the source compares the board's session tag, link and input roles with the
-#: ones it subscribed for (a local check, nothing is sent to the board).
-SUPERVISE_INTERVAL = 0.5
-
-#: What identifies an input's subscription: a new handle or configuration of the pin
-#: ends the board's subscription, so either one asks for a new one.
-InputKey = tuple[int, object]
 
 
 @dataclass
@@ -74,7 +63,7 @@ class ChangeState:
     subscriptions: int = 0
 
 
-class ChangeSource(SupervisedSource):
+class ChangeSource(SubscribingSource):
     """Each digital input's level and edges from the board's change events.
 
     ``inputs`` is called at every (re)start and supervision check: the pins to watch,
@@ -84,15 +73,14 @@ class ChangeSource(SupervisedSource):
     def __init__(
         self,
         board: Board,
-        inputs: Callable[[], Mapping[DigitalPin, InputKey]],
+        inputs: Callable[[], Mapping[DigitalPin, PinKey]],
         *,
         on_change: Callable[[], None] = lambda: None,
     ) -> None:
-        super().__init__(board, on_change=on_change)
+        super().__init__(board, inputs, on_change=on_change)
         self.state = ChangeState()
         #: Pins whose level and edges come from change events now.
         self.watched: frozenset[DigitalPin] = frozenset()
-        self._inputs = inputs
         self._lost_before = 0
         self._gap_counter: ChangeStream | None = None
         self._seen = dict.fromkeys(DigitalPin, 0)
@@ -134,52 +122,34 @@ class ChangeSource(SupervisedSource):
     def _available(self) -> bool:
         return super()._available() and self.supported
 
-    def _epoch(self) -> tuple[int, object, dict[DigitalPin, InputKey]]:
-        """What a subscription depends on: the board's boot (session tag), link, inputs."""
-        board = self.board
-        link = board.link if board.connected else None
-        return board.session, link, dict(self._inputs())
-
     async def _run_once(self, emit: Emit) -> None:
         board = self.board
         link = board.link
         epoch = self._epoch()
         pins = sorted(epoch[2])
-        closed = anyio.Event()
-
-        def on_state(state: LinkState) -> None:
-            if state is LinkState.CLOSED:
-                closed.set()
-
-        stop_listening = link.on_state_change(on_state)
-        try:
-            async with AsyncExitStack() as stack:
-                streams = []
-                for pin in pins:
-                    callback = partial(self._changed, emit)
+        async with AsyncExitStack() as stack:
+            for pin in pins:
+                callback = partial(self._changed, emit)
+                # Not cancelled halfway: the board would watch a pin nobody follows.
+                with anyio.CancelScope(shield=True):
                     stream = await stack.enter_async_context(
                         watch_changes(board, pin, callback=callback)
                     )
-                    streams.append(stream)
-                    if self._gap_counter is None:
-                        self._gap_counter = stream
-                self.state.pins = tuple(pin.name for pin in pins)
-                try:
-                    with self._cancellable():
-                        for pin in pins:
-                            await self._read_level(pin, emit)
-                        self.watched = frozenset(pins)
-                        self.state.subscriptions += 1
-                        self._on_change()
-                        while not closed.is_set() and self._epoch() == epoch:
-                            with anyio.move_on_after(SUPERVISE_INTERVAL):
-                                await closed.wait()
-                finally:
-                    self.watched = frozenset()
-                    self._lost_before = self.lost
-                    self._gap_counter = None
-        finally:
-            stop_listening()
+                if self._gap_counter is None:
+                    self._gap_counter = stream
+            self.state.pins = tuple(pin.name for pin in pins)
+            try:
+                with self._cancellable():
+                    for pin in pins:
+                        await self._read_level(pin, emit)
+                    self.watched = frozenset(pins)
+                    self.state.subscriptions += 1
+                    self._on_change()
+                    await self._while_current(link, epoch)
+            finally:
+                self.watched = frozenset()
+                self._lost_before = self.lost
+                self._gap_counter = None
 
     async def _read_level(self, pin: DigitalPin, emit: Emit) -> None:
         """The starting level of a just-subscribed pin.

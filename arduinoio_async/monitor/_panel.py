@@ -26,8 +26,9 @@ from .. import protocol as p
 from ..errors import ArduinoIOError, PinRoleError, UsageError
 from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PulseOutput, _PinHandle
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
-from ._changes import ChangeSource, InputKey
-from ._sources import Activity, ActivitySource, StreamSource
+from ._changes import ChangeSource
+from ._counts import CountSource
+from ._sources import Activity, ActivitySource, PinKey, StreamSource
 
 if TYPE_CHECKING:
     from ..board import Board
@@ -36,6 +37,8 @@ __all__ = ["ROLES", "BoardPanel", "roles_for"]
 
 #: Bit n set for every digital pin Dn the page shows.
 ALL_PINS = sum(1 << int(pin) for pin in DigitalPin)
+#: The event counters' pins, in the order the stream reports their counts.
+COUNTER_PINS = (DigitalPin.D2, DigitalPin.D3)
 
 #: Roles the page offers, in menu order; each pin offers those of Table III it can do.
 ROLES: Mapping[str, Function | None] = {
@@ -101,9 +104,11 @@ class _Batch:
     analog: dict[str, list[int]] = field(default_factory=dict)
     rose: int = 0
     fell: int = 0
+    #: A counter's count arrived (or was cleared).
+    counted: bool = False
 
     def __bool__(self) -> bool:
-        return bool(self.times) or bool(self.rose | self.fell)
+        return bool(self.times) or bool(self.rose | self.fell) or self.counted
 
 
 class BoardPanel:
@@ -124,11 +129,13 @@ class BoardPanel:
             board, self.analog_pins, period_ms=period_ms, enabled=stream, on_change=self.changed
         )
         self.changes = ChangeSource(board, self.inputs, on_change=self.changed)
-        self.sources: list[ActivitySource] = [self.stream, self.changes]
+        self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
+        self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
         self.known = 0
-        self.counters: tuple[int, int] | None = None
+        #: Last count of each counter (D2, D3) from whichever source reported it last.
+        self.counters: dict[DigitalPin, int] = {}
         self.analog: dict[str, int] = {}
         self.rises = dict.fromkeys(DigitalPin, 0)
         self.falls = dict.fromkeys(DigitalPin, 0)
@@ -146,12 +153,20 @@ class BoardPanel:
         busy = (AnalogPin.A4, AnalogPin.A5) if self.i2c is not None else ()
         return [pin for pin in AnalogPin if pin not in busy]
 
-    def inputs(self) -> dict[DigitalPin, InputKey]:
+    def inputs(self) -> dict[DigitalPin, PinKey]:
         """The pins with an input role, each keyed by its handle and configuration."""
         return {
             pin: (id(handle), config)
             for pin, (handle, config) in _board_roles(self.board).items()
             if isinstance(config, p.GpioConfig) and not config.flags & p.GpioFlags.OUTPUT
+        }
+
+    def counter_pins(self) -> dict[DigitalPin, PinKey]:
+        """The pins with a counter role, each keyed by its handle and configuration."""
+        return {
+            pin: (id(handle), config)
+            for pin, (handle, config) in _board_roles(self.board).items()
+            if isinstance(config, p.CounterConfig)
         }
 
     def on_activity(self, activity: Activity) -> None:
@@ -180,7 +195,11 @@ class BoardPanel:
                 self.rises[pin] += rose >> int(pin) & 1
                 self.falls[pin] += fell >> int(pin) & 1
         if activity.counters is not None:
-            self.counters = activity.counters
+            self.counters.update(zip(COUNTER_PINS, activity.counters, strict=True))
+            batch.counted = True
+        if activity.counts:
+            self.counters.update(activity.counts)
+            batch.counted = True
         self._notify()
 
     def changed(self) -> None:
@@ -209,9 +228,11 @@ class BoardPanel:
             "fell": batch.fell,
             "rises": [self.rises[pin] for pin in DigitalPin],
             "falls": [self.falls[pin] for pin in DigitalPin],
-            "counters": self.counters,
+            "counters": [self.counters.get(pin) for pin in COUNTER_PINS],
+            "reported": sum(1 << int(pin) for pin in self.counts.reported),
             "stream": self.stream.describe(),
             "changes": self.changes.describe(),
+            "counts": self.counts.describe(),
         }
 
     async def run(self) -> None:
@@ -306,14 +327,16 @@ class BoardPanel:
         return current.handle
 
     async def _set_role(self, args: Mapping[str, Any]) -> None:
-        """Give a pin a role; the inputs' change events follow at once (the source's own
-        check would notice within its SUPERVISE_INTERVAL)."""
-        before = self.inputs()
+        """Give a pin a role; change events and counter reports follow at once (their
+        sources' own check would notice within SUPERVISE_INTERVAL)."""
+        inputs, counters = self.inputs(), self.counter_pins()
         try:
             await self._change_role(_pin(args), str(args["role"]))
         finally:
-            if self.inputs() != before:
+            if self.inputs() != inputs:
                 self.changes.restart()
+            if self.counter_pins() != counters:
+                self.counts.restart()
 
     async def _change_role(self, pin: DigitalPin, role: str) -> None:
         if role not in roles_for(pin):
@@ -346,7 +369,10 @@ class BoardPanel:
     async def _counter_reset(self, args: Mapping[str, Any]) -> int:
         pin = _pin(args)
         counter: Counter = self._handle(pin, (Counter,), "event counter")
-        return await counter.reset()
+        count = await counter.reset()
+        self.counters[pin] = 0  # until the next report or sample
+        self._batch.counted = True
+        return count
 
     async def _bus(self, args: Mapping[str, Any]) -> I2CBus:
         speed = p.I2CSpeed.KHZ_400 if int(args.get("speed", 100)) == 400 else p.I2CSpeed.KHZ_100
@@ -377,7 +403,7 @@ class BoardPanel:
 
     async def _reset(self, args: Mapping[str, Any]) -> None:
         """Reset the board, then put back every role, the I2C bus and an armed failsafe."""
-        async with self.stream.paused(), self.changes.paused():
+        async with self.stream.paused(), self.changes.paused(), self.counts.paused():
             await self.board.reset(restore=True)
             if self.board.failsafe is not None:
                 await self.board.rearm_failsafe(restore=False)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import AsyncIterator, Callable, Iterator, Sequence
+from collections.abc import AsyncIterator, Callable, Iterator, Mapping, Sequence
 from contextlib import asynccontextmanager, contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
@@ -33,16 +33,32 @@ import anyio
 from ..errors import ArduinoIOError
 from ..protocol.pins import AnalogPin, DigitalPin
 from ..streaming import Sample
+from ..transport import LinkState
 
 if TYPE_CHECKING:
     from ..board import Board
+    from ..transport import Transport
 
-__all__ = ["Activity", "ActivitySource", "StreamSource", "StreamState", "SupervisedSource"]
+__all__ = [
+    "Activity",
+    "ActivitySource",
+    "StreamSource",
+    "StreamState",
+    "SubscribingSource",
+    "SupervisedSource",
+]
 
 logger = logging.getLogger(__name__)
 
 #: How long a failed source waits before it is started again.
 RETRY_INTERVAL = 0.5
+#: How often a subscribing source compares the board's session tag, link and pin roles
+#: with the ones it subscribed for (a local check, nothing is sent to the board).
+SUPERVISE_INTERVAL = 0.5
+
+#: What identifies a pin's subscription: a new handle or configuration of the pin ends
+#: the board's subscription, so either one asks for a new one.
+PinKey = tuple[int, object]
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,8 +76,10 @@ class Activity:
     #: Bit n = Dn rose / fell since the source's previous activity.
     rose: int = 0
     fell: int = 0
-    #: Counts of the D2/D3 event counters, if known.
+    #: Counts of the D2/D3 event counters, if known (the stream: both at once).
     counters: tuple[int, int] | None = None
+    #: Counts of single counters (counter reports).
+    counts: dict[DigitalPin, int] = field(default_factory=dict)
 
 
 Emit = Callable[[Activity], None]
@@ -163,6 +181,51 @@ class SupervisedSource:
         if self.running != running:
             self.running = running
             self._on_change()
+
+
+class SubscribingSource(SupervisedSource):
+    """A source that subscribes pins of some roles to board-initiated reports.
+
+    A reset of the board ends every subscription on it, and so does a new configuration
+    of the pin: the subscription is made again when the board's boot (its session tag),
+    its link or the pins (``pins``: each with a :data:`PinKey`) change.  That check looks
+    at the board object's own records every :data:`SUPERVISE_INTERVAL`, with no traffic
+    to the board; a closed link is noticed at once.
+    """
+
+    def __init__(
+        self,
+        board: Board,
+        pins: Callable[[], Mapping[DigitalPin, PinKey]],
+        *,
+        on_change: Callable[[], None] = lambda: None,
+    ) -> None:
+        super().__init__(board, on_change=on_change)
+        self._pins = pins
+
+    def _epoch(self) -> tuple[int, object, dict[DigitalPin, PinKey]]:
+        """What a subscription depends on: the board's boot, its link, the pins."""
+        board = self.board
+        link = board.link if board.connected else None
+        return board.session, link, dict(self._pins())
+
+    async def _while_current(self, link: Transport, epoch: object) -> None:
+        """Return once ``link`` closes or the epoch the subscription was made in is over."""
+        closed = anyio.Event()
+
+        def on_state(state: LinkState) -> None:
+            if state is LinkState.CLOSED:
+                closed.set()
+
+        stop_listening = link.on_state_change(on_state)
+        try:
+            while not closed.is_set() and link.state is not LinkState.CLOSED:
+                if self._epoch() != epoch:
+                    return
+                with anyio.move_on_after(SUPERVISE_INTERVAL):
+                    await closed.wait()
+        finally:
+            stop_listening()
 
 
 @dataclass

@@ -18,7 +18,7 @@ from typing import Any
 import anyio
 import pytest
 
-from arduinoio_async import D3, D5, D6
+from arduinoio_async import D2, D3, D5, D6
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.testing import FakeBoard
@@ -27,6 +27,7 @@ pytestmark = pytest.mark.anyio
 monitor = pytest.importorskip("arduinoio_async.monitor")
 
 from arduinoio_async.monitor import BoardPanel  # noqa: E402  (after the extra's import check)
+from arduinoio_async.monitor import _counts as counts  # noqa: E402
 
 
 class Notified:
@@ -173,3 +174,62 @@ async def test_a_firmware_without_change_events_keeps_the_streams_levels() -> No
         message = as_sent(panel.take_samples())
         assert message["watched"] == 0
         assert message["known"] & bit(5) and message["levels"] & bit(5)
+
+
+@pytest.mark.parametrize(
+    ("rate", "current", "every"),
+    [
+        (0, 1, 1),
+        (50, 1, 1),
+        (51, 1, 10),
+        (500, 1, 10),
+        (501, 1, 100),
+        (20, 10, 1),  # fits every count with room to spare
+        (30, 10, 10),  # would fit, but too near the boundary: no flapping
+        (30, 100, 10),
+        (1e9, 1, 10_000),
+    ],
+)
+def test_the_report_interval_follows_the_counting_rate(
+    rate: float, current: int, every: int
+) -> None:
+    assert counts.every_for(rate, current) == every
+
+
+async def test_counts_come_from_counter_reports_and_follow_the_rate() -> None:
+    async with monitored() as (_board, fake, panel, notified):
+        assert (await panel.perform("role", {"pin": "D2", "role": "counter_rising"})) is None
+        await notified.until(lambda: panel.counts.reported == {D2})
+        await notified.until(lambda: panel.counters.get(D2) == 0)  # read once
+        for n in range(1, 8):
+            fake.drive(2, True)
+            fake.drive(2, False)
+            await notified.until(lambda n=n: panel.counters.get(D2) == n)  # type: ignore[misc]
+        assert fake.counters[2] == 7 and not fake.stream.running
+        assert await panel.perform("counter_reset", {"pin": "D2"}) == 7
+        fake.drive(2, True)
+        await notified.until(lambda: panel.counters.get(D2) == 1)
+        message = as_sent(panel.take_samples())
+        assert message["counters"] == [1, None] and message["reported"] == bit(2)
+        assert message["counts"]["every"] == {"D2": 1}
+
+        # A fast counter: the board reports every 10th (or 100th...) count instead.
+        fast = anyio.Event()
+
+        async def count_fast() -> None:
+            while not fast.is_set():
+                for _ in range(5):
+                    fake.drive(2, False)
+                    fake.drive(2, True)
+                await anyio.sleep(0.001)  # a pulse train, not a wait for the monitor
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(count_fast)
+            await notified.until(lambda: panel.counts.state.every.get("D2", 1) > 1)
+            fast.set()
+        # Quiet again: every count is reported, and the count is exact once more.
+        await notified.until(lambda: panel.counts.state.every.get("D2") == 1)
+        await notified.until(lambda: panel.counters.get(D2) == fake.counters[2])
+        fake.drive(2, False)
+        fake.drive(2, True)
+        await notified.until(lambda: panel.counters.get(D2) == fake.counters[2])

@@ -288,11 +288,13 @@
     pinNames.forEach((name, i) => {
       view.pins[name].edges.textContent = `${message.rises[i]} / ${message.falls[i]}`;
     });
-    if (message.counters) {
-      view.root.querySelectorAll("[data-counter]").forEach((el) => {
-        el.textContent = message.counters[Number(el.dataset.counter)];
-      });
-    }
+    view.root.querySelectorAll("[data-counter]").forEach((el) => {
+      const index = Number(el.dataset.counter);
+      const value = message.counters[index];
+      el.textContent = value === null ? "–" : value;
+      // "reports": the board reports this counter as it counts (counter reports).
+      el.dataset.source = message.reported & (1 << (index + 2)) ? "reports" : "";
+    });
     renderStream(view, message.stream);
     renderChanges(view, message.changes);
     if (message.t.length) appendAnalog(view, message);
