@@ -127,18 +127,18 @@ class ChangeSource(SubscribingSource):
         link = board.link
         epoch = self._epoch()
         pins = sorted(epoch[2])
-        async with AsyncExitStack() as stack:
-            for pin in pins:
-                callback = partial(self._changed, emit)
-                # Not cancelled halfway: the board would watch a pin nobody follows.
-                with anyio.CancelScope(shield=True):
-                    stream = await stack.enter_async_context(
-                        watch_changes(board, pin, callback=callback)
-                    )
-                if self._gap_counter is None:
-                    self._gap_counter = stream
-            self.state.pins = tuple(pin.name for pin in pins)
-            try:
+        try:
+            async with AsyncExitStack() as stack:
+                for pin in pins:
+                    callback = partial(self._changed, emit)
+                    # Not cancelled halfway: the board would watch a pin nobody follows.
+                    with anyio.CancelScope(shield=True):
+                        stream = await stack.enter_async_context(
+                            watch_changes(board, pin, callback=callback)
+                        )
+                    if self._gap_counter is None:
+                        self._gap_counter = stream
+                self.state.pins = tuple(pin.name for pin in pins)
                 with self._cancellable():
                     for pin in pins:
                         await self._read_level(pin, emit)
@@ -146,10 +146,11 @@ class ChangeSource(SubscribingSource):
                     self.state.subscriptions += 1
                     self._on_change()
                     await self._while_current(link, epoch)
-            finally:
-                self.watched = frozenset()
-                self._lost_before = self.lost
-                self._gap_counter = None
+        finally:
+            # Also when a pin's subscription failed: the next one counts from here.
+            self.watched = frozenset()
+            self._lost_before = self.lost
+            self._gap_counter = None
 
     async def _read_level(self, pin: DigitalPin, emit: Emit) -> None:
         """The starting level of a just-subscribed pin.

@@ -233,3 +233,26 @@ async def test_counts_come_from_counter_reports_and_follow_the_rate() -> None:
         fake.drive(2, False)
         fake.drive(2, True)
         await notified.until(lambda: panel.counters.get(D2) == fake.counters[2])
+
+
+async def test_a_refused_subscription_shows_and_is_retried_until_the_board_takes_it() -> None:
+    async with monitored() as (board, fake, panel, notified):
+        await board.digital_input(D5)
+        await board.digital_input(D6)
+        await notified.until(lambda: panel.changes.watched == {D5, D6})
+        # The board resets and nobody restores its roles: D5 is set up again on the board
+        # alone, so D5's subscription works and D6's is refused.
+        await board.reset()
+        await board.request(p.GpioConfig(5, p.GpioFlags.INPUT))
+        await notified.until(lambda: "PIN_NOT_CONFIGURED" in panel.changes.error)
+        assert panel.changes.watched == frozenset()
+        assert as_sent(panel.changes.describe())["running"] is False
+        await board.restore()
+        await notified.until(lambda: panel.changes.watched == {D5, D6})
+        assert panel.changes.error == ""
+        fake.drive(6, True)
+        await notified.until(lambda: panel.rises[D6] == 1)
+        fake.change_sequence += 3  # three events the board could not send
+        fake.drive(5, True)
+        await notified.until(lambda: panel.rises[D5] == 1)
+        assert panel.changes.lost == 3  # counted once for the board, not once per pin
