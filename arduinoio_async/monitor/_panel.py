@@ -154,19 +154,19 @@ class BoardPanel:
         return [pin for pin in AnalogPin if pin not in busy]
 
     def inputs(self) -> dict[DigitalPin, PinKey]:
-        """The pins with an input role, each keyed by its handle and configuration."""
+        """The pins with an input role, each keyed by its handle and role (pull-up or not)."""
         return {
-            pin: (id(handle), config)
-            for pin, (handle, config) in _board_roles(self.board).items()
-            if isinstance(config, p.GpioConfig) and not config.flags & p.GpioFlags.OUTPUT
+            pin: (id(role.handle), role.role)
+            for pin, role in self.pin_roles().items()
+            if role.role in ("input", "input_pullup")
         }
 
     def counter_pins(self) -> dict[DigitalPin, PinKey]:
-        """The pins with a counter role, each keyed by its handle and configuration."""
+        """The pins with a counter role, each keyed by its handle and role (the edge)."""
         return {
-            pin: (id(handle), config)
-            for pin, (handle, config) in _board_roles(self.board).items()
-            if isinstance(config, p.CounterConfig)
+            pin: (id(role.handle), role.role)
+            for pin, role in self.pin_roles().items()
+            if role.role.startswith("counter_")
         }
 
     def on_activity(self, activity: Activity) -> None:

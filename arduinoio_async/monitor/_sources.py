@@ -56,8 +56,8 @@ RETRY_INTERVAL = 0.5
 #: with the ones it subscribed for (a local check, nothing is sent to the board).
 SUPERVISE_INTERVAL = 0.5
 
-#: What identifies a pin's subscription: a new handle or configuration of the pin ends
-#: the board's subscription, so either one asks for a new one.
+#: What identifies a pin's subscription (its handle and role, as the page shows it): a
+#: new handle or role of the pin ends the board's subscription, so either asks for a new one.
 PinKey = tuple[int, object]
 
 
