@@ -61,11 +61,15 @@ class Subscriber:
 class MonitorHub:
     """Boards in, browsers out.  Run :meth:`run` in a task group while serving."""
 
-    def __init__(self, boards: Sequence[Board], *, period_ms: float = 20.0) -> None:
+    def __init__(
+        self, boards: Sequence[Board], *, period_ms: float = 20.0, stream: bool = True
+    ) -> None:
         self.panels: dict[str, BoardPanel] = {}
         for index, board in enumerate(boards):
             key = f"b{index}"
-            self.panels[key] = BoardPanel(key, board, period_ms=period_ms, on_change=self._poke)
+            self.panels[key] = BoardPanel(
+                key, board, period_ms=period_ms, stream=stream, on_change=self._poke
+            )
         self._subscribers: set[Subscriber] = set()
         self._activity = anyio.Event()
 

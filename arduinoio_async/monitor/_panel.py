@@ -7,8 +7,11 @@ a robot program that embeds the monitor show up too, and every control goes thro
 board's typed handles with their checks; a refused operation comes back to the page as
 the library's error message.
 
-Live data arrives from :mod:`._sources` as :class:`~._sources.Activity` and is folded into
-a batch that the hub sends to the browsers a few times a second (the browser never polls).
+Live data arrives from its sources as :class:`~._sources.Activity` and is folded into a
+batch that the hub sends to the browsers a few times a second (the browser never polls):
+the digital inputs' levels and edges from the board's change events
+(:class:`~._changes.ChangeSource`), everything else from the firmware-timed stream
+(:class:`~._sources.StreamSource`).  A pin's level is shown only while a source knows it.
 """
 
 from __future__ import annotations
@@ -24,12 +27,19 @@ from ..errors import ArduinoIOError, PinRoleError, UsageError
 from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PulseOutput
 from ..handles import PinHandle as _PinHandle
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
-from ._sources import Activity, ActivitySource, StreamSource
+from ._changes import ChangeSource
+from ._counts import CountSource
+from ._sources import Activity, ActivitySource, PinKey, StreamSource
 
 if TYPE_CHECKING:
     from ..board import Board
 
 __all__ = ["ROLES", "BoardPanel", "roles_for"]
+
+#: Bit n set for every digital pin Dn the page shows.
+ALL_PINS = sum(1 << int(pin) for pin in DigitalPin)
+#: The event counters' pins, in the order the stream reports their counts.
+COUNTER_PINS = (DigitalPin.D2, DigitalPin.D3)
 
 #: Roles the page offers, in menu order; each pin offers those of Table III it can do.
 ROLES: Mapping[str, Function | None] = {
@@ -94,9 +104,11 @@ class _Batch:
     analog: dict[str, list[int]] = field(default_factory=dict)
     rose: int = 0
     fell: int = 0
+    #: A counter's count arrived (or was cleared).
+    counted: bool = False
 
     def __bool__(self) -> bool:
-        return bool(self.times) or bool(self.rose | self.fell)
+        return bool(self.times) or bool(self.rose | self.fell) or self.counted
 
 
 class BoardPanel:
@@ -108,16 +120,22 @@ class BoardPanel:
         board: Board,
         *,
         period_ms: float = 20.0,
+        stream: bool = True,
         on_change: Callable[[], None] = lambda: None,
     ) -> None:
         self.key = key
         self.board = board
         self.stream = StreamSource(
-            board, self.analog_pins, period_ms=period_ms, on_change=self.changed
+            board, self.analog_pins, period_ms=period_ms, enabled=stream, on_change=self.changed
         )
-        self.sources: list[ActivitySource] = [self.stream]
-        self.levels: int | None = None
-        self.counters: tuple[int, int] | None = None
+        self.changes = ChangeSource(board, self.inputs, on_change=self.changed)
+        self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
+        self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
+        #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
+        self.levels = 0
+        self.known = 0
+        #: Last count of each counter (D2, D3) from whichever source reported it last.
+        self.counters: dict[DigitalPin, int] = {}
         self.analog: dict[str, int] = {}
         self.rises = dict.fromkeys(DigitalPin, 0)
         self.falls = dict.fromkeys(DigitalPin, 0)
@@ -135,6 +153,22 @@ class BoardPanel:
         busy = (AnalogPin.A4, AnalogPin.A5) if self.i2c is not None else ()
         return [pin for pin in AnalogPin if pin not in busy]
 
+    def inputs(self) -> dict[DigitalPin, PinKey]:
+        """The pins with an input role, each keyed by its handle and role (pull-up or not)."""
+        return {
+            pin: (id(role.handle), role.role)
+            for pin, role in self.pin_roles().items()
+            if role.role in ("input", "input_pullup")
+        }
+
+    def counter_pins(self) -> dict[DigitalPin, PinKey]:
+        """The pins with a counter role, each keyed by its handle and role (the edge)."""
+        return {
+            pin: (id(role.handle), role.role)
+            for pin, role in self.pin_roles().items()
+            if role.role.startswith("counter_")
+        }
+
     def on_activity(self, activity: Activity) -> None:
         batch = self._batch
         if activity.analog:
@@ -142,16 +176,30 @@ class BoardPanel:
             for channel, value in activity.analog.items():
                 batch.analog.setdefault(channel.name, []).append(value)
                 self.analog[channel.name] = value
-        if activity.levels is not None:
-            self.levels = activity.levels
-        if activity.rose or activity.fell:
-            batch.rose |= activity.rose
-            batch.fell |= activity.fell
+        if activity.pin_levels:
+            # Change events: the source owns these pins, each edge is one event.
+            mine = sum(1 << int(pin) for pin in activity.pin_levels)
+            high = sum(1 << int(pin) for pin, level in activity.pin_levels.items() if level)
+        else:
+            # The stream: every pin except those the change events own.
+            mine = ALL_PINS & ~self.changes.watched_mask
+            high = activity.levels or 0
+        if activity.levels is not None or activity.pin_levels:
+            self.levels = self.levels & ~mine | high & mine
+            self.known |= mine
+        rose, fell = activity.rose & mine, activity.fell & mine
+        if rose or fell:
+            batch.rose |= rose
+            batch.fell |= fell
             for pin in DigitalPin:
-                self.rises[pin] += activity.rose >> int(pin) & 1
-                self.falls[pin] += activity.fell >> int(pin) & 1
+                self.rises[pin] += rose >> int(pin) & 1
+                self.falls[pin] += fell >> int(pin) & 1
         if activity.counters is not None:
-            self.counters = activity.counters
+            self.counters.update(zip(COUNTER_PINS, activity.counters, strict=True))
+            batch.counted = True
+        if activity.counts:
+            self.counters.update(activity.counts)
+            batch.counted = True
         self._notify()
 
     def changed(self) -> None:
@@ -162,20 +210,29 @@ class BoardPanel:
     def take_samples(self) -> dict[str, object] | None:
         """The activity since the previous call as one message, or None if there was none."""
         batch, self._batch = self._batch, _Batch()
-        if not batch and self.levels is None:
+        watched = self.changes.watched_mask
+        # A level is known while its source runs: a pin no longer watched keeps the last
+        # level the events gave only if the stream goes on reporting it.
+        known = self.known & (watched | (ALL_PINS if self.stream.running else 0))
+        if not batch and not known:
             return None
         return {
             "type": "samples",
             "board": self.key,
             "t": batch.times,
             "analog": batch.analog,
-            "levels": self.levels,
+            "levels": self.levels & known,
+            "known": known,
+            "watched": watched,
             "rose": batch.rose,
             "fell": batch.fell,
             "rises": [self.rises[pin] for pin in DigitalPin],
             "falls": [self.falls[pin] for pin in DigitalPin],
-            "counters": self.counters,
+            "counters": [self.counters.get(pin) for pin in COUNTER_PINS],
+            "reported": sum(1 << int(pin) for pin in self.counts.reported),
             "stream": self.stream.describe(),
+            "changes": self.changes.describe(),
+            "counts": self.counts.describe(),
         }
 
     async def run(self) -> None:
@@ -218,6 +275,7 @@ class BoardPanel:
             "failsafe": failsafe,
             "failsafe_tripped": board.failsafe_tripped,
             "stream": self.stream.describe(),
+            "changes": self.changes.describe(),
             "i2c": None if self.i2c is None else int(self.i2c.speed),
             "analog_pins": [pin.name for pin in AnalogPin],
             "message": self.message,
@@ -269,8 +327,18 @@ class BoardPanel:
         return current.handle
 
     async def _set_role(self, args: Mapping[str, Any]) -> None:
-        pin = _pin(args)
-        role = str(args["role"])
+        """Give a pin a role; change events and counter reports follow at once (their
+        sources' own check would notice within SUPERVISE_INTERVAL)."""
+        inputs, counters = self.inputs(), self.counter_pins()
+        try:
+            await self._change_role(_pin(args), str(args["role"]))
+        finally:
+            if self.inputs() != inputs:
+                self.changes.restart()
+            if self.counter_pins() != counters:
+                self.counts.restart()
+
+    async def _change_role(self, pin: DigitalPin, role: str) -> None:
         if role not in roles_for(pin):
             raise UsageError(f"{pin.name} cannot be {role}; it can be {', '.join(roles_for(pin))}")
         if self.pin_roles()[pin].role != "free":
@@ -301,7 +369,10 @@ class BoardPanel:
     async def _counter_reset(self, args: Mapping[str, Any]) -> int:
         pin = _pin(args)
         counter: Counter = self._handle(pin, (Counter,), "event counter")
-        return await counter.reset()
+        count = await counter.reset()
+        self.counters[pin] = 0  # until the next report or sample
+        self._batch.counted = True
+        return count
 
     async def _bus(self, args: Mapping[str, Any]) -> I2CBus:
         speed = p.I2CSpeed.KHZ_400 if int(args.get("speed", 100)) == 400 else p.I2CSpeed.KHZ_100
@@ -332,7 +403,7 @@ class BoardPanel:
 
     async def _reset(self, args: Mapping[str, Any]) -> None:
         """Reset the board, then put back every role, the I2C bus and an armed failsafe."""
-        async with self.stream.paused():
+        async with self.stream.paused(), self.changes.paused(), self.counts.paused():
             await self.board.reset(restore=True)
             if self.board.failsafe is not None:
                 await self.board.rearm_failsafe(restore=False)

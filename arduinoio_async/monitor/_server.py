@@ -104,11 +104,14 @@ async def serve_monitor(
     http: str = DEFAULT_HTTP,
     token: str | None = None,
     period_ms: float = 20.0,
+    stream: bool = True,
 ) -> AsyncIterator[MonitorServer]:
     """Serve the monitor page for ``boards`` until the block exits.
 
     Bound to a loopback address no token is needed (one may still be given); bound to
     any other address a token is required (:func:`new_token` makes a good one).
+    ``stream=False`` leaves the board's sample stream off: the inputs still follow their
+    change events, but there are no analog plots and no levels of outputs.
     """
     host, port = parse_http(http)
     loopback = is_loopback(host)
@@ -122,7 +125,7 @@ async def serve_monitor(
         )
     if not boards:
         raise UsageError("no boards to monitor")
-    hub = MonitorHub(boards, period_ms=period_ms)
+    hub = MonitorHub(boards, period_ms=period_ms, stream=stream)
     app = create_app(hub, token=token, loopback=loopback)
     sock = _bind(host, port)
     config = uvicorn.Config(

@@ -48,6 +48,12 @@ def build_parser(prog: str = "arduinoio monitor") -> argparse.ArgumentParser:
     parser.add_argument(
         "--period-ms", type=float, default=20.0, help="stream period of the board (default 20)"
     )
+    parser.add_argument(
+        "--no-stream",
+        dest="stream",
+        action="store_false",
+        help="leave the sample stream off: inputs follow their change events only, no plots",
+    )
     add_scan_options(parser)
     return parser
 
@@ -93,7 +99,9 @@ async def _monitor(args: argparse.Namespace, console: Console) -> int:
         with console.status("looking for boards..."):
             boards = await stack.enter_async_context(_boards(args))
         server = await stack.enter_async_context(
-            serve_monitor(boards, http=args.http, token=token, period_ms=args.period_ms)
+            serve_monitor(
+                boards, http=args.http, token=token, period_ms=args.period_ms, stream=args.stream
+            )
         )
         names = ", ".join(f"0x{b.board_id:04X} on {b.port}" for b in boards)
         console.print(f"monitoring {names}")

@@ -95,6 +95,13 @@ async def test_monitor_page_drives_and_follows_a_virtual_uno(
         # The board latches edges on pins with an input role.
         await section.locator('tr[data-pin="D3"] select.role').select_option("input")
         await expect(section.locator(".message")).to_have_text("D3 is now input")
+        # D3's level and edges now come from the board's change events.
+        await expect(section.locator('tr[data-pin="D3"]')).to_have_attribute(
+            "data-source", "changes"
+        )
+        await expect(section.locator('[data-fact="changes"]')).to_have_attribute(
+            "data-running", "true"
+        )
         await d2.locator("select.role").select_option("output")
         await d2.locator("input.out").check()
         await expect(d3_led).to_have_attribute("data-level", "1")
@@ -170,4 +177,39 @@ async def test_monitor_page_drives_and_follows_a_virtual_uno(
         target = os.environ.get("ARDUINOIO_MONITOR_SCREENSHOT")
         if target:
             shutil.copyfile(shot, target)
+        await page.close()
+
+
+async def test_the_page_counts_every_edge_from_change_events_with_the_stream_off(
+    virtual_uno_factory: VirtualUnoFactory, browser: Any
+) -> None:
+    """The fixture's pulse generator drives D3 faster than any stream could count; the
+    stream is off, so the level and the exact edge count can only come from events."""
+    uno = await virtual_uno_factory(board_id=0x2B, fixture="open")
+    async with (
+        Board.open(uno.port) as board,
+        monitor.serve_monitor([board], http="127.0.0.1:0", stream=False) as server,
+    ):
+        page = await browser.new_page(viewport={"width": 1360, "height": 900})
+        await page.goto(server.url)
+        section = page.locator('section.board[data-board-id="43"]')
+        await expect(section.locator('[data-fact="stream"]')).to_have_text(
+            "off (inputs: change events only)"
+        )
+        d3 = section.locator('tr[data-pin="D3"]')
+        await expect(d3.locator(".led")).to_have_attribute("data-level", "")  # nothing knows it
+        await d3.locator("select.role").select_option("input")
+        await expect(d3).to_have_attribute("data-source", "changes")
+        await expect(d3.locator(".led")).to_have_attribute("data-level", "0")  # read once
+
+        await uno.pulses("D3", count=40, high_us=2000, low_us=2000)
+        await uno.wait_pulses()
+        done = (await uno.status())["pulses_done"]["3"]
+        assert done == 40, done
+        await expect(d3.locator(".edges")).to_have_text("40 / 40")
+        await expect(d3.locator(".led")).to_have_attribute("data-level", "0")
+        changes = section.locator('[data-fact="changes"]')
+        await expect(changes).to_have_text("D3 · 80 events, 0 lost")
+        # Other pins: no source knows their level with the stream off.
+        await expect(section.locator('tr[data-pin="D4"] .led')).to_have_attribute("data-level", "")
         await page.close()

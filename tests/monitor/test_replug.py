@@ -7,6 +7,7 @@ from typing import Any
 import anyio
 import pytest
 
+from arduinoio_async import D3
 from arduinoio_async.manager import BoardManager
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -51,4 +52,47 @@ async def test_the_stream_comes_back_after_unplug_and_replug(
             snapshot = hub.panels["b0"].snapshot()
             assert snapshot["connected"] and snapshot["port"] == new_port
             assert snapshot["stream"]["running"]
+            tg.cancel_scope.cancel()
+
+
+async def test_change_events_come_back_after_a_reset_and_a_replug(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """The board forgets its subscriptions in a reset (here one the manager notices, not
+    the page) and a replug: the monitor subscribes D3 again, and its edges count on."""
+    uno = await virtual_uno_factory(board_id=10)
+    async with BoardManager(ports=[uno.port], rescan_interval=0.05) as boards:
+        board = await boards.get(10)
+        hub = monitor.MonitorHub([board], stream=False)
+        panel = hub.panels["b0"]
+        page = hub.subscribe()
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(hub.run)
+            await board.digital_input(D3)
+
+            async def rises_after(edges: int) -> None:
+                """Drive one more rise of D3 until the page counts ``edges`` rises."""
+                await uno.drive("D3", 1)
+                while (await next_message(page, "samples"))["rises"][3 - 2] < edges:
+                    pass
+                await uno.drive("D3", 0)
+
+            subscriptions = panel.changes.state.subscriptions
+            while panel.changes.state.subscriptions == subscriptions:
+                await next_message(page, "board")
+            await rises_after(1)
+
+            subscriptions = panel.changes.state.subscriptions
+            await uno.reset()  # behind the monitor's back: the manager restores D3
+            while panel.changes.state.subscriptions == subscriptions:
+                await next_message(page, "board")
+            await rises_after(2)
+
+            subscriptions = panel.changes.state.subscriptions
+            await uno.unplug()
+            boards.add_port(await uno.replug())
+            while panel.changes.state.subscriptions == subscriptions:
+                await next_message(page, "board")
+            await rises_after(3)
+            assert panel.changes.lost == 0
             tg.cancel_scope.cancel()

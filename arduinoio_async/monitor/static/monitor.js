@@ -199,15 +199,25 @@
     fact("failsafe").textContent = snapshot.failsafe;
     fact("failsafe").dataset.tripped = snapshot.failsafe_tripped ? "true" : "false";
     renderStream(view, snapshot.stream);
+    renderChanges(view, snapshot.changes);
     for (const pin of snapshot.pins) renderPin(view, pin);
   }
 
   function renderStream(view, stream) {
     const el = view.root.querySelector('[data-fact="stream"]');
     el.dataset.running = stream.running ? "true" : "false";
-    el.textContent = stream.running
+    el.textContent = !stream.enabled ? "off (inputs: change events only)" : stream.running
       ? `${stream.period_ms} ms · ${stream.channels.join(" ") || "levels"} · ${stream.received} samples, ${stream.lost} lost`
       : `stopped${stream.error ? ": " + stream.error : ""}`;
+  }
+
+  // Inputs watched for change events: every edge counted, losses from sequence numbers.
+  function renderChanges(view, changes) {
+    const el = view.root.querySelector('[data-fact="changes"]');
+    el.dataset.running = changes.running ? "true" : "false";
+    el.textContent = changes.running
+      ? `${changes.pins.join(" ") || "no inputs"} · ${changes.received} events, ${changes.lost} lost`
+      : changes.error || "stopped";
   }
 
   function renderPin(view, pin) {
@@ -267,23 +277,26 @@
   function applySamples(message) {
     const view = boards[message.board];
     if (!view) return;
-    if (message.levels !== null) {
-      for (const [name, state] of Object.entries(view.pins)) {
-        const bit = 1 << Number(name.slice(1));
-        state.led.dataset.level = message.levels & bit ? "1" : "0";
-        if ((message.rose | message.fell) & bit) blink(state.led);
-      }
+    for (const [name, state] of Object.entries(view.pins)) {
+      const bit = 1 << Number(name.slice(1));
+      // data-source says where the level comes from: "changes" (pushed events) or "stream".
+      state.row.dataset.source = message.watched & bit ? "changes" : message.known & bit ? "stream" : "";
+      state.led.dataset.level = message.known & bit ? (message.levels & bit ? "1" : "0") : "";
+      if ((message.rose | message.fell) & bit) blink(state.led);
     }
     const pinNames = Object.keys(view.pins);
     pinNames.forEach((name, i) => {
       view.pins[name].edges.textContent = `${message.rises[i]} / ${message.falls[i]}`;
     });
-    if (message.counters) {
-      view.root.querySelectorAll("[data-counter]").forEach((el) => {
-        el.textContent = message.counters[Number(el.dataset.counter)];
-      });
-    }
+    view.root.querySelectorAll("[data-counter]").forEach((el) => {
+      const index = Number(el.dataset.counter);
+      const value = message.counters[index];
+      el.textContent = value === null ? "–" : value;
+      // "reports": the board reports this counter as it counts (counter reports).
+      el.dataset.source = message.reported & (1 << (index + 2)) ? "reports" : "";
+    });
     renderStream(view, message.stream);
+    renderChanges(view, message.changes);
     if (message.t.length) appendAnalog(view, message);
   }
 
