@@ -24,8 +24,7 @@ import anyio
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, PinRoleError, UsageError
-from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PulseOutput
-from ..handles import PinHandle as _PinHandle
+from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -69,19 +68,10 @@ class PinRole:
     role: str = "free"
     #: Output level, or pulse width in us, or None.
     value: int | None = None
-    handle: _PinHandle | None = None
+    handle: PinHandle | None = None
 
 
-def _board_roles(board: Board) -> Mapping[DigitalPin, tuple[_PinHandle, p.Request[Any]]]:
-    """The board's record of configured pins (handle and the request that set it up).
-
-    :attr:`Board.roles`: the record the board keeps to replay roles after a reset is
-    exactly what the page must show.
-    """
-    return board.roles
-
-
-def _role_of(handle: _PinHandle, config: p.Request[Any]) -> PinRole:
+def _role_of(handle: PinHandle, config: p.Request[Any]) -> PinRole:
     if isinstance(config, p.GpioConfig):
         if config.flags & p.GpioFlags.OUTPUT:
             return PinRole("output", int(bool(config.flags & p.GpioFlags.INITIAL_HIGH)), handle)
@@ -249,7 +239,7 @@ class BoardPanel:
 
     def pin_roles(self) -> dict[DigitalPin, PinRole]:
         roles = {pin: PinRole() for pin in DigitalPin}
-        for pin, (handle, config) in _board_roles(self.board).items():
+        for pin, (handle, config) in self.board.roles.items():
             roles[pin] = _role_of(handle, config)
         return roles
 
@@ -320,7 +310,7 @@ class BoardPanel:
             "failsafe_rearm": self._failsafe_rearm,
         }
 
-    def _handle(self, pin: DigitalPin, kind: tuple[type[_PinHandle], ...], wanted: str) -> Any:
+    def _handle(self, pin: DigitalPin, kind: tuple[type[PinHandle], ...], wanted: str) -> Any:
         current = self.pin_roles()[pin]
         if not isinstance(current.handle, kind):
             raise PinRoleError(pin.name, current.role, wanted)
@@ -410,7 +400,7 @@ class BoardPanel:
 
     async def _failsafe_arm(self, args: Mapping[str, Any]) -> None:
         """Arm with every output's safe state off (low, no pulses)."""
-        outputs: dict[_PinHandle, bool | int] = {
+        outputs: dict[PinHandle, bool | int] = {
             role.handle: 0
             for role in self.pin_roles().values()
             if isinstance(role.handle, DigitalOutput | Gpio | PulseOutput)
