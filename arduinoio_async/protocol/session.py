@@ -34,6 +34,11 @@ checksum; either way garbage follows the bad frame at once.  So a frame followed
 garbage is not trusted (it counts as noise), and the last frame of a chunk waits for the
 next chunk while another reply is due.  A lone request's reply cannot be checked this way:
 that residual (about one corrupt frame in 256 faults) is the checksum's, not the session's.
+What the checksum passes must still be a reply the board can send: an ID other than
+the board's (:attr:`Session.expected_id`, or one a ``WriteId`` in doubt may have set) or a
+temperature reading outside what the chip's sensor can report
+(:data:`TEMPERATURE_RAW_RANGE`) is noise too, so an idempotent read is asked again
+instead of answering with a wrong value.  Docs: ``docs/protocol.md``, "Residual errors".
 
 *Retries.*  A request whose reply was lost is re-sent at the head of the queue -- before
 anything queued later -- when it is idempotent (``Request.IDEMPOTENT``), has attempts
@@ -60,11 +65,20 @@ from ..errors import (
     LinkResyncError,
     ReplyMismatchError,
 )
-from ._constants import RX_FIFO_SIZE
+from ._constants import RX_FIFO_SIZE, TEMP_MV_AT_25C, TEMP_MV_PER_C
 from ._decoder import Decoded, Decoder, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
 from ._layout import Frame
-from ._messages import ErrorReply, Event, ReadCapabilities, ReadId, ReadIdReply, Reply, Request
+from ._messages import (
+    ErrorReply,
+    Event,
+    ReadCapabilities,
+    ReadId,
+    ReadIdReply,
+    ReadTemperatureReply,
+    Reply,
+    Request,
+)
 from ._messages import WriteId as _WriteId
 
 __all__ = [
@@ -83,9 +97,20 @@ MAX_IN_FLIGHT = 64
 #: Sends of one idempotent request (the first and the retries).
 MAX_ATTEMPTS = 3
 
+#: Raw readings the chip's temperature sensor can give (ATmega328P datasheet, "Temperature
+#: Measurement": about 1 mV per degree, 314 mV at 25 C, +/-10 mV before calibration),
+#: for a die between -60 C and +150 C (beyond its absolute maximum ratings) and an internal
+#: reference between 1.0 V and 1.2 V (its specified spread around 1.1 V).
+TEMPERATURE_RAW_RANGE = range(
+    int((TEMP_MV_AT_25C + (-60 - 25) * TEMP_MV_PER_C - 10) * 1024 / 1200),
+    int((TEMP_MV_AT_25C + (150 - 25) * TEMP_MV_PER_C + 10) * 1024 / 1000) + 1,
+)
+
 TraceFn = Callable[[str, "Decoded"], None]
 
 _NOT_A_REPLY = (Garbage, Event)
+#: Replies whose values the session can bound beyond what their message classes check.
+_BOUNDED = frozenset((ReadIdReply, ReadTemperatureReply))
 
 
 class Session:
@@ -139,6 +164,10 @@ class Session:
     def queued(self) -> int:
         return len(self._queue)
 
+    def pending(self) -> list[Exchange]:
+        """Every exchange not done yet: in flight (oldest first), then queued."""
+        return [*self._flight, *self._queue]
+
     @property
     def aligned(self) -> bool:
         """While draining: the last bytes fed ended on a valid frame's boundary."""
@@ -148,7 +177,8 @@ class Session:
 
     def send(self, request: Request[Any]) -> tuple[Exchange, bytes]:
         """Queue ``request``; return its exchange and the bytes to write now (maybe b"")."""
-        exchange = Exchange(request, request.encode())
+        layout = request.LAYOUT
+        exchange = Exchange(request, layout.constant or layout.encode(request))
         if self.state is SessionState.CLOSED:
             self._finish(exchange, None, BoardDisconnectedError(str(self.close_error)))
             return exchange, b""
@@ -252,27 +282,39 @@ class Session:
     def receive_data(self, data: bytes) -> Received:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
+        decoder = self._decoder
+        frame = decoder.whole_frame(data)
+        if frame is not None:
+            flight = self._flight
+            if (
+                len(flight) == 1
+                and self._held is None
+                and not self._suspect
+                and self.trace is None
+                and self.state is SessionState.READY
+            ):
+                # The common case: one request in flight and its reply alone in a chunk.
+                request = flight[0].request
+                reply: Reply = frame  # type: ignore[assignment]  # checked on the next line
+                if (
+                    type(reply) is request.REPLY
+                    and (not request.ECHO or request.matches(reply))
+                    and (type(reply) not in _BOUNDED or self._possible(reply))
+                ):
+                    self._complete_head(reply, None, out)
+                    if self._queue:
+                        self._admit(out)
+                    return out
+            items: list[Decoded] = [frame]
+        else:
+            items = decoder.feed(data)
         trace = self.trace
-        items = self._decoder.feed(data)
         if trace is not None:
             for item in items:
                 trace("rx", item)
         if self._held is not None:
             items.insert(0, self._held)
             self._held = None
-        elif len(items) == 1 and len(self._flight) == 1 and self.state is SessionState.READY:
-            # The common case, one request in flight and its reply in one chunk.
-            item = items[0]
-            request = self._flight[0].request
-            if (
-                not self._suspect
-                and type(item) is request.REPLY
-                and (not request.ECHO or request.matches(item))
-            ):
-                self._complete_head(item, None, out)
-                if self._queue:
-                    self._admit(out)
-                return out
         last = len(items) - 1
         for index, item in enumerate(items):
             state = self.state
@@ -319,6 +361,8 @@ class Session:
         that gained a byte equal to its checksum, and either way garbage follows at once;
         so the request fails or is retried instead of getting a wrong answer)."""
         flight = self._flight
+        if isinstance(item, Reply) and type(item) in _BOUNDED and not self._possible(item):
+            item = Garbage(item.encode())  # a value the board cannot send: noise
         if isinstance(item, Reply):
             if flight and not self._suspect:
                 head = flight[0]
@@ -348,6 +392,19 @@ class Session:
                 marker = Exchange(ReadCapabilities(), ReadCapabilities().encode(), internal=True)
                 self._marker = marker
                 self._queue.appendleft(marker)
+
+    def _possible(self, reply: Reply) -> bool:
+        """Could the board have sent ``reply``?  (Only for types in ``_BOUNDED``.)"""
+        if isinstance(reply, ReadIdReply):
+            expected = self.expected_id
+            return (
+                expected is None
+                or reply.board_id == expected
+                or reply.board_id in self._candidate_ids
+            )
+        if isinstance(reply, ReadTemperatureReply):
+            return reply.raw in TEMPERATURE_RAW_RANGE
+        return True
 
     def _locate(self, item: Reply | ErrorReply, out: Received) -> None:
         """After noise (or a mismatch): which request in flight does ``item`` answer?"""
