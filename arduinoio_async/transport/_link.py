@@ -57,7 +57,6 @@ import anyio.lowlevel
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, BoardDisconnectedError
-from ._deadline import DeadlineAlarm
 from ..protocol.session import (
     MAX_IN_FLIGHT,
     Exchange,
@@ -67,6 +66,7 @@ from ..protocol.session import (
     SessionState,
     board_error,
 )
+from ._deadline import DeadlineAlarm
 
 __all__ = [
     "DEFAULT_TIMEOUT",
@@ -325,9 +325,7 @@ class Transport:
                 await anyio.lowlevel.checkpoint()
             else:
                 future = exchange.waiter = loop.create_future()
-                deadline = exchange.deadline = now + (
-                    self.timeout if timeout is None else timeout
-                )
+                deadline = exchange.deadline = now + (self.timeout if timeout is None else timeout)
                 alarm = self._alarm
                 if alarm is not None and deadline < alarm.armed_at:  # else it rings earlier
                     alarm.arm(deadline)
