@@ -148,9 +148,9 @@ class Decoder:
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[Decoded]:
         """Add received bytes; return every frame (and garbage run) now complete."""
-        frame = self.whole_frame(data)
-        if frame is not None:
-            return [frame]
+        whole = self.whole_frame(data)
+        if whole is not None:
+            return [whole]
         buffer = self._buffer
         buffer += data
         out: list[Decoded] = []
