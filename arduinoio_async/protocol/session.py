@@ -279,6 +279,43 @@ class Session:
 
     # ---- bytes from the board ----------------------------------------------------------
 
+    def receive_reply(self, data: bytes) -> Exchange | None:
+        """:meth:`receive_data` for the common case only, without building a
+        :class:`Received`: when ``data`` is exactly the reply of the one request in flight
+        and nothing else is going on (no queue, no noise, no trace), complete that request
+        and return its exchange.  Otherwise return None having consumed nothing: pass
+        ``data`` to :meth:`receive_data`, which gives the same outcome for this case."""
+        flight = self._flight
+        if (
+            len(flight) != 1
+            or self._queue
+            or self._held is not None
+            or self._suspect
+            or self.trace is not None
+            or self.state is not SessionState.READY
+        ):
+            return None
+        frame = self._decoder.whole_frame(data)
+        exchange = flight[0]
+        request = exchange.request
+        if (
+            type(frame) is not request.REPLY
+            or exchange.internal
+            or exchange.abandoned
+            or type(request) is _WriteId
+        ):
+            return None
+        if (request.ECHO and not request.matches(frame)) or (
+            type(frame) in _BOUNDED and not self._possible(frame)
+        ):
+            return None
+        flight.popleft()
+        self._flight_bytes -= exchange.size
+        self.stats.replies += 1
+        exchange.done = True
+        exchange.reply = frame
+        return exchange
+
     def receive_data(self, data: bytes) -> Received:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
@@ -294,14 +331,23 @@ class Session:
                 and self.state is SessionState.READY
             ):
                 # The common case: one request in flight and its reply alone in a chunk.
-                request = flight[0].request
+                exchange = flight[0]
+                request = exchange.request
                 reply: Reply = frame  # type: ignore[assignment]  # checked on the next line
                 if (
                     type(reply) is request.REPLY
                     and (not request.ECHO or request.matches(reply))
                     and (type(reply) not in _BOUNDED or self._possible(reply))
                 ):
-                    self._complete_head(reply, None, out)
+                    if exchange.internal or exchange.abandoned or type(request) is _WriteId:
+                        self._complete_head(reply, None, out)
+                    else:  # _complete_head, inlined
+                        flight.popleft()
+                        self._flight_bytes -= exchange.size
+                        self.stats.replies += 1
+                        exchange.done = True
+                        exchange.reply = reply
+                        out.done.append(exchange)
                     if self._queue:
                         self._admit(out)
                     return out

@@ -403,6 +403,18 @@ class Transport:
     def _on_data(self, data: bytes) -> None:
         """Received bytes (in the fd-readable callback or the reader task)."""
         session = self._session
+        exchange = session.receive_reply(data)
+        if exchange is not None:  # the common case, kept flat: wake its caller
+            waiter = exchange.waiter
+            if waiter is None:
+                pass
+            elif self._loop is None:
+                waiter.set()
+            elif not waiter.done():
+                waiter.set_result(None)
+            if self._watchers:
+                self._sync_state()
+            return
         if session.state is not SessionState.READY:
             # Only a drain reads these, and a drain starts with a loss of sync, which
             # stamps ``_lost_at``: bytes received while in sync need no time stamp.
