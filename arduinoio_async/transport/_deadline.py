@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -91,3 +92,13 @@ class _Watchdog:
 
 
 _WATCHDOG = _Watchdog()
+
+
+def _forget_in_child() -> None:
+    """A forked child has no watchdog thread (nor the parent's loops): start afresh."""
+    global _WATCHDOG
+    _WATCHDOG = _Watchdog()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_in_child)
