@@ -15,15 +15,19 @@ always gets its turn.
 Received bytes go to the session as they arrive.  On asyncio, with a stream that can push
 (the serial stream), that happens in the event loop's fd-readable callback: the reply is
 decoded and matched there and the waiting caller's future resolved, so a round trip costs
-one loop iteration and no task switch.  Other streams and backends (trio) use a reader
-task with anyio's portable primitives.
+one loop iteration and no task switch.  The common case -- one request in flight, its reply
+alone in a chunk -- takes :meth:`Session.receive_reply`, which allocates nothing.  Other
+streams and backends (trio) use a reader task with anyio's portable primitives.
 
 *The per-request timeout* covers the whole call: waiting in the queue (behind a window
 full of earlier requests, or a resync), the flight, and transparent retries.  A request
 that expires before it was sent fails with :class:`BoardTimeoutError` and costs nothing
 else; one that expires in flight means the board did not answer, and the link resyncs.  On
-asyncio one timer per link watches every deadline (re-armed only when it fires, or for an
-earlier deadline), not one timer per request.
+asyncio each exchange carries its deadline and one alarm per link
+(:class:`~arduinoio_async.transport._deadline.DeadlineAlarm`) is armed for the earliest:
+re-armed only when it rings or for an earlier deadline, and kept off the event loop's timer
+heap, whose cost every loop iteration would pay.  On trio each request waits in its own
+cancel scope.
 
 When the session loses sync it fails what was in flight (or queues idempotent requests
 again, see the session's docstring) and the shell's resync task drains the line and
