@@ -37,7 +37,7 @@ that residual (about one corrupt frame in 256 faults) is the checksum's, not the
 What the checksum passes must still be a reply the board can send: an ID other than
 the board's (:attr:`Session.expected_id`, or one a ``WriteId`` in doubt may have set) or a
 temperature reading outside what the chip's sensor can report
-(:data:`TEMPERATURE_RAW_RANGE`) is noise too, so an idempotent read is asked again
+(:data:`~._bounds.TEMPERATURE_RAW_RANGE`) is noise too, so an idempotent read is asked again
 instead of answering with a wrong value.  Docs: ``docs/protocol.md``, "Residual errors".
 
 *Retries.*  A request whose reply was lost is re-sent at the head of the queue -- before
@@ -65,7 +65,8 @@ from ..errors import (
     LinkResyncError,
     ReplyMismatchError,
 )
-from ._constants import RX_FIFO_SIZE, TEMP_MV_AT_25C, TEMP_MV_PER_C
+from ._bounds import BOUNDED, TEMPERATURE_RAW_RANGE, possible
+from ._constants import RX_FIFO_SIZE
 from ._decoder import Decoded, Decoder, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
 from ._layout import Frame
@@ -75,7 +76,6 @@ from ._messages import (
     ReadCapabilities,
     ReadId,
     ReadIdReply,
-    ReadTemperatureReply,
     Reply,
     Request,
 )
@@ -84,6 +84,7 @@ from ._messages import WriteId as _WriteId
 __all__ = [
     "MAX_ATTEMPTS",
     "MAX_IN_FLIGHT",
+    "TEMPERATURE_RAW_RANGE",
     "Exchange",
     "LinkStats",
     "Received",
@@ -97,20 +98,9 @@ MAX_IN_FLIGHT = 64
 #: Sends of one idempotent request (the first and the retries).
 MAX_ATTEMPTS = 3
 
-#: Raw readings the chip's temperature sensor can give (ATmega328P datasheet, "Temperature
-#: Measurement": about 1 mV per degree, 314 mV at 25 C, +/-10 mV before calibration),
-#: for a die between -60 C and +150 C (beyond its absolute maximum ratings) and an internal
-#: reference between 1.0 V and 1.2 V (its specified spread around 1.1 V).
-TEMPERATURE_RAW_RANGE = range(
-    int((TEMP_MV_AT_25C + (-60 - 25) * TEMP_MV_PER_C - 10) * 1024 / 1200),
-    int((TEMP_MV_AT_25C + (150 - 25) * TEMP_MV_PER_C + 10) * 1024 / 1000) + 1,
-)
-
 TraceFn = Callable[[str, "Decoded"], None]
 
 _NOT_A_REPLY = (Garbage, Event)
-#: Replies whose values the session can bound beyond what their message classes check.
-_BOUNDED = frozenset((ReadIdReply, ReadTemperatureReply))
 
 
 class Session:
@@ -306,7 +296,7 @@ class Session:
         ):
             return None
         if (request.ECHO and not request.matches(frame)) or (
-            type(frame) in _BOUNDED and not self._possible(frame)
+            type(frame) in BOUNDED and not self._possible(frame)
         ):
             return None
         flight.popleft()
@@ -337,7 +327,7 @@ class Session:
                 if (
                     type(reply) is request.REPLY
                     and (not request.ECHO or request.matches(reply))
-                    and (type(reply) not in _BOUNDED or self._possible(reply))
+                    and (type(reply) not in BOUNDED or self._possible(reply))
                 ):
                     if exchange.internal or exchange.abandoned or type(request) is _WriteId:
                         self._complete_head(reply, None, out)
@@ -407,7 +397,7 @@ class Session:
         that gained a byte equal to its checksum, and either way garbage follows at once;
         so the request fails or is retried instead of getting a wrong answer)."""
         flight = self._flight
-        if isinstance(item, Reply) and type(item) in _BOUNDED and not self._possible(item):
+        if isinstance(item, Reply) and type(item) in BOUNDED and not self._possible(item):
             item = Garbage(item.encode())  # a value the board cannot send: noise
         if isinstance(item, Reply):
             if flight and not self._suspect:
@@ -440,17 +430,8 @@ class Session:
                 self._queue.appendleft(marker)
 
     def _possible(self, reply: Reply) -> bool:
-        """Could the board have sent ``reply``?  (Only for types in ``_BOUNDED``.)"""
-        if isinstance(reply, ReadIdReply):
-            expected = self.expected_id
-            return (
-                expected is None
-                or reply.board_id == expected
-                or reply.board_id in self._candidate_ids
-            )
-        if isinstance(reply, ReadTemperatureReply):
-            return reply.raw in TEMPERATURE_RAW_RANGE
-        return True
+        """Could the board have sent ``reply``?  (Only for types in ``BOUNDED``.)"""
+        return possible(reply, self.expected_id, self._candidate_ids)
 
     def _locate(self, item: Reply | ErrorReply, out: Received) -> None:
         """After noise (or a mismatch): which request in flight does ``item`` answer?"""
