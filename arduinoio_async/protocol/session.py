@@ -296,7 +296,7 @@ class Session:
         ):
             return None
         if (request.ECHO and not request.matches(frame)) or (
-            type(frame) in BOUNDED and not self._possible(frame)
+            type(frame) in BOUNDED and not possible(frame, self.expected_id, self._candidate_ids)
         ):
             return None
         flight.popleft()
@@ -327,7 +327,10 @@ class Session:
                 if (
                     type(reply) is request.REPLY
                     and (not request.ECHO or request.matches(reply))
-                    and (type(reply) not in BOUNDED or self._possible(reply))
+                    and (
+                        type(reply) not in BOUNDED
+                        or possible(reply, self.expected_id, self._candidate_ids)
+                    )
                 ):
                     if exchange.internal or exchange.abandoned or type(request) is _WriteId:
                         self._complete_head(reply, None, out)
@@ -397,7 +400,11 @@ class Session:
         that gained a byte equal to its checksum, and either way garbage follows at once;
         so the request fails or is retried instead of getting a wrong answer)."""
         flight = self._flight
-        if isinstance(item, Reply) and type(item) in BOUNDED and not self._possible(item):
+        if (
+            isinstance(item, Reply)
+            and type(item) in BOUNDED
+            and not possible(item, self.expected_id, self._candidate_ids)
+        ):
             item = Garbage(item.encode())  # a value the board cannot send: noise
         if isinstance(item, Reply):
             if flight and not self._suspect:
@@ -428,10 +435,6 @@ class Session:
                 marker = Exchange(ReadCapabilities(), ReadCapabilities().encode(), internal=True)
                 self._marker = marker
                 self._queue.appendleft(marker)
-
-    def _possible(self, reply: Reply) -> bool:
-        """Could the board have sent ``reply``?  (Only for types in ``BOUNDED``.)"""
-        return possible(reply, self.expected_id, self._candidate_ids)
 
     def _locate(self, item: Reply | ErrorReply, out: Received) -> None:
         """After noise (or a mismatch): which request in flight does ``item`` answer?"""
