@@ -309,51 +309,32 @@ class Session:
     def receive_data(self, data: bytes) -> Received:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
-        decoder = self._decoder
-        frame = decoder.whole_frame(data)
-        if frame is not None:
-            flight = self._flight
-            if (
-                len(flight) == 1
-                and self._held is None
-                and not self._suspect
-                and self.trace is None
-                and self.state is SessionState.READY
-            ):
-                # The common case: one request in flight and its reply alone in a chunk.
-                exchange = flight[0]
-                request = exchange.request
-                reply: Reply = frame  # type: ignore[assignment]  # checked on the next line
-                if (
-                    type(reply) is request.REPLY
-                    and (not request.ECHO or request.matches(reply))
-                    and (
-                        type(reply) not in BOUNDED
-                        or possible(reply, self.expected_id, self._candidate_ids)
-                    )
-                ):
-                    if exchange.internal or exchange.abandoned or type(request) is _WriteId:
-                        self._complete_head(reply, None, out)
-                    else:  # _complete_head, inlined
-                        flight.popleft()
-                        self._flight_bytes -= exchange.size
-                        self.stats.replies += 1
-                        exchange.done = True
-                        exchange.reply = reply
-                        out.done.append(exchange)
-                    if self._queue:
-                        self._admit(out)
-                    return out
-            items: list[Decoded] = [frame]
-        else:
-            items = decoder.feed(data)
         trace = self.trace
+        items = self._decoder.feed(data)
         if trace is not None:
             for item in items:
                 trace("rx", item)
         if self._held is not None:
             items.insert(0, self._held)
             self._held = None
+        elif len(items) == 1 and len(self._flight) == 1 and self.state is SessionState.READY:
+            # One request in flight and its reply in one chunk (receive_reply's case, with
+            # a queue to admit from or an internal, abandoned or WriteId exchange).
+            item = items[0]
+            request = self._flight[0].request
+            if (
+                not self._suspect
+                and type(item) is request.REPLY
+                and (not request.ECHO or request.matches(item))
+                and (
+                    type(item) not in BOUNDED
+                    or possible(item, self.expected_id, self._candidate_ids)
+                )
+            ):
+                self._complete_head(item, None, out)
+                if self._queue:
+                    self._admit(out)
+                return out
         last = len(items) - 1
         for index, item in enumerate(items):
             state = self.state
