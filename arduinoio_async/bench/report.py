@@ -81,6 +81,13 @@ def print_scenario(console: Console, scenario: ScenarioResult) -> None:
                     f"{pty[f'{variant}_ratio_median']:.2f}x (IQR {low:.2f}-{high:.2f}, "
                     f"{pty['rounds']} interleaved rounds)"
                 )
+        for loop in ("asyncio", "uvloop"):
+            if f"{loop}_over_minimal_median" in pty:
+                low, high = pty[f"{loop}_over_minimal_iqr"]
+                console.print(
+                    f"CPU / minimal {loop} client, this library: median "
+                    f"{pty[f'{loop}_over_minimal_median']:.2f}x (IQR {low:.2f}-{high:.2f})"
+                )
 
 
 def to_json(scenarios: list[ScenarioResult], argv: list[str]) -> dict[str, Any]:

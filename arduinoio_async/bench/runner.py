@@ -350,6 +350,14 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
         out[f"{variant}_ratio_iqr"] = [quartiles[0], quartiles[2]]
         out[f"{variant}_ratio_spread"] = [ratios[0], ratios[-1]]
         out[f"{variant}_ratios"] = ratios
+    for loop in loops:
+        # The library against the loop's own floor, per round: what the library adds to
+        # the event loop, less sensitive than the ratio to bare pyserial to how loaded the
+        # machine is (a busy neighbour slows the event loop's own code too).
+        over = [lib / floor for lib, floor in zip(cpu[loop], cpu[f"{loop}_minimal"], strict=True)]
+        quartiles = statistics.quantiles(over, n=4)
+        out[f"{loop}_over_minimal_median"] = statistics.median(over)
+        out[f"{loop}_over_minimal_iqr"] = [quartiles[0], quartiles[2]]
     return out
 
 

@@ -18,6 +18,13 @@ events) for the host, ``Decoder.from_host()`` (requests) for boards and test pee
 board frames by tags, length and checksum alone and refuses bad field values afterwards
 (``VALUE_OUT_OF_RANGE``), so a board model asks ``from_host(keep_invalid=True)`` and gets
 such a frame whole, as :class:`InvalidValues`, instead of one byte of garbage.
+
+*The common case, fast.*  Most chunks a host reads are exactly one reply.
+:meth:`Decoder.whole_frame` takes that case alone, and remembers the frames it decoded by
+their bytes (messages are immutable, so equal bytes can share one object): a board
+answers the same few replies over and over -- write acknowledgements, IDs, levels -- and
+a remembered frame costs one dict lookup instead of a checksum loop, an unpack and a
+constructor.  The memo holds at most ``MEMO_SIZE`` frames and starts afresh when full.
 """
 
 from __future__ import annotations
@@ -69,8 +76,12 @@ class Decoder:
         "_first_bytes",
         "_keep_invalid",
         "_layouts",
+        "_memo",
         "_pending_garbage",
     )
+
+    #: Whole frames :meth:`whole_frame` remembers by their bytes.
+    MEMO_SIZE = 512
 
     def __init__(
         self, layouts: dict[int, Layout], *, accept_errors: bool, keep_invalid: bool = False
@@ -81,6 +92,7 @@ class Decoder:
         self._buffer = bytearray()
         self._pending_garbage = bytearray()
         self._first_bytes = frozenset(key >> 8 for key in layouts)
+        self._memo: dict[bytes, Frame] = {}
 
     @classmethod
     def from_board(cls) -> Decoder:
@@ -104,23 +116,42 @@ class Decoder:
         self._pending_garbage.clear()
         return dropped
 
+    def whole_frame(self, data: bytes | bytearray | memoryview) -> Frame | None:
+        """``data`` as one frame when it is exactly one valid fixed-size frame and no
+        earlier bytes are buffered (a reply arriving alone); otherwise None, and nothing
+        was consumed: pass ``data`` to :meth:`feed`.  Same result as ``feed`` would give.
+        """
+        if self._buffer or type(data) is not bytes:
+            return None
+        memo = self._memo
+        frame = memo.get(data)
+        if frame is not None:
+            return frame
+        if len(data) < 3 or data[0] & ERROR_FLAG:
+            return None
+        layout = self._layouts.get((data[0] << 8) | data[1])
+        if layout is None or layout.length_offset >= 0 or layout.base_size != len(data):
+            return None
+        check = 0
+        for byte in data:
+            check ^= byte
+        if check:
+            return None
+        try:
+            frame = layout.decode(data)
+        except ValueError:
+            return None
+        if len(memo) >= self.MEMO_SIZE:
+            memo.clear()
+        memo[data] = frame
+        return frame
+
     def feed(self, data: bytes | bytearray | memoryview) -> list[Decoded]:
         """Add received bytes; return every frame (and garbage run) now complete."""
+        whole = self.whole_frame(data)
+        if whole is not None:
+            return [whole]
         buffer = self._buffer
-        if not buffer and len(data) > 2 and not data[0] & ERROR_FLAG:
-            # Fast path, the common case of a reply arriving alone: ``data`` is exactly one
-            # valid fixed-size frame.  Anything else takes the general path below, which
-            # gives the same result for this case.
-            layout = self._layouts.get((data[0] << 8) | data[1])
-            if layout is not None and layout.length_offset < 0 and layout.base_size == len(data):
-                check = 0
-                for byte in data:
-                    check ^= byte
-                if not check:
-                    try:
-                        return [layout.decode(data)]
-                    except ValueError:
-                        pass
         buffer += data
         out: list[Decoded] = []
         pos = 0

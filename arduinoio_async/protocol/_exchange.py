@@ -5,6 +5,7 @@ Split from :mod:`arduinoio_async.protocol.session` so that module holds only the
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ..errors import (
@@ -84,13 +85,14 @@ class LinkStats:
 class Exchange:
     """One request's life: queued, in flight, done (with ``reply`` or ``error``).
 
-    ``waiter`` belongs to the shell (what its caller waits on); the session never looks
-    at it.
+    ``waiter`` and ``deadline`` belong to the shell (what its caller waits on, and until
+    when); the session never looks at them.
     """
 
     __slots__ = (
         "abandoned",
         "attempts",
+        "deadline",
         "done",
         "error",
         "frame",
@@ -114,6 +116,7 @@ class Exchange:
         self.reply: Reply | None = None
         self.error: ArduinoIOError | None = None
         self.waiter: Any = None
+        self.deadline = math.inf
 
     def __repr__(self) -> str:
         state = "done" if self.done else "queued" if self.queued else "in flight"

@@ -143,11 +143,11 @@ class Layout:
         self._simple = all(c is None for c in self._converters) and not any(self._array_counts)
         # Encoding is on every request's path: a frame without fields is a constant, and
         # one of scalar fields only packs the fields fetched by one ``attrgetter`` call.
-        self._constant: bytes | None = None
+        self.constant: bytes | None = None
         self._getter: Callable[[Any], Any] | None = None
         if not self.fields:
             head = self.prefix.pack(class_tag, descriptor)
-            self._constant = head + bytes((checksum(head),))
+            self.constant = head + bytes((checksum(head),))
         elif self.blob is None and not any(self._array_counts):
             names = [f.name for f in fixed]
             getter = operator.attrgetter(*names)
@@ -160,8 +160,8 @@ class Layout:
 
     def encode(self, message: Frame) -> bytes:
         """The frame's bytes, checksum included."""
-        if self._constant is not None:
-            return self._constant
+        if self.constant is not None:
+            return self.constant
         if self._getter is not None:
             try:
                 body = self.prefix.pack(self.class_tag, self.descriptor, *self._getter(message))

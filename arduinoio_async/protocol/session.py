@@ -34,6 +34,11 @@ checksum; either way garbage follows the bad frame at once.  So a frame followed
 garbage is not trusted (it counts as noise), and the last frame of a chunk waits for the
 next chunk while another reply is due.  A lone request's reply cannot be checked this way:
 that residual (about one corrupt frame in 256 faults) is the checksum's, not the session's.
+What the checksum passes must still be a reply the board can send: an ID other than
+the board's (:attr:`Session.expected_id`, or one a ``WriteId`` in doubt may have set) or a
+temperature reading outside what the chip's sensor can report
+(:data:`~._bounds.TEMPERATURE_RAW_RANGE`) is noise too, so an idempotent read is asked again
+instead of answering with a wrong value.  Docs: ``docs/protocol.md``, "Residual errors".
 
 *Retries.*  A request whose reply was lost is re-sent at the head of the queue -- before
 anything queued later -- when it is idempotent (``Request.IDEMPOTENT``), has attempts
@@ -60,6 +65,7 @@ from ..errors import (
     LinkResyncError,
     ReplyMismatchError,
 )
+from ._bounds import BOUNDED, TEMPERATURE_RAW_RANGE, possible
 from ._constants import RX_FIFO_SIZE
 from ._decoder import Decoded, Decoder, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
@@ -71,6 +77,7 @@ from .commands.misc import WriteId as _WriteId
 __all__ = [
     "MAX_ATTEMPTS",
     "MAX_IN_FLIGHT",
+    "TEMPERATURE_RAW_RANGE",
     "Exchange",
     "LinkStats",
     "Received",
@@ -140,6 +147,10 @@ class Session:
     def queued(self) -> int:
         return len(self._queue)
 
+    def pending(self) -> list[Exchange]:
+        """Every exchange not done yet: in flight (oldest first), then queued."""
+        return [*self._flight, *self._queue]
+
     @property
     def aligned(self) -> bool:
         """While draining: the last bytes fed ended on a valid frame's boundary."""
@@ -149,7 +160,8 @@ class Session:
 
     def send(self, request: Request[Any]) -> tuple[Exchange, bytes]:
         """Queue ``request``; return its exchange and the bytes to write now (maybe b"")."""
-        exchange = Exchange(request, request.encode())
+        layout = request.LAYOUT
+        exchange = Exchange(request, layout.constant or layout.encode(request))
         if self.state is SessionState.CLOSED:
             self._finish(exchange, None, BoardDisconnectedError(str(self.close_error)))
             return exchange, b""
@@ -250,6 +262,43 @@ class Session:
 
     # ---- bytes from the board ----------------------------------------------------------
 
+    def receive_reply(self, data: bytes) -> Exchange | None:
+        """:meth:`receive_data` for the common case only, without building a
+        :class:`Received`: when ``data`` is exactly the reply of the one request in flight
+        and nothing else is going on (no queue, no noise, no trace), complete that request
+        and return its exchange.  Otherwise return None having consumed nothing: pass
+        ``data`` to :meth:`receive_data`, which gives the same outcome for this case."""
+        flight = self._flight
+        if (
+            len(flight) != 1
+            or self._queue
+            or self._held is not None
+            or self._suspect
+            or self.trace is not None
+            or self.state is not SessionState.READY
+        ):
+            return None
+        frame = self._decoder.whole_frame(data)
+        exchange = flight[0]
+        request = exchange.request
+        if (
+            type(frame) is not request.REPLY
+            or exchange.internal
+            or exchange.abandoned
+            or type(request) is _WriteId
+        ):
+            return None
+        if (request.ECHO and not request.matches(frame)) or (
+            type(frame) in BOUNDED and not possible(frame, self.expected_id, self._candidate_ids)
+        ):
+            return None
+        flight.popleft()
+        self._flight_bytes -= exchange.size
+        self.stats.replies += 1
+        exchange.done = True
+        exchange.reply = frame
+        return exchange
+
     def receive_data(self, data: bytes) -> Received:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
@@ -262,13 +311,18 @@ class Session:
             items.insert(0, self._held)
             self._held = None
         elif len(items) == 1 and len(self._flight) == 1 and self.state is SessionState.READY:
-            # The common case, one request in flight and its reply in one chunk.
+            # One request in flight and its reply in one chunk (receive_reply's case, with
+            # a queue to admit from or an internal, abandoned or WriteId exchange).
             item = items[0]
             request = self._flight[0].request
             if (
                 not self._suspect
                 and type(item) is request.REPLY
                 and (not request.ECHO or request.matches(item))
+                and (
+                    type(item) not in BOUNDED
+                    or possible(item, self.expected_id, self._candidate_ids)
+                )
             ):
                 self._complete_head(item, None, out)
                 if self._queue:
@@ -320,6 +374,12 @@ class Session:
         that gained a byte equal to its checksum, and either way garbage follows at once;
         so the request fails or is retried instead of getting a wrong answer)."""
         flight = self._flight
+        if (
+            isinstance(item, Reply)
+            and type(item) in BOUNDED
+            and not possible(item, self.expected_id, self._candidate_ids)
+        ):
+            item = Garbage(item.encode())  # a value the board cannot send: noise
         if isinstance(item, Reply):
             if flight and not self._suspect:
                 head = flight[0]

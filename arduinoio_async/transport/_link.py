@@ -15,15 +15,19 @@ always gets its turn.
 Received bytes go to the session as they arrive.  On asyncio, with a stream that can push
 (the serial stream), that happens in the event loop's fd-readable callback: the reply is
 decoded and matched there and the waiting caller's future resolved, so a round trip costs
-one loop iteration and no task switch.  Other streams and backends (trio) use a reader
-task with anyio's portable primitives.
+one loop iteration and no task switch.  The common case -- one request in flight, its reply
+alone in a chunk -- takes :meth:`Session.receive_reply`, which allocates nothing.  Other
+streams and backends (trio) use a reader task with anyio's portable primitives.
 
 *The per-request timeout* covers the whole call: waiting in the queue (behind a window
 full of earlier requests, or a resync), the flight, and transparent retries.  A request
 that expires before it was sent fails with :class:`BoardTimeoutError` and costs nothing
 else; one that expires in flight means the board did not answer, and the link resyncs.  On
-asyncio one timer per link watches every deadline (re-armed only when it fires, or for an
-earlier deadline), not one timer per request.
+asyncio each exchange carries its deadline and one alarm per link
+(:class:`~arduinoio_async.transport._deadline.DeadlineAlarm`) is armed for the earliest:
+re-armed only when it rings or for an earlier deadline, and kept off the event loop's timer
+heap, whose cost every loop iteration would pay.  On trio each request waits in its own
+cancel scope.
 
 When the session loses sync it fails what was in flight (or queues idempotent requests
 again, see the session's docstring) and the shell's resync task drains the line and
@@ -43,6 +47,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 import time
 from collections.abc import Callable, Coroutine
 from contextlib import AsyncExitStack, suppress
@@ -65,6 +70,7 @@ from ..protocol.session import (
     SessionState,
     board_error,
 )
+from ._deadline import DeadlineAlarm
 
 __all__ = [
     "DEFAULT_TIMEOUT",
@@ -161,9 +167,8 @@ class Transport:
         self._watchers = 0
         self._session_state = SessionState.READY
         self._resync_needed = anyio.Event()
-        self._deadlines: dict[Exchange, float] = {}
-        self._timer: asyncio.TimerHandle | None = None
-        self._timer_at = 0.0
+        #: The deadline alarm (asyncio; trio waits with a cancel scope per request).
+        self._alarm: DeadlineAlarm | None = None
         self._now: Callable[[], float] = anyio.current_time
 
     # ---- lifecycle ---------------------------------------------------------------------
@@ -171,7 +176,10 @@ class Transport:
     async def __aenter__(self) -> Transport:
         try:  # on anyio's asyncio backend (or uvloop)?
             self._loop = asyncio.get_running_loop()
-            self._now = self._loop.time
+            # The alarm's clock; the default loop's own ``time()`` is this one behind a
+            # Python call.
+            self._now = time.monotonic
+            self._alarm = DeadlineAlarm(self._loop, self._on_alarm)
         except RuntimeError:
             self._loop = None
             self._now = anyio.current_time
@@ -304,47 +312,49 @@ class Transport:
             else:
                 await self._wait_event(exchange, self.timeout if timeout is None else timeout)
         else:
-            # asyncio: the hot path, kept flat (one clock read, no extra coroutine).
-            now = loop.time()
+            # asyncio: the hot path, kept flat (one clock read, no extra coroutine or call).
+            now = self._now()
             exchange, data = self._session.send(request)
             if data:
                 self.last_send = now
-                self._write(data)
+                send_nowait = self._send_nowait
+                if send_nowait is None:
+                    self._write(data)
+                else:
+                    try:
+                        send_nowait(data)
+                    except (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError) as exc:
+                        self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
             if exchange.done:
                 await anyio.lowlevel.checkpoint()
             else:
                 future = exchange.waiter = loop.create_future()
-                deadline = now + (self.timeout if timeout is None else timeout)
-                self._deadlines[exchange] = deadline
-                if self._timer is None:
-                    self._timer_at = deadline
-                    self._timer = loop.call_at(deadline, self._on_timer)
-                elif deadline < self._timer_at:
-                    self._timer.cancel()
-                    self._timer_at = deadline
-                    self._timer = loop.call_at(deadline, self._on_timer)
+                deadline = exchange.deadline = now + (self.timeout if timeout is None else timeout)
+                alarm = self._alarm
+                if alarm is not None and deadline < alarm.armed_at:  # else it rings earlier
+                    alarm.arm(deadline)
                 try:
                     await future
                 except BaseException:
                     if not exchange.done:
-                        self._deadlines.pop(exchange, None)
+                        exchange.deadline = math.inf  # abandoned: its reply is dropped
                         self._session.cancel(exchange)
                     raise
         if exchange.error is not None:
             raise exchange.error
         return exchange.reply  # type: ignore[return-value]
 
-    def _on_timer(self) -> None:
-        """The link's one deadline timer: expire what is due, re-arm for the next."""
-        self._timer = None
+    def _on_alarm(self) -> None:
+        """The link's one deadline alarm: expire what is due, re-arm for the next."""
+        session = self._session
         now = self._now()
-        due = [exchange for exchange, deadline in self._deadlines.items() if deadline <= now]
-        for exchange in due:
-            self._deadlines.pop(exchange, None)
-            self._process(self._session.expire(exchange))
-        if self._deadlines and self._loop is not None:
-            self._timer_at = min(self._deadlines.values())
-            self._timer = self._loop.call_at(self._timer_at, self._on_timer)
+        for exchange in session.pending():
+            if exchange.deadline <= now:
+                self._process(session.expire(exchange))
+        next_deadline = min((exchange.deadline for exchange in session.pending()), default=math.inf)
+        alarm = self._alarm
+        if alarm is not None and next_deadline < alarm.armed_at:
+            alarm.arm(next_deadline)
 
     async def _wait_event(self, exchange: Exchange, limit: float) -> None:
         event = exchange.waiter = anyio.Event()
@@ -397,6 +407,18 @@ class Transport:
     def _on_data(self, data: bytes) -> None:
         """Received bytes (in the fd-readable callback or the reader task)."""
         session = self._session
+        exchange = session.receive_reply(data)
+        if exchange is not None:  # the common case, kept flat: wake its caller
+            waiter = exchange.waiter
+            if waiter is None:
+                pass
+            elif self._loop is None:
+                waiter.set()
+            elif not waiter.done():
+                waiter.set_result(None)
+            if self._watchers:
+                self._sync_state()
+            return
         if session.state is not SessionState.READY:
             # Only a drain reads these, and a drain starts with a loss of sync, which
             # stamps ``_lost_at``: bytes received while in sync need no time stamp.
@@ -417,9 +439,7 @@ class Transport:
         if out.outgoing:
             self.last_send = self._now()
             self._write(out.outgoing)
-        deadlines = self._deadlines
         for exchange in out.done:
-            deadlines.pop(exchange, None)
             waiter = exchange.waiter
             if waiter is None:
                 continue
@@ -478,10 +498,8 @@ class Transport:
         detach = getattr(self.stream, "detach", None)
         if detach is not None:
             detach()
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
-        self._deadlines.clear()
+        if self._alarm is not None:
+            self._alarm.disarm()
 
     # ---- regaining sync ----------------------------------------------------------------
 

@@ -104,9 +104,8 @@ class SerialByteStream(anyio.abc.ByteStream):
             on_lost(exc)
 
     def _send_nowait(self, item: bytes) -> None:
-        if self._closed or self._lost is not None:
-            self._check_open()  # raises
-        if self._pending:
+        if self._pending or self._closed or self._lost is not None:
+            self._check_open()  # raises when closed or lost
             self._pending += item
             return
         try:

@@ -20,14 +20,14 @@ from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardDisconnectedError
 from arduinoio_async.sim import SimulatorNotAvailable, VirtualUno
 from tests import test_board
-from tests.transport import test_serial_urls, test_transport
+from tests.transport import test_fast_path, test_serial_urls, test_transport
 
-MODULES: list[ModuleType] = [test_transport, test_board, test_serial_urls]
+MODULES: list[ModuleType] = [test_transport, test_board, test_serial_urls, test_fast_path]
 
 
-def coroutine_tests() -> list[Any]:
+def coroutine_tests(modules: list[ModuleType] = MODULES) -> list[Any]:
     cases = []
-    for module in MODULES:
+    for module in modules:
         for name, func in vars(module).items():
             if (
                 name.startswith("test_")
