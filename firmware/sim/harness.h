@@ -15,7 +15,8 @@
  *   control.c  the JSON-lines control socket: a name -> handler table
  *   json.c     the small JSON reader and reply buffer control.c uses
  *   main.c     options, simavr set-up, resets and MCUSR, bootloader, ready line
- * See README.md next to this file.
+ * Every .c file includes this header first (it sets _GNU_SOURCE before any
+ * system header); the other headers assume it.  See README.md next to this file.
  */
 #ifndef VIRTUAL_UNO_HARNESS_H
 #define VIRTUAL_UNO_HARNESS_H
