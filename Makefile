@@ -1,7 +1,7 @@
 # Two commands do all set-up from nothing on a fresh Debian machine (as root):
 #   make bench   the main job: build firmware + virtual Uno and run the latency benchmark
 #   make test    lint, type-check, firmware host tests and the whole pytest suite
-#   make package-data   regenerate the firmware images and harness source the wheel ships
+#   make package-data   regenerate the firmware images the wheel ships
 #   make bench RECORD=1 also record the results in benchmarks/results/ (tracked)
 PYTHON ?= python3
 VENV := .venv
@@ -62,12 +62,12 @@ sim: system-deps firmware
 bootloader: system-deps
 	$(MAKE) -C firmware/bootloader
 
-# What the wheel ships: firmware images for every baud and the harness's C source.
+# What the wheel ships: firmware images for every baud (committed, generated here).  The
+# harness's C sources are not copied: the wheel build maps firmware/sim/*.c|*.h into
+# arduinoio_async/_data/sim (setup.py).
 PACKAGE_DATA := arduinoio_async/_data
 package-data: firmware
 	$(MAKE) -C firmware package PACKAGE_DIR=$(CURDIR)/$(PACKAGE_DATA)/firmware
-	@mkdir -p $(PACKAGE_DATA)/sim
-	cp firmware/sim/virtual_uno.c $(PACKAGE_DATA)/sim/virtual_uno.c
 
 generate: venv
 	$(BIN)/python -m arduinoio_async.protocol.cheader

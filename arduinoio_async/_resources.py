@@ -16,11 +16,17 @@ Virtual Uno harness (``virtual-uno``), first hit:
 
 1. ``$ARDUINOIO_SIM_BIN``;
 2. in a clone: ``firmware/sim/build/virtual-uno``;
-3. built on first use from the C source shipped in the package into a per-user cache,
-   ``$ARDUINOIO_CACHE_DIR`` or ``$XDG_CACHE_HOME/arduinoio_async`` (default
-   ``~/.cache/arduinoio_async``), in a directory named after the source's hash so that
-   an upgrade rebuilds.  simavr is GPL-3, so the package ships source, never a linked
-   binary; building needs ``cc``, ``libsimavr-dev`` and ``libelf-dev``.
+3. built on first use from the C sources (``firmware/sim/*.c`` and ``*.h``) into a
+   per-user cache, ``$ARDUINOIO_CACHE_DIR`` or ``$XDG_CACHE_HOME/arduinoio_async``
+   (default ``~/.cache/arduinoio_async``), in a directory named after the hash of all of
+   them so that an upgrade (or an edited header) rebuilds.  simavr is GPL-3, so the
+   package ships source, never a linked binary; building needs ``cc``,
+   ``libsimavr-dev`` and ``libelf-dev``.
+
+The harness sources are not copied into the package in git: the build maps
+``firmware/sim/*.c|*.h`` into the wheel as ``arduinoio_async/_data/sim`` (``setup.py``),
+and the sdist carries ``firmware/sim`` itself.  So a clone reads ``firmware/sim`` and an
+installed package reads ``_data/sim``; there is one copy to edit.
 """
 
 from __future__ import annotations
@@ -47,7 +53,9 @@ __all__ = [
     "cache_dir",
     "firmware_image",
     "harness_binary",
-    "harness_source",
+    "harness_digest",
+    "harness_source_dir",
+    "harness_sources",
     "packaged_firmware_dir",
     "project_path",
     "source_tree",
@@ -126,12 +134,36 @@ def firmware_image(baud: int, kind: str = "hex") -> Path:
     )
 
 
-def harness_source() -> Path:
-    """The harness C source: the clone's ``firmware/sim/virtual_uno.c``, else the shipped copy."""
+def harness_source_dir() -> Path:
+    """The harness's C sources: the clone's ``firmware/sim``, else the package's ``_data/sim``."""
     tree = source_tree()
     if tree is not None:
-        return tree / "firmware" / "sim" / "virtual_uno.c"
-    return _package_data() / "sim" / "virtual_uno.c"
+        return tree / "firmware" / "sim"
+    return _package_data() / "sim"
+
+
+def harness_sources(directory: Path | None = None) -> list[Path]:
+    """The ``*.c`` and ``*.h`` files the harness is built from, sorted by name."""
+    directory = harness_source_dir() if directory is None else directory
+    if not directory.is_dir():
+        return []
+    return sorted(
+        (path for path in directory.iterdir() if path.suffix in (".c", ".h") and path.is_file()),
+        key=lambda path: path.name,
+    )
+
+
+def harness_digest(sources: list[Path]) -> str:
+    """A short hash of every source's name and bytes: the cache entry's key.
+
+    Names count too, so renaming or adding a file rebuilds even if the bytes stay.
+    """
+    digest = hashlib.sha256()
+    for source in sources:
+        content = source.read_bytes()
+        digest.update(f"{source.name}\0{len(content)}\0".encode())
+        digest.update(content)
+    return digest.hexdigest()[:16]
 
 
 def cache_dir() -> Path:
@@ -157,7 +189,7 @@ def harness_binary() -> Path:
         built = tree / "firmware" / "sim" / "build" / "virtual-uno"
         if built.is_file() and os.access(built, os.X_OK):
             return built
-    return _build_cached_harness(harness_source())
+    return _build_cached_harness(harness_source_dir())
 
 
 def _install_hint() -> str:
@@ -167,11 +199,12 @@ def _install_hint() -> str:
     )
 
 
-def _build_cached_harness(source: Path) -> Path:
-    if not source.is_file():
-        raise ResourceNotFound(f"virtual Uno harness source {source} is missing")
-    digest = hashlib.sha256(source.read_bytes()).hexdigest()[:16]
-    directory = cache_dir() / f"virtual-uno-{digest}"
+def _build_cached_harness(source_dir: Path) -> Path:
+    sources = harness_sources(source_dir)
+    units = [str(path) for path in sources if path.suffix == ".c"]
+    if not units:
+        raise ResourceNotFound(f"virtual Uno harness sources (*.c) are missing from {source_dir}")
+    directory = cache_dir() / f"virtual-uno-{harness_digest(sources)}"
     binary = directory / "virtual-uno"
     if binary.is_file() and os.access(binary, os.X_OK):
         return binary
@@ -193,7 +226,7 @@ def _build_cached_harness(source: Path) -> Path:
             *_HARNESS_CFLAGS,
             "-o",
             str(partial),
-            str(source),
+            *units,
             *_HARNESS_LIBS,
         ]
         result = subprocess.run(command, capture_output=True, text=True, check=False)

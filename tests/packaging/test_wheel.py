@@ -5,7 +5,8 @@ pip installs the dependencies from its configured index or cache, so no network 
 needed where the dev environment could be installed.  Every command runs with the
 temporary directory as its working directory and without the repo's overrides, so
 nothing can come from the clone: the firmware images come from the wheel and the virtual
-Uno harness is compiled from the C source in the wheel into a fresh per-user cache.
+Uno harness is compiled from the C sources in the wheel (mapped there from firmware/sim by
+setup.py, never copied into the package in git) into a fresh per-user cache.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import signal
 import subprocess
 import sys
 import tarfile
+import zipfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -113,14 +115,22 @@ def test_the_wheel_ships_firmware_and_harness_source(installed: Installed) -> No
         "from arduinoio_async import _resources as r\n"
         "for baud in r.FIRMWARE_BAUDS:\n"
         "    print(r.firmware_image(baud, 'hex'), r.firmware_image(baud, 'elf'))\n"
-        "print(r.harness_source())\n"
+        "print(r.harness_source_dir())\n"
     )
     lines = _checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
     assert len(lines) == 4
-    for line in lines:
+    for line in lines[:3]:
         for path in line.split():
             assert path.startswith(str(installed.venv)), line
             assert Path(path).is_file()
+    shipped = Path(lines[3])
+    assert shipped.is_relative_to(installed.venv), shipped
+    assert shipped.parts[-3:] == ("arduinoio_async", "_data", "sim")
+    # Every harness source of the clone, byte for byte, and nothing else (setup.py maps them).
+    sim = REPO / "firmware" / "sim"
+    expected = {path.name: path.read_bytes() for path in (*sim.glob("*.c"), *sim.glob("*.h"))}
+    assert {path.name: path.read_bytes() for path in shipped.iterdir()} == expected
+    assert "main.c" in expected and "harness.h" in expected
 
 
 def _start_sim(installed: Installed, *args: str) -> tuple[subprocess.Popen[str], dict[str, object]]:
@@ -195,12 +205,13 @@ def test_arduinoio_flash_from_the_wheel_through_a_bootloader(installed: Installe
 
 def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> None:
     _checked(installed.run(installed.exe("pip"), "install", "-q", "build", "setuptools>=77"))
+    # Without --sdist/--wheel, build makes the sdist and then the wheel FROM the sdist: the
+    # harness sources must reach the wheel from the sdist's firmware/sim as well.
     _checked(
         installed.run(
             installed.exe("python"),
             "-m",
             "build",
-            "--sdist",
             "--no-isolation",
             "--outdir",
             str(tmp_path),
@@ -210,14 +221,21 @@ def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> 
     (sdist,) = tmp_path.glob("arduinoio_async-*.tar.gz")
     with tarfile.open(sdist) as archive:
         names = {name.split("/", 1)[1] for name in archive.getnames() if "/" in name}
+    sim_sources = sorted(
+        f"firmware/sim/{path.name}"
+        for path in (*(REPO / "firmware/sim").glob("*.c"), *(REPO / "firmware/sim").glob("*.h"))
+    )
     for required in (
         "LICENSE",
         "CHANGELOG.md",
         "Makefile",
+        "setup.py",
         "firmware/Makefile",
         "firmware/src/main.c",
         "firmware/include/aio_protocol.h",
-        "firmware/sim/virtual_uno.c",
+        *sim_sources,
+        "firmware/sim/Makefile",
+        "firmware/sim/testfw/testfw.c",
         "firmware/bootloader/Makefile",
         "docs/protocol.md",
         "examples/design_card.py",
@@ -227,3 +245,12 @@ def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> 
     ):
         assert required in names, required
     assert not any(name.startswith(("firmware/build/", "firmware/sim/build/")) for name in names)
+    assert not any(name.startswith("arduinoio_async/_data/sim") for name in names)  # no copy
+    (wheel,) = tmp_path.glob("arduinoio_async-*.whl")
+    with zipfile.ZipFile(wheel) as archive:
+        shipped = sorted(
+            name.rsplit("/", 1)[1]
+            for name in archive.namelist()
+            if name.startswith("arduinoio_async/_data/sim/")
+        )
+    assert shipped == sorted(name.rsplit("/", 1)[1] for name in sim_sources)

@@ -1,0 +1,333 @@
+/*
+ * circuit.c - test circuitry around the simulated Uno: the fixtures (open,
+ * loopback jumpers, R2R ladders), levels driven from outside, analog and
+ * temperature inputs, the I2C EEPROM, the pulse generator on D2/D3 and pulse
+ * capture on every pin.  Input levels are recomputed on every DDR/PORT change
+ * and pushed into simavr (see README.md, "Test circuitry").
+ */
+#include "harness.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "avr_adc.h"
+#include "avr_ioport.h"
+#include "avr_twi.h"
+#include "sim_io.h"
+#include "sim_irq.h"
+
+#include "circuit.h"
+#include "pacing.h"
+
+const char *const fixture_names[] = {"open", "loopback", "r2r"};
+int drive_level[NPINS];
+int analog_mv[8];
+int adc_sent[9];
+double temperature_c = 25.0;
+i2c_eeprom_t i2c_ee;
+static double r2r_res[6][4];    /* per ladder: Ra (B0-N0), Rg (N0-GND), Rs (N0-OUT), Rb (B1-OUT) */
+static double r2r_mv[6];
+static int in_circuit, circuit_again;
+static uint8_t sh_ddr[3], sh_port[3];   /* shadows, index 0=B 1=C 2=D */
+static const char port_names[3] = {'B', 'C', 'D'};
+static const uint8_t addr_pin[3] = {0x23, 0x26, 0x29};
+static const uint8_t addr_ddr[3] = {0x24, 0x27, 0x2A};
+static const uint8_t addr_port[3] = {0x25, 0x28, 0x2B};
+static avr_irq_t *pin_irq[NPINS];
+static avr_irq_t *adc_irq_base;
+static avr_irq_t *port_irq_base[3];   /* per port: base of its IOPORT IRQs */
+
+struct pulsegen gen[2];
+struct capture cap[NPINS];
+
+static int pin_port(int p) { return p < 8 ? 2 : (p < 14 ? 0 : 1); }
+static int pin_bit(int p) { return p < 8 ? p : (p < 14 ? p - 8 : p - 14); }
+
+int loop_partner(int p)
+{
+	if (opt_fixture != FIX_LOOPBACK || p < 2 || p > 13)
+		return -1;
+	return (p % 2 == 0) ? p + 1 : p - 1;
+}
+
+int is_out(int p) { return (sh_ddr[pin_port(p)] >> pin_bit(p)) & 1; }
+int port_bit(int p) { return (sh_port[pin_port(p)] >> pin_bit(p)) & 1; }
+
+/* Output of R2R ladder k (mV) from the real (toleranced) resistor network. */
+static double r2r_output(int k)
+{
+	const double vcc = 5000.0, rpu = 35000.0;
+	int pins[2] = {2 + 2 * k, 3 + 2 * k}; /* B0, B1 */
+	double g[2], v[2];
+	for (int i = 0; i < 2; i++) {
+		int p = pins[i];
+		double rbranch = i == 0 ? r2r_res[k][0] : r2r_res[k][3];
+		if (is_out(p)) {
+			g[i] = 1.0 / rbranch; v[i] = port_bit(p) ? vcc : 0.0;
+		} else if (drive_level[p] >= 0) {
+			g[i] = 1.0 / rbranch; v[i] = drive_level[p] ? vcc : 0.0;
+		} else if (port_bit(p)) {           /* input with pull-up */
+			g[i] = 1.0 / (rbranch + rpu); v[i] = vcc;
+		} else {                            /* high impedance: branch open */
+			g[i] = 0.0; v[i] = 0.0;
+		}
+	}
+	double ga = g[0], gb = g[1], gg = 1.0 / r2r_res[k][1], gs = 1.0 / r2r_res[k][2];
+	double det = (ga + gg + gs) * (gs + gb) - gs * gs;
+	return ((ga + gg + gs) * gb * v[1] + gs * ga * v[0]) / det;
+}
+
+/* The level an input pin sees from the outside world. */
+static int input_level(int p)
+{
+	if ((p == 2 || p == 3) && gen[p - 2].active)
+		return gen[p - 2].level;
+	if (drive_level[p] >= 0)
+		return drive_level[p];
+	int q = loop_partner(p);
+	if (q >= 0) {
+		if (is_out(q))
+			return port_bit(q);
+		if (port_bit(q))
+			return 1;
+	}
+	if (port_bit(p))
+		return 1; /* internal pull-up */
+	if (opt_fixture == FIX_R2R && p >= 14)
+		return r2r_mv[p - 14] > 2500.0;
+	return 0;
+}
+
+int pin_level(int p)
+{
+	if (p < 2) /* UART pins: report the PIN register */
+		return (avr->data[addr_pin[2]] >> p) & 1;
+	return is_out(p) ? port_bit(p) : input_level(p);
+}
+
+static int pin_managed(int p)
+{
+	return p >= 2; /* D0/D1 belong to the UART */
+}
+
+static void send_adc(int ch, int mv)
+{
+	if (adc_sent[ch] == mv)
+		return;
+	adc_sent[ch] = mv;
+	avr_raise_irq(adc_irq_base + (ch == 8 ? ADC_IRQ_TEMP : ADC_IRQ_ADC0 + ch), (uint32_t)mv);
+}
+
+void update_analog(void)
+{
+	for (int ch = 0; ch < 8; ch++) {
+		int mv = analog_mv[ch];
+		if (opt_fixture == FIX_R2R && ch < 6) {
+			r2r_mv[ch] = r2r_output(ch);
+			mv = (int)lround(r2r_mv[ch]);
+		}
+		send_adc(ch, mv);
+	}
+	send_adc(8, (int)lround(314.0 + (temperature_c - 25.0) * 1.0));
+}
+
+/* Recompute every input pin from the circuit and push it into simavr.
+ * The external pull mask makes simavr's own port logic (which re-raises pin
+ * IRQs on every PORT/DDR write) keep our level instead of its pull-up guess. */
+void apply_circuit(void)
+{
+	if (in_circuit) {
+		circuit_again = 1;
+		return;
+	}
+	in_circuit = 1;
+	int rounds = 0;
+	do {
+		circuit_again = 0;
+		if (opt_fixture == FIX_R2R)
+			update_analog();
+		for (int pi = 0; pi < 3; pi++) {
+			uint8_t mask = 0, value = 0;
+			for (int p = 0; p < NPINS; p++) {
+				if (pin_port(p) != pi || !pin_managed(p) || is_out(p))
+					continue;
+				mask |= (uint8_t)(1 << pin_bit(p));
+				if (input_level(p))
+					value |= (uint8_t)(1 << pin_bit(p));
+			}
+			avr_ioport_external_t ext = {.name = (unsigned)port_names[pi], .mask = mask, .value = value};
+			avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port_names[pi]), &ext);
+			for (int p = 0; p < NPINS; p++) {
+				if (pin_port(p) != pi || !pin_managed(p) || is_out(p))
+					continue;
+				uint32_t lv = (uint32_t)((value >> pin_bit(p)) & 1);
+				/* raise only real changes: the first raise of a simavr IRQ always
+				 * notifies, and a spurious "low" confuses simavr's INT0/INT1
+				 * level-trigger emulation (endless INTF1) */
+				if ((pin_irq[p]->value & 1) != lv)
+					avr_raise_irq(pin_irq[p], lv);
+			}
+		}
+	} while (circuit_again && ++rounds < 4);
+	in_circuit = 0;
+}
+
+static void ddr_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	int pi = (int)(intptr_t)param;
+	sh_ddr[pi] = (uint8_t)value;
+	apply_circuit();
+}
+
+static void port_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	int pi = (int)(intptr_t)param;
+	sh_port[pi] = (uint8_t)value;
+	apply_circuit();
+}
+
+static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	int p = (int)(intptr_t)param;
+	struct capture *c = &cap[p];
+	int level = value & 1;
+	uint64_t t = avr->cycle;
+	if (level == c->level)
+		return;
+	c->level = level;
+	c->edge_t = t;
+	c->have_edge = 1;
+	if (level) {
+		if (c->have_rise) {
+			c->period_us[c->pe_next] = (double)(t - c->rise_t) / CYC_PER_US;
+			c->pe_next = (c->pe_next + 1) % NEDGE;
+			if (c->np < NEDGE) c->np++;
+			c->periods++;
+		}
+		c->rise_t = t;
+		c->have_rise = 1;
+		c->rises++;
+	} else {
+		if (c->have_rise) {
+			c->high_us[c->hi_next] = (double)(t - c->rise_t) / CYC_PER_US;
+			c->rise_us[c->hi_next] = (double)c->rise_t / CYC_PER_US;
+			c->hi_next = (c->hi_next + 1) % NEDGE;
+			if (c->nh < NEDGE) c->nh++;
+			c->highs++;
+		}
+		c->falls++;
+	}
+}
+
+static void read_shadows(void)
+{
+	for (int pi = 0; pi < 3; pi++) {
+		sh_ddr[pi] = avr->data[addr_ddr[pi]];
+		sh_port[pi] = avr->data[addr_port[pi]];
+	}
+}
+
+void setup_r2r(void)
+{
+	uint64_t saved = rng_state;
+	rng_state = opt_seed * 0x9E3779B97F4A7C15ULL + 0x1234567ULL;
+	if (!rng_state) rng_state = 1;
+	const double nominal[4] = {20000.0, 20000.0, 10000.0, 20000.0};
+	for (int k = 0; k < 6; k++)
+		for (int i = 0; i < 4; i++)
+			r2r_res[k][i] = nominal[i] * (1.0 + (2.0 * rng_unit() - 1.0) * opt_r2r_tol / 100.0);
+	rng_state = saved;
+}
+
+void circuit_attach(void)
+{
+	for (int p = 0; p < NPINS; p++) drive_level[p] = -1;
+	i2c_eeprom_init(avr, &i2c_ee, 0xA0, 0x01, NULL, 256);
+	i2c_eeprom_attach(avr, &i2c_ee, AVR_IOCTL_TWI_GETIRQ(0));
+	adc_irq_base = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, 0);
+	for (int pi = 0; pi < 3; pi++) {
+		avr_irq_t *base = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port_names[pi]), 0);
+		port_irq_base[pi] = base;
+		avr_irq_register_notify(base + IOPORT_IRQ_DIRECTION_ALL, ddr_hook, (void *)(intptr_t)pi);
+		avr_irq_register_notify(base + IOPORT_IRQ_REG_PORT, port_hook, (void *)(intptr_t)pi);
+	}
+	for (int p = 0; p < NPINS; p++) {
+		pin_irq[p] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port_names[pin_port(p)]), pin_bit(p));
+		avr_irq_register_notify(pin_irq[p], capture_hook, (void *)(intptr_t)p);
+	}
+}
+
+void circuit_after_reset(void)
+{
+	/* avr_reset() zeroes DDRx/PORTx but not the values cached in their IRQs; a
+	 * firmware that then writes the value it had before the reset would raise no
+	 * notification and the shadows would stay at 0.  Align the caches. */
+	for (int pi = 0; pi < 3; pi++) {
+		if (!port_irq_base[pi])
+			continue;
+		port_irq_base[pi][IOPORT_IRQ_DIRECTION_ALL].value = avr->data[addr_ddr[pi]];
+		port_irq_base[pi][IOPORT_IRQ_REG_PORT].value = avr->data[addr_port[pi]];
+	}
+	read_shadows();
+	for (int ch = 0; ch < 9; ch++)
+		adc_sent[ch] = -1;
+	apply_circuit();
+	update_analog();
+	for (int p = 0; p < NPINS; p++)
+		cap[p].level = pin_level(p);
+}
+
+/* ------------------------------------------------------------------ pulse generator */
+int pulses_running(void)
+{
+	return gen[0].active || gen[1].active;
+}
+
+void start_pulses(int p, unsigned long count, uint64_t high_c, uint64_t low_c)
+{
+	struct pulsegen *g = &gen[p - 2];
+	g->active = 1;
+	g->level = 0;
+	g->remaining = count;
+	g->high_c = high_c;
+	g->low_c = low_c;
+	g->next_t = avr->cycle + 16;
+	recompute_next_event();
+}
+
+void stop_pulses(void)
+{
+	for (int i = 0; i < 2; i++) gen[i].active = 0;
+}
+
+void schedule_pulses(void)
+{
+	for (int i = 0; i < 2; i++)
+		if (gen[i].active)
+			schedule(gen[i].next_t);
+}
+
+/* One pass over the pulse generators' due edges; returns whether any was. */
+int run_pulses(uint64_t now)
+{
+	int progress = 0;
+	for (int i = 0; i < 2; i++) {
+		struct pulsegen *g = &gen[i];
+		if (g->active && g->next_t <= now) {
+			if (!g->level) {
+				g->level = 1;
+				g->next_t += g->high_c;
+			} else {
+				g->level = 0;
+				g->done++;
+				if (--g->remaining == 0)
+					g->active = 0;
+				else
+					g->next_t += g->low_c;
+			}
+			apply_circuit();
+			progress = 1;
+		}
+	}
+	return progress;
+}

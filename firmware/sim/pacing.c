@@ -1,0 +1,316 @@
+/*
+ * pacing.c - one thread runs everything: the AVR in slices, the wall clock,
+ * the harness's own event list and the wait on every file descriptor.
+ *
+ * - One thread.  simavr is not thread safe, so the pty, the control socket and
+ *   the simulation are all served from one loop.  The loop runs the AVR in
+ *   slices of SLICE_CYCLES, then compares simulated time with the wall clock;
+ *   when the simulation is ahead by more than LEAD_MAX_CYCLES it waits in
+ *   ppoll() on all file descriptors until the wall clock catches up, so a host
+ *   byte or a control request wakes it at once.
+ * - Own run function (my_run) instead of avr_callback_run_raw: when the
+ *   firmware executes SLEEP, the stock callback would usleep() and then jump
+ *   the cycle counter to the next simavr timer whatever happened meanwhile.
+ *   Ours waits on the file descriptors and advances the cycle counter only to
+ *   the simulated equivalent of the wall time at which it woke up, so host
+ *   bytes reach a sleeping firmware immediately and an idle firmware costs no
+ *   CPU.  A SLEEP with interrupts disabled halts the core (as on real silicon)
+ *   instead of simavr's avr_terminate().
+ * - Own event list (not simavr cycle timers) for bridge timing, injection and
+ *   the pulse generator, because avr_reset() cancels all simavr cycle timers
+ *   (a watchdog reset would silently kill ours).  Events are checked after
+ *   every instruction and bound every sleep.
+ */
+#include "harness.h"
+
+#include <poll.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "sim_core.h"
+#include "sim_time.h"
+
+#include "circuit.h"
+#include "control.h"
+#include "pacing.h"
+#include "pty.h"
+#include "wire.h"
+
+#define SLICE_CYCLES 128ULL             /* 8 us of simulated time between pacing checks */
+#define LEAD_MAX_CYCLES (30ULL * 16)    /* let simulation run at most ~30 us ahead of wall */
+#ifndef RUNAHEAD_CYCLES
+#define RUNAHEAD_CYCLES (2000ULL * 16)  /* idle link: run ahead in slices of up to 2 ms */
+#endif
+#define LAG_REBASE_CYCLES (50000ULL * 16) /* > 50 ms behind: give up catching up, rebase */
+
+static uint64_t wall_base_ns, cycle_base;
+uint64_t start_ns;
+int64_t max_lag_cycles;
+unsigned long rebase_count;
+static int io_ready;
+static uint64_t last_io_ns;
+static uint64_t last_parent_check_ns;
+unsigned long runahead_jumps;
+uint64_t runahead_jump_cycles;
+uint64_t next_event = UINT64_MAX;
+
+uint64_t now_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ULL + (uint64_t)ts.tv_nsec;
+}
+
+uint64_t wall_cycles(uint64_t ns)
+{
+	return cycle_base + (ns - wall_base_ns) * CYC_PER_US / 1000ULL;
+}
+
+void rebase(void)
+{
+	wall_base_ns = now_ns();
+	cycle_base = avr ? avr->cycle : 0;
+}
+
+/* Idle link: nothing waits to go either way, no pulse train runs.  Then the
+ * simulation may run up to RUNAHEAD_CYCLES ahead of the wall clock instead of
+ * LEAD_MAX_CYCLES, so a firmware's periodic tick (100 us in the project
+ * firmware, a busy loop in Arduino sketches) costs one wait per ~2 ms instead
+ * of one per tick.  Whatever the firmware sends meanwhile makes the link busy
+ * again and is delivered at its simulated time (the harness waits for the
+ * wall clock before handing it over), so board-initiated timing is kept.
+ * Not while the UART receiver is off (boot, reset): bytes that would be lost
+ * to it on a real board must be lost here too. */
+static int link_idle(void)
+{
+	/* and the receiver on: while the firmware boots, a host byte must meet the
+	 * receiver-off window in wall time, as on a real board (no run-ahead) */
+	return avr && (avr->data[UCSR0B_ADDR] & RXEN0_BIT) && wire_idle() && !pulses_running() &&
+	       !holding_reset;
+}
+
+static uint64_t lead_allowed(void)
+{
+	return link_idle() ? RUNAHEAD_CYCLES : LEAD_MAX_CYCLES;
+}
+
+/* A host stimulus (pty bytes, a control command that changes the circuit)
+ * arrives at wall time W while the simulation may be running ahead of W.  It
+ * cannot be applied in the simulated past, and applying it in the simulated
+ * future would delay the firmware's answer by the lead.  Instead the time base
+ * moves: "now" in simulated time becomes W.  The simulated clock thus gains
+ * at most RUNAHEAD_CYCLES per idle-to-busy transition caused by the host
+ * (counted in status: runahead_jumps, runahead_jump_us); latency measured by
+ * the host is unaffected. */
+void catch_up_wall(void)
+{
+	if (!avr || opt_fast)
+		return;
+	uint64_t wc = wall_cycles(now_ns());
+	if (avr->cycle > wc + LEAD_MAX_CYCLES) {
+		runahead_jumps++;
+		runahead_jump_cycles += avr->cycle - wc;
+		rebase();
+	}
+}
+
+/* ------------------------------------------------------------------ events */
+void schedule(uint64_t t)
+{
+	if (t < next_event)
+		next_event = t;
+}
+
+void recompute_next_event(void)
+{
+	next_event = UINT64_MAX;
+	wire_schedule_events();
+	schedule_pulses();
+}
+
+void run_events(void)
+{
+	uint64_t now = avr->cycle;
+	int progress = 1;
+	while (progress) {
+		progress = wire_run_events(now);
+		progress |= run_pulses(now);
+	}
+	recompute_next_event();
+	wire_events_done();
+}
+
+/* ------------------------------------------------------------------ run / sleep */
+static struct pollfd pfds[MAX_CLIENTS + 2];
+static int npfds;
+
+static void build_pollfds(void)
+{
+	npfds = pty_pollfds(pfds, 0);
+	npfds = control_pollfds(pfds, npfds);
+}
+
+/* Wait up to timeout_ns for any descriptor; returns >0 if one is ready. */
+static int wait_fds(uint64_t timeout_ns)
+{
+	flush_out(); /* never wait with board->host bytes held back */
+	build_pollfds();
+	if (waiting_for_host_open() && timeout_ns > 5000000ULL)
+		timeout_ns = 5000000ULL; /* look for the host opening the port every 5 ms */
+	struct timespec ts = {.tv_sec = (time_t)(timeout_ns / 1000000000ULL),
+			      .tv_nsec = (long)(timeout_ns % 1000000000ULL)};
+	int r = ppoll(pfds, (nfds_t)npfds, &ts, NULL);
+	return r;
+}
+
+/* Called when the firmware sleeps; returns how many cycles to advance. */
+static uint64_t sleep_for(uint64_t how_long)
+{
+	flush_out(); /* a sleeping firmware sends nothing more for now */
+	uint64_t target = avr->cycle + 1 + how_long;
+	if (next_event < target)
+		target = next_event > avr->cycle ? next_event : avr->cycle + 1;
+	if (opt_fast) {
+		uint64_t t = now_ns();
+		if (t - last_io_ns > 200000ULL)
+			io_ready = 1;
+		return target - avr->cycle;
+	}
+	for (;;) {
+		uint64_t t = now_ns();
+		uint64_t wc = wall_cycles(t);
+		/* idle link: sleep through the tick in simulated time only, as long as
+		 * the lead stays within RUNAHEAD_CYCLES; once it would not, wait until
+		 * the wall clock reaches the target (lead back to 0), so waits come in
+		 * slices of ~2 ms instead of one per timer tick */
+		if (wc >= target || (target - wc <= RUNAHEAD_CYCLES && link_idle()))
+			return target - avr->cycle;
+		uint64_t wait_ns = (target - wc) * 1000ULL / CYC_PER_US;
+		int r = wait_fds(wait_ns);
+		if (quit_flag)
+			r = 1;
+		if (r != 0) {
+			io_ready = 1;
+			wc = wall_cycles(now_ns());
+			if (wc <= avr->cycle)
+				return 1;
+			if (wc > target)
+				wc = target;
+			return wc - avr->cycle;
+		}
+		if (waiting_for_host_open()) {
+			/* woke from the 5 ms cap: let the main loop look for the host opening the port */
+			io_ready = 1;
+			wc = wall_cycles(now_ns());
+			if (wc <= avr->cycle)
+				return 1;
+			return (wc < target ? wc : target) - avr->cycle;
+		}
+	}
+}
+
+void my_run(avr_t *a)
+{
+	avr_flashaddr_t new_pc = a->pc;
+	if (a->state == cpu_Running)
+		new_pc = avr_run_one(a);
+	avr_cycle_count_t sleep = avr_cycle_timer_process(a);
+	a->pc = new_pc;
+	if (a->state == cpu_Sleeping) {
+		if (!a->sreg[S_I]) {
+			halted = 1; /* like silicon: asleep forever (until reset) */
+			return;
+		}
+		a->cycle += sleep_for(sleep);
+	}
+	if ((a->state == cpu_Running || a->state == cpu_Sleeping) && a->interrupt_state)
+		avr_service_interrupts(a);
+}
+
+/* Handle ready descriptors after a ppoll (wait_fds) or poll with 0 timeout. */
+static void service_io(void)
+{
+	last_io_ns = now_ns();
+	for (int i = 0; i < npfds; i++) {
+		if (!pfds[i].revents) continue;
+		int fd = pfds[i].fd;
+		if (fd == master_fd && master_fd >= 0)
+			service_pty(pfds[i].revents);
+		else
+			service_control(fd);
+		pfds[i].revents = 0;
+	}
+	npfds = 0;
+	uint64_t t = now_ns();
+	if (opt_exit_with_parent && t - last_parent_check_ns > 200000000ULL) {
+		/* launcher died without stopping us (SIGKILL): do not linger */
+		last_parent_check_ns = t;
+		if (getppid() != orig_ppid)
+			quit_flag = 1;
+	}
+	pty_housekeeping(t);
+	run_events();
+}
+
+static void poll_io(uint64_t timeout_ns)
+{
+	int r = wait_fds(timeout_ns);
+	if (r < 0) npfds = 0;
+	service_io();
+}
+
+void run_paced(void)
+{
+	last_io_ns = now_ns();
+	while (!quit_flag) {
+		if (!announced)
+			announce_when_listening();
+		if (!plugged || holding_reset || halted) {
+			uint64_t to = 20000000ULL;
+			if (holding_reset) {
+				uint64_t t = now_ns();
+				to = hold_until_ns > t ? hold_until_ns - t : 0;
+			}
+			poll_io(to);
+			if (!plugged || holding_reset || halted)
+				rebase(); /* simulated time does not run while off/held */
+			continue;
+		}
+		uint64_t end = avr->cycle + SLICE_CYCLES;
+		io_ready = 0;
+		while (avr->cycle < end && !io_ready && !halted) {
+			avr->run(avr);
+			if (avr->cycle >= next_event)
+				run_events();
+			if (reset_seen) /* e.g. watchdog reset inside simavr */
+				after_reset();
+			if (avr->state != cpu_Running && avr->state != cpu_Sleeping) {
+				halted = 1;
+				break;
+			}
+		}
+		if (quit_flag) break;
+		update_extint_strict();
+		uint64_t t = now_ns();
+		if (io_ready) {
+			poll_io(0);
+			t = now_ns();
+		}
+		flush_out_if_held(t);
+		if (opt_fast) {
+			if (t - last_io_ns > 200000ULL) poll_io(0);
+			continue;
+		}
+		uint64_t wc = wall_cycles(t);
+		if (avr->cycle > wc + lead_allowed()) {
+			poll_io((avr->cycle - wc) * 1000ULL / CYC_PER_US);
+		} else {
+			int64_t lag = (int64_t)wc - (int64_t)avr->cycle;
+			if (lag > max_lag_cycles) max_lag_cycles = lag;
+			if (lag > (int64_t)LAG_REBASE_CYCLES) { rebase(); rebase_count++; }
+			/* running ahead on an idle link: look for host bytes every 20 us */
+			uint64_t every = avr->cycle > wc + LEAD_MAX_CYCLES ? 20000ULL : 100000ULL;
+			if (t - last_io_ns > every) poll_io(0);
+		}
+	}
+}
