@@ -3,20 +3,28 @@
 Two virtual Unos with the same firmware and baud rate: board 1 is served by
 ``arduinoio serve`` in a process of its own and reached over Zenoh (loopback TCP); board
 2 is opened on its port by this process.  A third process is a bare Zenoh queryable that
-answers every query in its callback with the query's payload: the *floor*, what a
-get/queryable round trip costs with nothing of ours in it.  In rounds, interleaved, the
-bench measures batches of sequential round trips of
+answers every query in its callback with a reply frame: the *floor*, what a get/queryable
+round trip costs with nothing of ours in it -- the same session configuration
+(``zenoh_config``), the same process layout (client here, queryable in a process of its
+own, loopback TCP), a query and a reply of the same sizes as ``read_id``'s frames.  The
+server runs as ``arduinoio serve`` does (uvloop when installed); this process (the local
+board, the remote board's client, the floor's client) runs on plain asyncio.  In rounds,
+interleaved, the bench measures batches of sequential round trips of
 
 * ``local``: ``board.read_id()`` on the local port;
 * ``remote``: ``board.read_id()`` on the remote board (the same typed API);
-* ``floor``: a 3-byte get on the echo queryable from this event loop (a callback handler
+* ``floor``: a get on the echo queryable from this event loop (a callback handler
   handing the reply to the loop, the way any asyncio program receives it);
 * ``floor_blocking``: the same get from a plain thread, blocking on Zenoh's channel;
 * ``floor_server_loop``: the get on a queryable that answers from its event loop (the
   one thread-to-loop hop any asyncio server adds);
 
 then the pipelined throughput (many concurrent tasks) of the remote and the local board.
-The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  As the
+The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  The
+serial round trip and the client's own transport are in both ``remote`` and ``local``,
+so the overhead is what serving adds: the network round trip itself (the floor) plus our
+server's hop into its event loop and its work around the board's link, and the client
+stream's work around the query.  As the
 machine's load drifts, the ratio is taken round by round -- ``(median remote - median
 local) / median floor`` of the round's batches -- and reported as the median over rounds
 with its quartiles; each round starts with the next kind, so no kind always runs right
@@ -45,6 +53,7 @@ import anyio.abc
 import zenoh
 from anyio.streams.buffered import BufferedByteReceiveStream
 
+from arduinoio_async import protocol as p
 from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.network import open_remote_board, zenoh_config
@@ -54,7 +63,9 @@ from arduinoio_async.sim import VirtualUno
 
 ECHO_KEY = "arduinoio/bench/echo"
 ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
-PAYLOAD = bytes((0x01, 0x01, 0x00))
+#: The floor's query and reply carry frames of the sizes the measured call sends and gets.
+QUERY = p.ReadId().encode()
+REPLY = p.ReadIdReply(0x0001).encode()
 
 
 def free_endpoint() -> str:
@@ -70,7 +81,7 @@ async def run_echo(endpoint: str) -> None:
 
     def answer(query: zenoh.Query) -> None:
         with query:
-            query.reply(query.key_expr, query.payload.to_bytes() if query.payload else b"")
+            query.reply(query.key_expr, REPLY)
 
     direct = session.declare_queryable(ECHO_KEY, zenoh_callback(answer))
     looped = session.declare_queryable(ECHO_LOOP_KEY, LoopHandle().forward(answer))
@@ -102,7 +113,7 @@ def blocking_batch(querier: zenoh.Querier, count: int) -> list[float]:
     samples = []
     for _ in range(count):
         begin = time.perf_counter()
-        for reply in querier.get(payload=PAYLOAD):
+        for reply in querier.get(payload=QUERY):
             assert reply.ok is not None
         samples.append((time.perf_counter() - begin) * 1000)
     return samples
@@ -167,9 +178,9 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     got.append(reply.ok.payload.to_bytes())
                     arrived.set()
 
-                on.get(loop.forward(on_reply), payload=PAYLOAD)
+                on.get(loop.forward(on_reply), payload=QUERY)
                 await arrived.wait()
-                assert got == [PAYLOAD]
+                assert got == [REPLY]
 
             floor = partial(get, querier)
             floor_looped = partial(get, looped_querier)
