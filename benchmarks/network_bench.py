@@ -60,6 +60,7 @@ from arduinoio_async.network import open_remote_board, zenoh_config
 from arduinoio_async.network._keys import undeclare
 from arduinoio_async.network._loop import LoopHandle, zenoh_callback
 from arduinoio_async.sim import VirtualUno
+from arduinoio_async.transport import run
 
 ECHO_KEY = "arduinoio/bench/echo"
 ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
@@ -157,7 +158,8 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 serve_ep,
             ]
         )
-        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep])
+        echo_loop = ["--uvloop"] if args.uvloop else []
+        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep, *echo_loop])
         try:
             session = await anyio.to_thread.run_sync(
                 zenoh.open, zenoh_config(connect=[serve_ep, echo_ep])
@@ -253,6 +255,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
         "zenoh": zenoh.__version__ if hasattr(zenoh, "__version__") else "1.x",
         "baud": args.baud,
+        "client_loop": "uvloop" if args.uvloop else "asyncio",
         "rounds": args.rounds,
         "batch": args.batch,
         "round_trip_ms": summary,
@@ -290,12 +293,17 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=50)
     parser.add_argument("--seconds", type=float, default=2.0, help="per throughput run")
     parser.add_argument("--tasks", type=int, default=16, help="concurrent tasks (pipelining)")
+    parser.add_argument(
+        "--uvloop",
+        action="store_true",
+        help="run this process and the floor's queryable on uvloop too (default: asyncio)",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     if args.echo:
-        anyio.run(run_echo, args.echo)
+        run(run_echo, args.echo, uvloop=args.uvloop)
         return
-    result = anyio.run(bench, args)
+    result = run(bench, args, uvloop=args.uvloop)
     shown = {k: v for k, v in result.items() if k != "samples_ms"}
     print(json.dumps(shown, indent=2))
     if args.json:
