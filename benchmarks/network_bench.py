@@ -18,6 +18,9 @@ interleaved, the bench measures batches of sequential round trips of
 * ``floor_blocking``: the same get from a plain thread, blocking on Zenoh's channel;
 * ``floor_server_loop``: the get on a queryable that answers from its event loop (the
   one thread-to-loop hop any asyncio server adds);
+* ``floor_done_callback``: the ``floor`` get with a per-query "done" callback as well
+  (what the remote stream used before it watched for vanished servers once per stream:
+  ``done_callback_cost_us`` is its cost, round by round);
 
 then the pipelined throughput (many concurrent tasks) of the remote and the local board.
 The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  The
@@ -171,7 +174,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 ECHO_LOOP_KEY, consolidation=zenoh.ConsolidationMode.NONE
             )
 
-            async def get(on: zenoh.Querier) -> None:
+            async def get(on: zenoh.Querier, *, done: bool = False) -> None:
                 arrived = anyio.Event()
                 got: list[bytes] = []
 
@@ -180,12 +183,17 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     got.append(reply.ok.payload.to_bytes())
                     arrived.set()
 
-                on.get(loop.forward(on_reply), payload=QUERY)
+                if done:  # a per-query "done" callback as well (run when the query ends)
+                    handler = zenoh_callback(partial(loop.call_soon, on_reply), lambda: None)
+                else:
+                    handler = loop.forward(on_reply)
+                on.get(handler, payload=QUERY)
                 await arrived.wait()
                 assert got == [REPLY]
 
             floor = partial(get, querier)
             floor_looped = partial(get, looped_querier)
+            floor_done = partial(get, querier, done=True)
 
             samples: dict[str, list[float]] = {
                 "local": [],
@@ -193,6 +201,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 "floor": [],
                 "floor_blocking": [],
                 "floor_server_loop": [],
+                "floor_done_callback": [],
             }
             async with (
                 Board.open(local_uno.port, baudrate=args.baud) as local,
@@ -209,6 +218,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     ("remote", partial(batch, remote.read_id, args.batch)),
                     ("floor", partial(batch, floor, args.batch)),
                     ("floor_server_loop", partial(batch, floor_looped, args.batch)),
+                    ("floor_done_callback", partial(batch, floor_done, args.batch)),
                     (
                         "floor_blocking",
                         partial(anyio.to_thread.run_sync, blocking_batch, querier, args.batch),
@@ -250,6 +260,12 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         for floor in ("floor", "floor_server_loop", "floor_blocking")
     }
     overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
+    done_cost = sorted(
+        (with_done - plain) * 1000
+        for with_done, plain in zip(
+            per_round["floor_done_callback"], per_round["floor"], strict=True
+        )
+    )
     return {
         "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
         "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
@@ -269,6 +285,13 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 ],
             }
             for floor, values in ratios.items()
+        },
+        "done_callback_cost_us": {
+            "median": round(statistics.median(done_cost), 1),
+            "quartiles": [
+                round(done_cost[len(done_cost) // 4], 1),
+                round(done_cost[-1 - len(done_cost) // 4], 1),
+            ],
         },
         "goal": "overhead (remote p50 - local p50, per round) <= 1.5 x floor p50 (per round)",
         "goal_met_median_round": statistics.median(ratios["floor"]) <= 1.5,
