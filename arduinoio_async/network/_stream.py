@@ -34,11 +34,12 @@ the querier reports when the last queryable for the board goes (its server close
 or the server's session was lost), and a query issued while none matches settles as
 "no server answered" at once (Zenoh would drop it unanswered).  A per-query "done"
 callback would say the same for each query, but it runs on Zenoh's thread and takes
-the interpreter lock just as the event loop is handling that query's reply: measured, it
-adds about 25 us to every round trip.  A query that a server finalises without any reply
-is therefore a lost reply (the transport's timeout ends it); ``arduinoio serve`` always
-answers, with a fault if nothing else, and Zenoh's own query timeout arrives as an error
-reply.
+the interpreter lock while the event loop is handling that query's reply (on this
+2-core machine: +22 us per round trip, quartiles 10-44 us, in an A/B of bare gets;
+within the noise of ``benchmarks/network_bench.py``'s ``done_callback_cost_us``).  A
+query that a server finalises without any reply is therefore a lost reply (the
+transport's timeout ends it); ``arduinoio serve`` always answers, with a fault if nothing
+else, and Zenoh's own query timeout arrives as an error reply.
 """
 
 from __future__ import annotations
