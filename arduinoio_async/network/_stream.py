@@ -197,11 +197,12 @@ class RemoteByteStream(anyio.abc.ByteStream):
             raise self._error
         # The transport writes one request frame per call, and a program repeats the same
         # few frames: one seen whole before is sent without decoding it again.
-        if item in self._whole_frames and not self._decoder.buffered:
+        clean = not self._decoder.buffered  # no earlier bytes of a frame are waiting
+        if clean and type(item) is bytes and item in self._whole_frames:
             self._query(item)
             return
         frames = self._decoder.feed(item)
-        whole = len(frames) == 1 and not self._decoder.buffered
+        whole = clean and len(frames) == 1 and not self._decoder.buffered
         if whole and isinstance(frames[0], p.Request) and type(item) is bytes:
             if len(self._whole_frames) >= KNOWN_FRAMES:
                 self._whole_frames.clear()

@@ -322,3 +322,20 @@ async def test_a_cancelled_callers_reply_is_consumed_in_order(session: zenoh.Ses
             board.answer(0)
         assert results == [p.AnalogReadReply(2, 200)]
         assert link.stats.dropped_late_replies == 1
+
+
+async def test_a_frame_written_in_pieces_is_one_query_of_the_whole_frame(
+    session: zenoh.Session,
+) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    frame = p.AnalogRead(3).encode()
+    try:
+        stream.send_nowait(frame)  # whole: remembered
+        stream.send_nowait(frame[:1])
+        stream.send_nowait(frame[1:])  # the tail alone is not the frame
+        stream.send_nowait(frame)
+        await board.wait_queries(3)
+        assert [q.payload.to_bytes() for q in board.queries if q.payload] == [frame] * 3
+    finally:
+        await stream.aclose()
