@@ -49,6 +49,7 @@ __all__ = [
     "BoardManager",
     "ManagerEvent",
     "ProbeResult",
+    "attach_board",
     "candidate_ports",
 ]
 
@@ -126,6 +127,21 @@ def candidate_ports(
         for port in _usb_ports():
             seen[port] = None
     return list(seen)
+
+
+async def attach_board(boards: dict[int, Board], board_id: int, link: Transport) -> Board:
+    """The ``Board`` of ``board_id`` on ``link``: made on first sight, else re-attached.
+
+    Re-attaching keeps the caller's ``Board`` object and restores its pin roles and
+    failsafe on the new link (after a replug, a reset, or -- remotely -- a server restart).
+    """
+    board = boards.get(board_id)
+    if board is None:
+        board = await Board.from_link(link)
+        boards[board_id] = board
+    else:
+        await board.adopt(link)
+    return board
 
 
 @dataclass
@@ -349,11 +365,7 @@ class BoardManager:
         link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
         try:
             async with link:
-                if board is None:
-                    board = await Board.from_link(link)
-                    self._boards[board_id] = board
-                else:
-                    await board.adopt(link)
+                board = await attach_board(self._boards, board_id, link)
                 self._emit(ManagerEvent("connected", board_id, link.name))
                 task_status.started()
                 started = True

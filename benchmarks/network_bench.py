@@ -3,20 +3,31 @@
 Two virtual Unos with the same firmware and baud rate: board 1 is served by
 ``arduinoio serve`` in a process of its own and reached over Zenoh (loopback TCP); board
 2 is opened on its port by this process.  A third process is a bare Zenoh queryable that
-answers every query in its callback with the query's payload: the *floor*, what a
-get/queryable round trip costs with nothing of ours in it.  In rounds, interleaved, the
-bench measures batches of sequential round trips of
+answers every query in its callback with a reply frame: the *floor*, what a get/queryable
+round trip costs with nothing of ours in it -- the same session configuration
+(``zenoh_config``), the same process layout (client here, queryable in a process of its
+own, loopback TCP), a query and a reply of the same sizes as ``read_id``'s frames.  The
+server runs as ``arduinoio serve`` does (uvloop when installed); this process (the local
+board, the remote board's client, the floor's client) runs on plain asyncio.  In rounds,
+interleaved, the bench measures batches of sequential round trips of
 
 * ``local``: ``board.read_id()`` on the local port;
 * ``remote``: ``board.read_id()`` on the remote board (the same typed API);
-* ``floor``: a 3-byte get on the echo queryable from this event loop (a callback handler
+* ``floor``: a get on the echo queryable from this event loop (a callback handler
   handing the reply to the loop, the way any asyncio program receives it);
 * ``floor_blocking``: the same get from a plain thread, blocking on Zenoh's channel;
 * ``floor_server_loop``: the get on a queryable that answers from its event loop (the
   one thread-to-loop hop any asyncio server adds);
+* ``floor_done_callback``: the ``floor`` get with a per-query "done" callback as well
+  (what the remote stream used before it watched for vanished servers once per stream:
+  ``done_callback_cost_us`` is its cost, round by round);
 
 then the pipelined throughput (many concurrent tasks) of the remote and the local board.
-The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  As the
+The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  The
+serial round trip and the client's own transport are in both ``remote`` and ``local``,
+so the overhead is what serving adds: the network round trip itself (the floor) plus our
+server's hop into its event loop and its work around the board's link, and the client
+stream's work around the query.  As the
 machine's load drifts, the ratio is taken round by round -- ``(median remote - median
 local) / median floor`` of the round's batches -- and reported as the median over rounds
 with its quartiles; each round starts with the next kind, so no kind always runs right
@@ -45,16 +56,20 @@ import anyio.abc
 import zenoh
 from anyio.streams.buffered import BufferedByteReceiveStream
 
+from arduinoio_async import protocol as p
 from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.network import open_remote_board, zenoh_config
 from arduinoio_async.network._keys import undeclare
 from arduinoio_async.network._loop import LoopHandle, zenoh_callback
 from arduinoio_async.sim import VirtualUno
+from arduinoio_async.transport import run
 
 ECHO_KEY = "arduinoio/bench/echo"
 ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
-PAYLOAD = bytes((0x01, 0x01, 0x00))
+#: The floor's query and reply carry frames of the sizes the measured call sends and gets.
+QUERY = p.ReadId().encode()
+REPLY = p.ReadIdReply(0x0001).encode()
 
 
 def free_endpoint() -> str:
@@ -70,7 +85,7 @@ async def run_echo(endpoint: str) -> None:
 
     def answer(query: zenoh.Query) -> None:
         with query:
-            query.reply(query.key_expr, query.payload.to_bytes() if query.payload else b"")
+            query.reply(query.key_expr, REPLY)
 
     direct = session.declare_queryable(ECHO_KEY, zenoh_callback(answer))
     looped = session.declare_queryable(ECHO_LOOP_KEY, LoopHandle().forward(answer))
@@ -102,7 +117,7 @@ def blocking_batch(querier: zenoh.Querier, count: int) -> list[float]:
     samples = []
     for _ in range(count):
         begin = time.perf_counter()
-        for reply in querier.get(payload=PAYLOAD):
+        for reply in querier.get(payload=QUERY):
             assert reply.ok is not None
         samples.append((time.perf_counter() - begin) * 1000)
     return samples
@@ -146,7 +161,8 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 serve_ep,
             ]
         )
-        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep])
+        echo_loop = ["--uvloop"] if args.uvloop else []
+        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep, *echo_loop])
         try:
             session = await anyio.to_thread.run_sync(
                 zenoh.open, zenoh_config(connect=[serve_ep, echo_ep])
@@ -158,7 +174,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 ECHO_LOOP_KEY, consolidation=zenoh.ConsolidationMode.NONE
             )
 
-            async def get(on: zenoh.Querier) -> None:
+            async def get(on: zenoh.Querier, *, done: bool = False) -> None:
                 arrived = anyio.Event()
                 got: list[bytes] = []
 
@@ -167,12 +183,17 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     got.append(reply.ok.payload.to_bytes())
                     arrived.set()
 
-                on.get(loop.forward(on_reply), payload=PAYLOAD)
+                if done:  # a per-query "done" callback as well (run when the query ends)
+                    handler = zenoh_callback(partial(loop.call_soon, on_reply), lambda: None)
+                else:
+                    handler = loop.forward(on_reply)
+                on.get(handler, payload=QUERY)
                 await arrived.wait()
-                assert got == [PAYLOAD]
+                assert got == [REPLY]
 
             floor = partial(get, querier)
             floor_looped = partial(get, looped_querier)
+            floor_done = partial(get, querier, done=True)
 
             samples: dict[str, list[float]] = {
                 "local": [],
@@ -180,6 +201,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 "floor": [],
                 "floor_blocking": [],
                 "floor_server_loop": [],
+                "floor_done_callback": [],
             }
             async with (
                 Board.open(local_uno.port, baudrate=args.baud) as local,
@@ -196,6 +218,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     ("remote", partial(batch, remote.read_id, args.batch)),
                     ("floor", partial(batch, floor, args.batch)),
                     ("floor_server_loop", partial(batch, floor_looped, args.batch)),
+                    ("floor_done_callback", partial(batch, floor_done, args.batch)),
                     (
                         "floor_blocking",
                         partial(anyio.to_thread.run_sync, blocking_batch, querier, args.batch),
@@ -237,11 +260,18 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         for floor in ("floor", "floor_server_loop", "floor_blocking")
     }
     overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
+    done_cost = sorted(
+        (with_done - plain) * 1000
+        for with_done, plain in zip(
+            per_round["floor_done_callback"], per_round["floor"], strict=True
+        )
+    )
     return {
         "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
         "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
         "zenoh": zenoh.__version__ if hasattr(zenoh, "__version__") else "1.x",
         "baud": args.baud,
+        "client_loop": "uvloop" if args.uvloop else "asyncio",
         "rounds": args.rounds,
         "batch": args.batch,
         "round_trip_ms": summary,
@@ -255,6 +285,13 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 ],
             }
             for floor, values in ratios.items()
+        },
+        "done_callback_cost_us": {
+            "median": round(statistics.median(done_cost), 1),
+            "quartiles": [
+                round(done_cost[len(done_cost) // 4], 1),
+                round(done_cost[-1 - len(done_cost) // 4], 1),
+            ],
         },
         "goal": "overhead (remote p50 - local p50, per round) <= 1.5 x floor p50 (per round)",
         "goal_met_median_round": statistics.median(ratios["floor"]) <= 1.5,
@@ -279,12 +316,17 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=50)
     parser.add_argument("--seconds", type=float, default=2.0, help="per throughput run")
     parser.add_argument("--tasks", type=int, default=16, help="concurrent tasks (pipelining)")
+    parser.add_argument(
+        "--uvloop",
+        action="store_true",
+        help="run this process and the floor's queryable on uvloop too (default: asyncio)",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     if args.echo:
-        anyio.run(run_echo, args.echo)
+        run(run_echo, args.echo, uvloop=args.uvloop)
         return
-    result = anyio.run(bench, args)
+    result = run(bench, args, uvloop=args.uvloop)
     shown = {k: v for k, v in result.items() if k != "samples_ms"}
     print(json.dumps(shown, indent=2))
     if args.json:

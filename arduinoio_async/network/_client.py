@@ -26,7 +26,7 @@ import zenoh
 
 from ..board import READY_TIMEOUT, Board
 from ..errors import ArduinoIOError, BoardNotFoundError, DuplicateBoardError, UsageError
-from ..manager import BoardManager, ManagerEvent
+from ..manager import BoardManager, ManagerEvent, attach_board
 from ..transport import DEFAULT_TIMEOUT, LinkState, Transport
 from ._keys import (
     ALL_BOARDS,
@@ -233,11 +233,7 @@ class RemoteBoards:
         detail = ""
         try:
             async with link:
-                if board is None:
-                    board = await Board.from_link(link)
-                    self._boards[board_id] = board
-                else:
-                    await board.adopt(link)
+                board = await attach_board(self._boards, board_id, link)
                 self._emit(ManagerEvent("connected", board_id, link.name))
                 await self._heartbeat(board, link, closed)
         except ArduinoIOError as exc:

@@ -107,6 +107,14 @@ WRITE_ID_REFUSED = (
 NOT_ONE_REQUEST = "a query carries one request frame"
 #: Queries of one board in progress at once (the transport keeps at most 64 in flight).
 WORKERS = 64
+#: Request frames remembered with their decoded request (see ``_ServedBoard._parse``);
+#: past this many distinct frames the memory starts over.
+KNOWN_FRAMES = 256
+#: Requests whose handling depends on the client that sent them: only for these (and
+#: for every request while a client owns the failsafe) the query's attachment is read.
+_PER_CLIENT: frozenset[type[p.Request[Any]]] = frozenset(
+    {p.SetSession, p.ReadStatus, p.FailsafeArm, p.StreamStart}
+)
 
 
 class _Resumer:
@@ -193,6 +201,7 @@ class _ServedBoard:
             self._now = anyio.current_time
             self._direct = False
         self._clients: dict[bytes, str] = {}  # attachments seen, decoded once
+        self._requests: dict[bytes, p.Request[Any]] = {}  # frames seen, decoded once
         server.start_soon(self._run_workers, receive)
         session = server.session
         loop = server.loop
@@ -245,7 +254,7 @@ class _ServedBoard:
         try:
             self._admitted.send_nowait((number, query))
         except (anyio.ClosedResourceError, anyio.BrokenResourceError):
-            query.drop()  # type: ignore[no-untyped-call]  # unanswered: the board is gone
+            self._reply(query, None, None, self._gone())
 
     async def _run_workers(
         self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]
@@ -281,19 +290,37 @@ class _ServedBoard:
             changed.set()
 
     def _parse(self, query: zenoh.Query) -> tuple[str, p.Request[Any] | None]:
-        """The query's client and its request (None: the payload is not one request)."""
+        """The query's client and its request (None: the payload is not one request).
+
+        The client is read from the attachment only when it matters (``""`` otherwise);
+        a frame seen before is not decoded again (requests are immutable).  Both save
+        work on every round trip, where the loop has just woken up and runs cold.
+        """
+        payload = query.payload
+        frame = payload.to_bytes() if payload is not None else b""
+        request = self._requests.get(frame)
+        if request is None:
+            frames = self._decoder.feed(frame)
+            self._decoder.reset()
+            if len(frames) != 1 or not isinstance(frames[0], p.Request):
+                return "", None
+            request = frames[0]
+            if len(self._requests) >= KNOWN_FRAMES:
+                self._requests.clear()
+            self._requests[frame] = request
+        if self.owner is None and type(request) not in _PER_CLIENT:
+            return "", request
         attachment = query.attachment
-        client = ""
-        if attachment is not None:
-            raw = attachment.to_bytes()
-            client = self._clients.get(raw) or self._clients.setdefault(
-                raw, raw.decode(errors="replace")
-            )
-        frames = self._decoder.feed(query.payload.to_bytes() if query.payload is not None else b"")
-        self._decoder.reset()
-        if len(frames) != 1 or not isinstance(frames[0], p.Request):
-            return client, None
-        return client, frames[0]
+        if attachment is None:
+            return "", request
+        raw = attachment.to_bytes()
+        client = self._clients.get(raw) or self._clients.setdefault(
+            raw, raw.decode(errors="replace")
+        )
+        return client, request
+
+    def _gone(self) -> BoardDisconnectedError:
+        return BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
 
     def _answer_now(self, query: zenoh.Query, client: str, request: p.Request[Any] | None) -> None:
         """The fast path, in the loop callback that admitted the query (asyncio only).
@@ -309,7 +336,7 @@ class _ServedBoard:
             self.last_heard[client] = self._now()
         try:
             if self.closed:
-                raise BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
+                raise self._gone()
             local = self._answer_locally(client, request)
         except ArduinoIOError as exc:
             self._reply(query, request, None, exc)
@@ -345,9 +372,7 @@ class _ServedBoard:
                     self.last_heard[client] = self._now()
                 try:
                     if self.closed:
-                        raise BoardDisconnectedError(
-                            f"board 0x{self.board_id:04X} is not connected"
-                        )
+                        raise self._gone()
                     frame = self._answer_locally(client, request)
                     if frame is None:
                         reply = await self.link.request(request)
@@ -355,7 +380,8 @@ class _ServedBoard:
                 except ArduinoIOError as exc:
                     error = exc
         except BaseException:
-            query.drop()  # type: ignore[no-untyped-call]  # cancelled: unanswered
+            # Cancelled (the server is stopping): the client's stream breaks on this.
+            self._reply(query, None, None, self._gone())
             raise
         self._reply(query, request, frame, error)
 

@@ -25,9 +25,21 @@ A slot settles in one of three ways:
   flight keep their own slots, so nothing else fails and the client does not resync.
   Before a transport is attached (while waiting for the board) a fault is one byte that
   no frame starts with, which a reader takes for line noise;
-* the board is gone (the server answered ``BoardDisconnectedError``, or nobody answered
-  at all): the stream breaks, so the transport fails everything with
-  :class:`~arduinoio_async.errors.BoardDisconnectedError`.
+* the board is gone (the server answered ``BoardDisconnectedError``, or no server's
+  queryable matches the board's key any more): the stream breaks, so the transport fails
+  everything with :class:`~arduinoio_async.errors.BoardDisconnectedError`.
+
+"No server" is watched once per stream, not once per query: a Zenoh matching listener on
+the querier reports when the last queryable for the board goes (its server closed it,
+or the server's session was lost), and a query issued while none matches settles as
+"no server answered" at once (Zenoh would drop it unanswered).  A per-query "done"
+callback would say the same for each query, but it runs on Zenoh's thread and takes
+the interpreter lock while the event loop is handling that query's reply (on this
+2-core machine: +22 us per round trip, quartiles 10-44 us, in an A/B of bare gets;
+within the noise of ``benchmarks/network_bench.py``'s ``done_callback_cost_us``).  A
+query that a server finalises without any reply is therefore a lost reply (the
+transport's timeout ends it); ``arduinoio serve`` always answers, with a fault if nothing
+else, and Zenoh's own query timeout arrives as an error reply.
 """
 
 from __future__ import annotations
@@ -52,26 +64,32 @@ log = logging.getLogger(__name__)
 #: Stands in for a reply the server could not get: 0x00 starts no frame, and lacks the
 #: error flag, so the transport's decoder reports it as garbage at once.
 LINK_FAULT_BYTE = b"\x00"
-#: Longest a query may wait for its reply before it counts as unanswered (the transport's
-#: own per-request timeout is much shorter and acts first).
+#: Longest a query may wait for its reply; Zenoh then answers it with a timeout error (the
+#: transport's own per-request timeout is much shorter and acts first).
 QUERY_TIMEOUT = 10.0
 
 _NO_REPLY = RemoteFault("BoardDisconnectedError", "no server answered")
+#: Request frames remembered as whole (see ``RemoteByteStream.send_nowait``); past this
+#: many distinct frames the memory starts over.
+KNOWN_FRAMES = 256
+
+
+def _matching(status: object) -> bool:
+    """A ``MatchingStatus``'s verdict (zenoh's stub types ``matching_status`` as a bool)."""
+    return bool(getattr(status, "matching", status))
 
 
 class _Slot:
-    """Callbacks of one query, run on Zenoh's threads; they only schedule."""
+    """The reply callback of one query, run on Zenoh's thread; it only schedules."""
 
-    __slots__ = ("_answered", "_loop", "_number", "_stream")
+    __slots__ = ("_loop", "_number", "_stream")
 
     def __init__(self, stream: RemoteByteStream, number: int, loop: LoopHandle) -> None:
         self._stream = stream
         self._number = number
         self._loop = loop
-        self._answered = False
 
     def on_reply(self, reply: zenoh.Reply) -> None:
-        self._answered = True
         sample = reply.ok
         if sample is not None:
             result: bytes | RemoteFault = sample.payload.to_bytes()
@@ -79,12 +97,6 @@ class _Slot:
             error = reply.err
             result = decode_fault(error.payload.to_bytes() if error is not None else b"")
         self._loop.call_soon(self._stream._settle, self._number, result)
-
-    def on_done(self) -> None:
-        # Both run on the thread that received the query's messages, reply first; waking
-        # the loop for a query that was answered would only cost time.
-        if not self._answered:
-            self._loop.call_soon(self._stream._settle, self._number, _NO_REPLY)
 
 
 class RemoteByteStream(anyio.abc.ByteStream):
@@ -103,12 +115,20 @@ class RemoteByteStream(anyio.abc.ByteStream):
         self.port = f"zenoh://0x{board_id:04X}"
         self._loop = LoopHandle()
         self._decoder = p.Decoder.from_host()
-        self._attachment = client_id.encode()
+        # Converted once: a ``bytes`` attachment would be copied into a new ZBytes per query.
+        self._attachment = zenoh.ZBytes(client_id.encode())
         self._querier = session.declare_querier(
             request_key(board_id),
             timeout=query_timeout,
             consolidation=zenoh.ConsolidationMode.NONE,
         )
+        # Whether some server's queryable answers the board's key; exact at declaration,
+        # then kept by the listener (see the module's docstring).
+        self._matching = _matching(self._querier.matching_status)
+        self._matcher = self._querier.declare_matching_listener(
+            self._loop.forward(self._on_matching)
+        )
+        self._whole_frames: set[bytes] = set()
         self._issued = 0
         self._next = 0
         self._settled: dict[int, bytes | RemoteFault] = {}
@@ -175,8 +195,18 @@ class RemoteByteStream(anyio.abc.ByteStream):
             raise anyio.ClosedResourceError
         if self._error is not None:
             raise self._error
+        # The transport writes one request frame per call, and a program repeats the same
+        # few frames: one seen whole before is sent without decoding it again.
+        clean = not self._decoder.buffered  # no earlier bytes of a frame are waiting
+        if clean and type(item) is bytes and item in self._whole_frames:
+            self._query(item)
+            return
         frames = self._decoder.feed(item)
-        whole = len(frames) == 1 and not self._decoder.buffered
+        whole = clean and len(frames) == 1 and not self._decoder.buffered
+        if whole and isinstance(frames[0], p.Request) and type(item) is bytes:
+            if len(self._whole_frames) >= KNOWN_FRAMES:
+                self._whole_frames.clear()
+            self._whole_frames.add(item)
         for frame in frames:
             if isinstance(frame, p.Garbage):
                 # Only a request can reach the board through a query; a host sends none.
@@ -199,24 +229,40 @@ class RemoteByteStream(anyio.abc.ByteStream):
             self._on_lost(None)
         # Undeclaring waits for running callbacks; ours only schedule, so it is quick.
         undeclare(self._subscriber)
+        undeclare(self._matcher)
         undeclare(self._querier)
 
     # ---- internals -------------------------------------------------------------------
 
     def _query(self, frame: bytes) -> None:
-        slot = _Slot(self, self._issued, self._loop)
+        number = self._issued
         self._issued += 1
+        if not self._matching:  # Zenoh would drop it unanswered: settle it in its turn
+            self._loop.call_soon(self._settle, number, _NO_REPLY)
+            return
         try:
             self._querier.get(
-                zenoh_callback(slot.on_reply, slot.on_done),
+                zenoh_callback(_Slot(self, number, self._loop).on_reply),
                 payload=frame,
                 attachment=self._attachment,
             )
         except zenoh.ZError as exc:
             self._break(f"query failed: {exc}")
 
+    def _on_matching(self, status: zenoh.MatchingStatus) -> None:
+        """The listener's news: a server's queryable for the board came or went."""
+        self._matching = status.matching
+        if not status.matching:
+            # The board's last server closed its queryable or was lost: queries in flight
+            # will not be answered, so nothing is waited for.
+            self._break("no server answers it any more")
+
     def _settle(self, number: int, result: bytes | RemoteFault) -> None:
         """Record a slot's outcome (the first one wins) and deliver every slot now due."""
+        if number == self._next and not self._settled and type(result) is bytes:
+            self._next += 1  # the common case: the reply that is due, nothing held back
+            self._push(result)
+            return
         if number < self._next or number in self._settled:
             return
         self._settled[number] = result

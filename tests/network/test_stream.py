@@ -24,7 +24,7 @@ from arduinoio_async.errors import (
     UsageError,
 )
 from arduinoio_async.network import RemoteByteStream, zenoh_config
-from arduinoio_async.network._keys import encode_fault, events_key, request_key
+from arduinoio_async.network._keys import encode_fault, events_key, request_key, undeclare
 from arduinoio_async.network._loop import LoopHandle
 from arduinoio_async.transport import Transport
 
@@ -266,20 +266,40 @@ async def test_an_unknown_server_failure_is_of_unknown_fate(session: zenoh.Sessi
             await link.request(p.AnalogRead(1))
 
 
-async def test_a_vanished_board_disconnects(session: zenoh.Session) -> None:
+def _unplugged(board: ScriptedBoard) -> None:
+    undeclare(board.queryable)  # as a server does when its board is unplugged: no answer
+
+
+def _answered_gone(board: ScriptedBoard) -> None:
+    fault = encode_fault(BoardDisconnectedError("board 0x0009 is not connected"))
+    board.answer(0, lambda query: query.reply_err(fault))
+
+
+@pytest.mark.parametrize("vanish", [_unplugged, _answered_gone])
+async def test_a_vanished_board_disconnects(
+    session: zenoh.Session, vanish: Callable[[ScriptedBoard], None]
+) -> None:
     board = ScriptedBoard(session)
     stream = RemoteByteStream(session, BOARD, "tester")
-    async with Transport(stream, name="remote") as link:
+    async with Transport(stream, name="remote", timeout=30) as link:
         async with anyio.create_task_group() as tg:
 
-            async def drop_it() -> None:
+            async def vanish_in_flight() -> None:
                 await board.wait_queries(1)
-                board.answer(0, lambda q: None)  # finalised without a reply
+                vanish(board)
 
-            tg.start_soon(drop_it)
-            with pytest.raises(BoardDisconnectedError):
+            tg.start_soon(vanish_in_flight)
+            with anyio.fail_after(5), pytest.raises(BoardDisconnectedError):
                 await link.request(p.ReadId())
         with pytest.raises(BoardDisconnectedError):
+            await link.request(p.ReadId())
+    assert len(board.queries) == 1
+
+
+async def test_a_board_nobody_serves_disconnects_at_once(session: zenoh.Session) -> None:
+    stream = RemoteByteStream(session, BOARD, "tester")
+    async with Transport(stream, name="remote", timeout=30) as link:
+        with anyio.fail_after(5), pytest.raises(BoardDisconnectedError):
             await link.request(p.ReadId())
 
 
@@ -302,3 +322,20 @@ async def test_a_cancelled_callers_reply_is_consumed_in_order(session: zenoh.Ses
             board.answer(0)
         assert results == [p.AnalogReadReply(2, 200)]
         assert link.stats.dropped_late_replies == 1
+
+
+async def test_a_frame_written_in_pieces_is_one_query_of_the_whole_frame(
+    session: zenoh.Session,
+) -> None:
+    board = ScriptedBoard(session)
+    stream = RemoteByteStream(session, BOARD, "tester")
+    frame = p.AnalogRead(3).encode()
+    try:
+        stream.send_nowait(frame)  # whole: remembered
+        stream.send_nowait(frame[:1])
+        stream.send_nowait(frame[1:])  # the tail alone is not the frame
+        stream.send_nowait(frame)
+        await board.wait_queries(3)
+        assert [q.payload.to_bytes() for q in board.queries if q.payload] == [frame] * 3
+    finally:
+        await stream.aclose()
