@@ -69,13 +69,16 @@ void app_tick(void) { failsafe_tick(); }
  * pending and the next steps retry. */
 static void handle(uint8_t event)
 {
+    uint8_t len;
+
     if (event == PARSER_REQUEST)
         pending_len = dispatch(&parser.rq, pending);
     else
         pending_len = dispatch_error(parser.err_ct, parser.err_dt, parser.err_code, pending);
-    count_burst(pending_len);
+    len = pending_len;
     if (hal_tx_send(pending, pending_len))
         pending_len = 0;
+    count_burst(len); /* after the send: off the reply's path */
 }
 
 uint8_t app_step(void)
@@ -127,11 +130,11 @@ uint8_t app_step(void)
                 rx = hal_rx_view();
                 n = parser_take(&parser, rx.ring, rx.tail, rx.count);
             } while (n && dispatch_quick(parser.rq.ct));
-            count_burst(len);
             if (out != pending)
                 hal_tx_publish(len);
             else if (!hal_tx_send(pending, len))
                 pending_len = len;
+            count_burst(len); /* after the send: off the reply's path */
             return 1;
         }
         /* Part of a frame, or something the parser must see byte by byte:
