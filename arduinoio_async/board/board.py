@@ -80,6 +80,8 @@ class Board:
         #: boot nobody had tagged yet; any other value = an earlier program's tag (the board
         #: has not reset since that program connected).
         self.session_found = 0
+        #: Low-latency mode as this library last set it (replayed after a reset).
+        self.low_latency = False
         self._failsafe = Failsafe(self)
         self._failsafe.listen(link)
 
@@ -285,6 +287,27 @@ class Board:
     async def _restore_on(self, link: Transport) -> None:
         for setup in self._roles.setups():
             await link.request(setup)
+        if self.low_latency:
+            await link.request(p.SetLowLatency(True))
+
+    async def set_low_latency(self, enabled: bool = True) -> None:
+        """Ask the board to pad each burst of replies with filler bytes (an extension).
+
+        Behind the Uno's stock USB bridge (the 16U2's arduino-usbserial) a reply waits
+        for the bridge's 4.096 ms timer tick unless more than 96 bytes wait, so the board
+        sends filler until reply and filler make 97 bytes; the decoder drops filler.  It
+        costs 97 byte times of the board-to-host line per burst (485 us at 2 Mbaud,
+        970 us at 1 Mbaud), so it pays from 1 Mbaud up and only behind such a bridge.
+        Off after every boot of the board; this board replays it after a reset or a
+        reconnect.  Raises ProtocolError when the firmware does not announce it.
+        """
+        if not self.capabilities.features & p.Feature.LOW_LATENCY:
+            raise ProtocolError(
+                f"board 0x{self.board_id:04X}'s firmware has no low-latency mode "
+                "(capabilities: no LOW_LATENCY feature bit); update the firmware"
+            )
+        await self.request(p.SetLowLatency(enabled))
+        self.low_latency = enabled
 
     # ---- handles -----------------------------------------------------------------------------
 

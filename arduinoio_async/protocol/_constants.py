@@ -145,7 +145,19 @@ class Feature(IntFlag):
     TRANSACTIONS = 0x0800
     #: COUNTER WATCH and CounterReport events (extension, docs/protocol.md 7.4).
     COUNTER_REPORTS = 0x1000
+    #: SET_LOW_LATENCY and filler bytes after replies (extension, docs/protocol.md 7.6).
+    LOW_LATENCY = 0x4000
 
+
+#: Low-latency mode (extension): after the last reply of a burst the board sends filler
+#: bytes of this value until the burst and its filler make ``LOW_LATENCY_PAD`` bytes, so
+#: that more than 96 bytes wait in the Uno's 16U2 USB bridge (arduino-usbserial's
+#: BUFFER_NEARLY_FULL), which then sends them at once instead of on its 4.096 ms tick.
+#: No class tag is 0x00 and its error flag is clear, so a filler byte can never start a
+#: frame; the board sends filler only between frames, so a host decoder drops every 0x00
+#: found where a frame would start.
+FILLER: Final = 0x00
+LOW_LATENCY_PAD: Final = 97
 
 #: The firmware answers nothing to a half-received frame until the line has been idle this
 #: long; then it sends INCOMPLETE_FRAME and is ready for the next frame.  After a framing

@@ -13,6 +13,15 @@ An 8-bit checksum accepts a random candidate with probability 1/256, so after ga
 spurious frame is possible; callers that see :class:`Garbage` should resynchronise (the
 transport does: it fails what is in flight and confirms the board with an ID request).
 
+*Filler* (an extension, ``SetLowLatency``): a board in low-latency mode sends bytes of
+``FILLER`` (0x00) after its replies so that the Uno's USB bridge sends at once.  No frame
+starts with 0x00 (no class tag is 0, and the error flag is clear), and a board sends
+filler only between frames, so right after a frame (or at the start, or after
+:meth:`Decoder.reset`) a ``from_board`` decoder drops a whole run of them, silently.
+They cost nothing until the search for a frame start would have called them garbage;
+inside a frame a 0x00 is data as before, and after garbage it is garbage too (the bytes
+of a damaged frame are reported, never dropped, so the caller still resynchronises).
+
 The same class decodes both directions: ``Decoder.from_board()`` (replies, error replies,
 events) for the host, ``Decoder.from_host()`` (requests) for boards and test peers.  A
 board frames by tags, length and checksum alone and refuses bad field values afterwards
@@ -32,7 +41,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from ._constants import ERROR_FLAG, ErrorCode
+from ._constants import ERROR_FLAG, FILLER, ErrorCode
 from ._layout import Frame, Layout
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply
 
@@ -62,6 +71,8 @@ class InvalidValues(Garbage):
 
 Decoded = Frame | Garbage
 
+_FILLER_BYTE = bytes((FILLER,))
+
 
 def _layouts(*tables: Mapping[tuple[int, int], type[Frame]]) -> dict[int, Layout]:
     return {(ct << 8) | dt: cls.LAYOUT for table in tables for (ct, dt), cls in table.items()}
@@ -72,7 +83,9 @@ class Decoder:
 
     __slots__ = (
         "_accept_errors",
+        "_aligned",
         "_buffer",
+        "_drop_filler",
         "_first_bytes",
         "_keep_invalid",
         "_layouts",
@@ -84,9 +97,16 @@ class Decoder:
     MEMO_SIZE = 512
 
     def __init__(
-        self, layouts: dict[int, Layout], *, accept_errors: bool, keep_invalid: bool = False
+        self,
+        layouts: dict[int, Layout],
+        *,
+        accept_errors: bool,
+        keep_invalid: bool = False,
+        drop_filler: bool = False,
     ) -> None:
         self._layouts = layouts
+        self._drop_filler = drop_filler and FILLER not in {key >> 8 for key in layouts}
+        self._aligned = True  # the last thing decoded was a frame: filler may follow
         self._accept_errors = accept_errors
         self._keep_invalid = keep_invalid
         self._buffer = bytearray()
@@ -95,9 +115,10 @@ class Decoder:
         self._memo: dict[bytes, Frame] = {}
 
     @classmethod
-    def from_board(cls) -> Decoder:
-        """Decoder for what a board sends: replies, error replies and events."""
-        return cls(_layouts(REPLY_TYPES, EVENT_TYPES), accept_errors=True)
+    def from_board(cls, *, drop_filler: bool = True) -> Decoder:
+        """Decoder for what a board sends: replies, error replies and events (and filler,
+        dropped unless ``drop_filler=False``: then every byte is a frame's or garbage)."""
+        return cls(_layouts(REPLY_TYPES, EVENT_TYPES), accept_errors=True, drop_filler=drop_filler)
 
     @classmethod
     def from_host(cls, *, keep_invalid: bool = False) -> Decoder:
@@ -114,6 +135,7 @@ class Decoder:
         dropped = bytes(self._pending_garbage + self._buffer)
         self._buffer.clear()
         self._pending_garbage.clear()
+        self._aligned = True
         return dropped
 
     def whole_frame(self, data: bytes | bytearray | memoryview) -> Frame | None:
@@ -126,6 +148,7 @@ class Decoder:
         memo = self._memo
         frame = memo.get(data)
         if frame is not None:
+            self._aligned = True
             return frame
         if len(data) < 3 or data[0] & ERROR_FLAG:
             return None
@@ -144,6 +167,7 @@ class Decoder:
         if len(memo) >= self.MEMO_SIZE:
             memo.clear()
         memo[data] = frame
+        self._aligned = True
         return frame
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[Decoded]:
@@ -170,8 +194,14 @@ class Decoder:
                         self._pending_garbage.clear()
                     out.append(frame)
                     pos += size
+                    self._aligned = True
                     continue
+            elif buffer[pos] == FILLER and self._aligned and self._drop_filler:
+                # no frame starts here: skip the whole run of filler at C speed
+                pos = end - len(buffer[pos:end].lstrip(_FILLER_BYTE))
+                continue
             self._pending_garbage.append(buffer[pos])
+            self._aligned = False
             pos += 1
         del buffer[:pos]
         if self._pending_garbage:

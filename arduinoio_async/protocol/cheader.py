@@ -103,6 +103,8 @@ def render() -> str:
         "FAILSAFE_MIN_TIMEOUT_MS",
         "FAILSAFE_MAX_TIMEOUT_MS",
         "EEPROM_ID_ADDRESS",
+        "FILLER",
+        "LOW_LATENCY_PAD",
     ):
         out.append(f"#define AIO_{name} {getattr(c, name)}u")
     out += ["", "/* Table III: bit n set when pin (or analog channel) n can do it. */"]

@@ -71,6 +71,11 @@ class FakeBoard:
     #: Replies whose bytes the faults changed (dropped, inserted, flipped, garbage).
     corrupted_replies: int = 0
     session: int = 0
+    #: Low-latency mode (SetLowLatency): each reply is followed by filler bytes up to
+    #: ``LOW_LATENCY_PAD`` (the firmware pads a burst; one reply is the common burst).
+    low_latency: bool = False
+    #: Filler bytes sent so far.
+    filler_sent: int = 0
     #: GpioChange and CounterReport events dropped because the modelled transmit buffer
     #: was full.
     changes_dropped: int = 0
@@ -102,6 +107,7 @@ class FakeBoard:
             p.WriteId: self._write_id,
             p.ReadStatus: self._status,
             p.SetSession: self._set_session,
+            p.SetLowLatency: self._set_low_latency,
             p.ReadPinRoles: self._pin_roles,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
@@ -252,7 +258,7 @@ class FakeBoard:
                 reply = self._answer(item)
                 if self.faults.lose_reply and self._random.random() < self.faults.lose_reply:
                     continue
-                await self._send(stream, reply.encode())
+                await self._send(stream, self._padded(reply.encode()))
 
     def _answer(self, request: p.Frame) -> p.Frame:
         layout = request.LAYOUT
@@ -292,6 +298,7 @@ class FakeBoard:
         self.pulses.clear()
         self.i2c_speed = None
         self.session = 0
+        self.low_latency = False
         self.stream.stop()
         self.stream.sequence = 0
         self.failsafe.disarm()
@@ -322,6 +329,18 @@ class FakeBoard:
             return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
 
         return p.ReadPinRolesReply(mask("input"), mask("output"), mask("pwm"), mask("counter"))
+
+    def _set_low_latency(self, request: p.SetLowLatency) -> p.Frame:
+        self.low_latency = request.enabled
+        return p.SetLowLatencyReply(request.enabled)
+
+    def _padded(self, reply: bytes) -> bytes:
+        """``reply`` followed by the filler the firmware sends in low-latency mode."""
+        if not self.low_latency or len(reply) >= p.LOW_LATENCY_PAD:
+            return reply
+        filler = p.LOW_LATENCY_PAD - len(reply)
+        self.filler_sent += filler
+        return reply + bytes([p.FILLER]) * filler
 
     def _set_session(self, request: p.SetSession) -> p.Frame:
         self.session = request.session

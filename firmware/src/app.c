@@ -9,6 +9,11 @@
  * answered in one step, their replies built in the transmit buffer itself
  * (no copy) and queued at once, so each waits at most for a few quick
  * requests that were already waiting behind it.
+ *
+ * Low-latency mode (SET_LOW_LATENCY): the loop counts the reply bytes of a
+ * burst; when the FIFO has run dry it asks the UART for filler so that burst
+ * and filler make AIO_LOW_LATENCY_PAD (97) bytes, which the Uno's 16U2 bridge
+ * sends at once instead of on its 4.096 ms tick.
  */
 #include "app.h"
 
@@ -29,6 +34,16 @@
 static parser_t parser;
 static uint8_t pending[2u * AIO_FRAME_MAX]; /* replies not yet queued: whole frames */
 static uint8_t pending_len;
+static uint8_t burst_len; /* reply bytes since the FIFO last ran dry (< 97 + a batch) */
+
+_Static_assert(AIO_LOW_LATENCY_PAD + 2u * AIO_FRAME_MAX <= 255u, "burst_len is 8-bit");
+
+/* Counts queued reply bytes for the filler (stops counting at the pad). */
+static inline void count_burst(uint8_t len)
+{
+    if (burst_len < AIO_LOW_LATENCY_PAD)
+        burst_len = (uint8_t)(burst_len + len);
+}
 
 _Static_assert(sizeof pending <= AIO_TX_BUFFER_SIZE, "a batch fits the empty transmit buffer");
 
@@ -36,6 +51,7 @@ void app_init(void)
 {
     parser_init(&parser);
     pending_len = 0;
+    burst_len = 0;
     pins_init();
     gpio_init();
     i2c_init();
@@ -53,12 +69,16 @@ void app_tick(void) { failsafe_tick(); }
  * pending and the next steps retry. */
 static void handle(uint8_t event)
 {
+    uint8_t len;
+
     if (event == PARSER_REQUEST)
         pending_len = dispatch(&parser.rq, pending);
     else
         pending_len = dispatch_error(parser.err_ct, parser.err_dt, parser.err_code, pending);
+    len = pending_len;
     if (hal_tx_send(pending, pending_len))
         pending_len = 0;
+    count_burst(len); /* after the send: off the reply's path */
 }
 
 uint8_t app_step(void)
@@ -81,6 +101,7 @@ uint8_t app_step(void)
     }
     if (hal_rx_take_overflow()) {
         pending_len = dispatch_error(AIO_ERROR_FLAG, 0, AIO_ERR_RX_OVERFLOW, pending);
+        count_burst(pending_len);
         parser_discard(&parser, hal_ticks());
         return 1;
     }
@@ -113,6 +134,7 @@ uint8_t app_step(void)
                 hal_tx_publish(len);
             else if (!hal_tx_send(pending, len))
                 pending_len = len;
+            count_burst(len); /* after the send: off the reply's path */
             return 1;
         }
         /* Part of a frame, or something the parser must see byte by byte:
@@ -134,8 +156,15 @@ uint8_t app_step(void)
         return 1;
     }
     event = parser_poll(&parser, hal_ticks());
-    if (event == PARSER_NONE)
+    if (event == PARSER_NONE) {
+        if (burst_len) {
+            /* the FIFO ran dry: the burst is over */
+            if (misc_low_latency)
+                hal_tx_pad(burst_len < AIO_LOW_LATENCY_PAD ? (uint8_t)(AIO_LOW_LATENCY_PAD - burst_len) : 0u);
+            burst_len = 0;
+        }
         return 0;
+    }
     handle(event);
     return 1;
 }

@@ -18,9 +18,10 @@
     (AIO_FEATURE_GPIO | AIO_FEATURE_ANALOG | AIO_FEATURE_I2C | AIO_FEATURE_SERVO_PWM |   \
      AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
      AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE | AIO_FEATURE_GPIO_CHANGES | \
-     AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS)
+     AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS | AIO_FEATURE_LOW_LATENCY)
 
 uint8_t misc_reset_pending;
+uint8_t misc_low_latency;
 static uint16_t session;
 
 /* Bit n set when digital pin n has `role` (READ_PIN_ROLES reply). */
@@ -38,6 +39,7 @@ static uint16_t role_mask(uint8_t role)
 void misc_init(void)
 {
     misc_reset_pending = 0;
+    misc_low_latency = 0;
     session = 0;
 }
 
@@ -81,6 +83,12 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         break;
     case AIO_DT_MISC_TRANSACTION:
         return transaction_handle(rq, rp);
+    case AIO_DT_MISC_SET_LOW_LATENCY:
+        if (rq->data[0] > 1u)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        misc_low_latency = rq->data[0];
+        *p++ = misc_low_latency;
+        break;
     case AIO_DT_MISC_READ_PIN_ROLES:
         p = aio_put16(p, role_mask(ROLE_GPIO_IN));
         p = aio_put16(p, role_mask(ROLE_GPIO_OUT));

@@ -17,7 +17,7 @@ enum { ST_IDLE = 0, ST_DT, ST_DATA, ST_CS, ST_DISCARD };
  * table is a compile error in the initializer. */
 #define FR_KNOWN 0x80u
 #define FR_ROWS 9u
-#define FR_COLS 10u
+#define FR_COLS 11u
 #define FR_ENC(data_len, lpos) ((uint8_t)(FR_KNOWN | (data_len) | (uint8_t)((lpos) + 1) << 4))
 
 #pragma GCC diagnostic push

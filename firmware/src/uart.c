@@ -12,6 +12,9 @@
  * reservation is open, so frames never interleave and copying never blocks
  * the receiver.  The main loop can also claim the free room and build its
  * replies there (hal_tx_claim/hal_tx_publish): no copy at all.
+ * Filler (low-latency mode, hal_tx_pad): when the ring is empty the UDRE
+ * interrupt sends AIO_FILLER while tx_filler counts down, so filler lies
+ * between frames only and takes no buffer.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -55,6 +58,9 @@ static volatile uint8_t tx_commit; /* end of the bytes ready to send */
 static volatile uint8_t tx_resv;   /* end of the reserved bytes */
 static volatile uint8_t tx_open;   /* open reservations */
 static volatile uint8_t tx_started;
+static volatile uint8_t tx_filler; /* filler bytes to send once the ring is empty */
+
+_Static_assert(AIO_FILLER == 0u, "the UDRE interrupt sends a cleared register as filler");
 
 void uart_init(void)
 {
@@ -147,7 +153,9 @@ bool hal_rx_take_overflow(void)
 }
 
 /* Hand-written: ~42 cycles a byte including entry and exit.  It only moves
- * tx_tail towards tx_commit; TXC0 is cleared when a frame is queued. */
+ * tx_tail towards tx_commit, then counts tx_filler down, sending filler (r1
+ * is not trusted to be zero in an interrupt: r30 is cleared); TXC0 is
+ * cleared when a frame is queued. */
 ISR(USART_UDRE_vect, ISR_NAKED)
 {
     __asm__ volatile(
@@ -172,6 +180,15 @@ ISR(USART_UDRE_vect, ISR_NAKED)
         "pop r24\n\t"
         "reti\n\t"
         "1:\n\t"
+        "lds r24, %[filler]\n\t"
+        "tst r24\n\t"
+        "breq 3f\n\t"
+        "dec r24\n\t"
+        "sts %[filler], r24\n\t"
+        "clr r30\n\t"
+        "sts %[udr], r30\n\t"
+        "rjmp 2b\n\t"
+        "3:\n\t"
         "lds r24, %[ucsrb]\n\t"
         "andi r24, %[not_udrie]\n\t"
         "sts %[ucsrb], r24\n\t"
@@ -179,7 +196,7 @@ ISR(USART_UDRE_vect, ISR_NAKED)
         :
         : [ucsrb] "n"(_SFR_MEM_ADDR(UCSR0B)), [udr] "n"(_SFR_MEM_ADDR(UDR0)),
           [not_udrie] "n"((uint8_t)~_BV(UDRIE0)), [tail] "i"(&tx_tail), [commit] "i"(&tx_commit),
-          [buf] "i"(tx_buf));
+          [buf] "i"(tx_buf), [filler] "i"(&tx_filler));
 }
 
 /* Bytes reserved and not yet sent. */
@@ -304,6 +321,16 @@ void hal_tx_publish(uint8_t len)
     }
     tx_open--;
     tx_commit_all();
+    SREG = s;
+}
+
+void hal_tx_pad(uint8_t n)
+{
+    uint8_t s = SREG;
+    cli();
+    tx_filler = n;
+    if (n)
+        UCSR0B |= _BV(UDRIE0);
     SREG = s;
 }
 

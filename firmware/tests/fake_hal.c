@@ -16,6 +16,8 @@
 uint32_t fake_ticks;
 uint8_t fake_tx[FAKE_TX_MAX];
 uint32_t fake_tx_len;
+uint8_t fake_tx_pad;
+uint32_t fake_tx_pads;
 uint32_t fake_tx_capacity;
 uint8_t fake_eeprom[1024];
 bool fake_eeprom_broken;
@@ -57,6 +59,8 @@ void fake_reset(void)
 {
     fake_ticks = 0;
     fake_tx_len = 0;
+    fake_tx_pad = 0;
+    fake_tx_pads = 0;
     fake_tx_capacity = 192;
     memset(fake_eeprom, 0xFF, sizeof fake_eeprom);
     fake_eeprom_broken = false;
@@ -270,6 +274,12 @@ void hal_tx_publish(uint8_t len)
 }
 
 bool hal_tx_idle(void) { return true; }
+
+void hal_tx_pad(uint8_t n)
+{
+    fake_tx_pad = n;
+    fake_tx_pads++;
+}
 
 void hal_wait(void)
 {

@@ -10,6 +10,8 @@
 extern uint32_t fake_ticks;          /* 100 us ticks since start */
 extern uint8_t fake_tx[FAKE_TX_MAX]; /* everything the board sent, not yet taken */
 extern uint32_t fake_tx_len;
+extern uint8_t fake_tx_pad;          /* filler count of the last hal_tx_pad */
+extern uint32_t fake_tx_pads;        /* hal_tx_pad calls */
 extern uint32_t fake_tx_capacity;    /* bytes the "UART buffer" holds before the test drains */
 extern uint8_t fake_eeprom[1024];
 extern bool fake_eeprom_broken;      /* writes do not stick */

@@ -122,13 +122,16 @@ static const aio_vector_step_t aio_vectors_i2c[] = {
 
 static const aio_vector_step_t aio_vectors_misc[] = {
     {6, -1, 0, 3, {1, 2, 3}, 5, {1, 2, 1, 2, 0}},
-    {7, -1, 0, 3, {1, 4, 5}, 13, {1, 4, 1, 0, 1, 31, 255, 0, 1, 194, 0, 128, 166}},
+    {7, -1, 0, 3, {1, 4, 5}, 13, {1, 4, 1, 0, 1, 95, 255, 0, 1, 194, 0, 128, 230}},
     {8, -1, 0, 3, {1, 3, 2}, 5, {1, 3, -1, -1, -1}},
     {9, -1, 0, 3, {1, 6, 7}, 6, {1, 6, 0, 0, 0, 7}},
     {10, -1, 0, 5, {1, 7, 18, 52, 32}, 5, {1, 7, 18, 52, 32}},
     {11, -1, 0, 3, {1, 6, 7}, 6, {1, 6, 0, 18, 52, 33}},
     {12, -1, 0, 5, {1, 5, 190, 239, 85}, 5, {1, 5, 190, 239, 85}},
     {13, -1, 0, 3, {1, 2, 3}, 5, {1, 2, 190, 239, 82}},
+    {14, -1, 0, 4, {1, 10, 1, 10}, 4, {1, 10, 1, 10}},
+    {15, -1, 0, 4, {1, 10, 2, 9}, 4, {129, 10, 9, 130}},
+    {16, -1, 0, 4, {1, 10, 0, 11}, 4, {1, 10, 0, 11}},
 };
 
 static const aio_vector_step_t aio_vectors_pwm[] = {
@@ -181,7 +184,7 @@ static const aio_vector_file_t aio_vector_files[] = {
     {"failsafe", 0x0007, 10, aio_vectors_failsafe},
     {"gpio", 0x0007, 32, aio_vectors_gpio},
     {"i2c", 0x0007, 12, aio_vectors_i2c},
-    {"misc", 0x0102, 8, aio_vectors_misc},
+    {"misc", 0x0102, 11, aio_vectors_misc},
     {"pwm", 0x0007, 14, aio_vectors_pwm},
     {"stream", 0x0007, 8, aio_vectors_stream},
     {"transaction", 0x0007, 13, aio_vectors_transaction},

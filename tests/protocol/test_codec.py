@@ -134,7 +134,9 @@ def test_requests_split_at_every_byte_decode_intact(
 
 
 #: Bytes that cannot start any board frame: garbage made of them never hides a frame.
-_NON_STARTERS = [b for b in range(0x80) if b not in {int(t) for t in p.ClassTag}]
+_NON_STARTERS = [b for b in range(0x80) if b not in {int(t) for t in p.ClassTag} and b != p.FILLER]
+#: Arbitrary junk without filler bytes (filler is dropped, not counted as garbage).
+_JUNK = st.binary(max_size=12).map(lambda b: b.replace(bytes([p.FILLER]), b"\xff"))
 
 
 @given(
@@ -165,7 +167,7 @@ def test_arbitrary_garbage_never_raises_and_never_yields_a_bad_frame(
 ) -> None:
     stream = b"".join(junk + frame.encode() for junk, frame in pieces)
     cuts = sorted(data.draw(st.lists(st.integers(0, len(stream)), max_size=8)))
-    decoder = p.Decoder.from_board()
+    decoder = p.Decoder.from_board(drop_filler=False)  # every byte counted below
     out: list[p.Decoded] = []
     for start, end in zip([0, *cuts], [*cuts, len(stream)], strict=True):
         out += decoder.feed(stream[start:end])
@@ -187,6 +189,61 @@ def test_arbitrary_garbage_never_raises_and_never_yields_a_bad_frame(
     total = sum(len(f.encode()) for f in decoded)
     total += sum(len(g.data) for g in out if isinstance(g, p.Garbage))
     assert total + decoder.buffered == len(stream) + len(flush)
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 120), _JUNK.map(lambda b: b[:4]), board_frames), max_size=12),
+    st.data(),
+)
+def test_filler_between_frames_is_dropped_and_never_becomes_a_frame_or_garbage(
+    pieces: list[tuple[int, bytes, p.Frame]], data: st.DataObject
+) -> None:
+    """Low-latency mode: runs of FILLER between frames vanish; garbage stays garbage."""
+    stream = b"".join(
+        frame.encode() + bytes([p.FILLER]) * filler + junk for filler, junk, frame in pieces
+    )
+    cuts = sorted(data.draw(st.lists(st.integers(0, len(stream)), max_size=8)))
+    decoder = p.Decoder.from_board()
+    out: list[p.Decoded] = []
+    for start, end in zip([0, *cuts], [*cuts, len(stream)], strict=True):
+        out += decoder.feed(stream[start:end])
+    out += decoder.feed(bytes([0x7F]) * 64)  # judge a held-back candidate
+    originals = [frame for _, _, frame in pieces]
+    decoded = frames_of(out)
+    spurious = [f for f in decoded if f not in originals]
+    assert all(p.checksum(f.encode()) == 0 for f in decoded)
+    if not any(junk for _, junk, _ in pieces):
+        assert decoded == originals and not spurious
+        assert all(set(g.data) <= {0x7F} for g in out if isinstance(g, p.Garbage))
+    else:  # garbage costs a real frame only by forming a spurious one
+        assert all(f in decoded for f in originals) or spurious
+
+
+def test_a_filler_run_after_a_reply_costs_nothing_and_a_host_decoder_keeps_it() -> None:
+    reply = p.ReadIdReply(0x0102).encode()
+    padded = reply + bytes([p.FILLER]) * (p.LOW_LATENCY_PAD - len(reply))
+    assert p.Decoder.from_board().feed(padded) == [p.ReadIdReply(0x0102)]
+    # split anywhere, filler first: nothing but the reply comes out
+    decoder = p.Decoder.from_board()
+    out = decoder.feed(padded[:3]) + decoder.feed(padded[3:60] + padded[:2])
+    out += decoder.feed(padded[2:60])
+    assert out == [p.ReadIdReply(0x0102)] * 2 and decoder.buffered == 0
+    # a request decoder (boards and test peers) still calls 0x00 garbage
+    assert p.Decoder.from_host().feed(bytes(3)) == [p.Garbage(bytes(3))]
+
+
+def test_zeros_after_garbage_are_garbage_until_a_frame_or_a_reset() -> None:
+    """A damaged frame's bytes are all reported (0x00 inside it too), so a caller sees
+    every byte of the damage; filler is recognised again after the next frame."""
+    reply = p.ReadIdReply(0x0100).encode()  # 01 02 01 00 CS
+    decoder = p.Decoder.from_board()
+    damaged = b"\x7e" + reply[2:]  # lost its first two bytes, a stray byte before
+    out = decoder.feed(damaged + bytes(3))
+    assert out == [p.Garbage(damaged + bytes(3))]
+    assert decoder.feed(reply + bytes(5)) == [p.ReadIdReply(0x0100)]
+    decoder.feed(b"\x7e")
+    decoder.reset()
+    assert decoder.feed(bytes(4) + reply) == [p.ReadIdReply(0x0100)]
 
 
 @given(st.binary(max_size=400))

@@ -26,6 +26,8 @@ __all__ = [
     "ReadTemperatureReply",
     "Reset",
     "ResetReply",
+    "SetLowLatency",
+    "SetLowLatencyReply",
     "SetSession",
     "SetSessionReply",
     "WriteId",
@@ -154,3 +156,24 @@ class ReadPinRolesReply(Reply):
 @request_frame(ReadPinRolesReply, extension=True)
 class ReadPinRoles(Request[ReadPinRolesReply]):
     """Which digital pins are GPIO inputs, GPIO outputs, PWM (servo or software) or counters."""
+
+
+@echo
+class _LowLatency:
+    enabled: Annotated[bool, U8]
+
+
+@reply_frame(ClassTag.MISC, 0x0A)
+class SetLowLatencyReply(_LowLatency, Reply): ...
+
+
+@request_frame(SetLowLatencyReply, extension=True, idempotent=True)
+class SetLowLatency(_LowLatency, Request[SetLowLatencyReply]):
+    """Pad replies with filler bytes (``FILLER``) so the Uno's 16U2 bridge sends at once.
+
+    After the last reply of a burst the board sends filler until the burst and its filler
+    make ``LOW_LATENCY_PAD`` (97) bytes: arduino-usbserial sends what waits when more than
+    96 bytes wait, otherwise on its 4.096 ms timer tick.  Costs 97 byte times of the
+    board-to-host line per burst, so it pays from 1 Mbaud up (485 us at 2 Mbaud).  Off
+    after every boot.
+    """

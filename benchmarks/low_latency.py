@@ -1,0 +1,115 @@
+"""Low-latency mode behind the 16U2 bridge model (issue 13, item 3): read ID latency.
+
+Sequential READ_ID round trips (one in flight) on the project firmware behind the
+virtual Uno's 16U2 model (``--usb-bridge 16u2``: board-to-host bytes wait for the 4.096 ms
+tick unless more than 96 wait), with low-latency mode off and on.  The modes alternate
+in blocks of ``--block`` requests on the same board and link, and every round starts a
+fresh board per baud rate, so a busy moment of the shared machine hits both modes.
+Goal (issue 13): 2 Mbaud, low-latency mode, mean at most 1.8 ms.
+
+    .venv/bin/python benchmarks/low_latency.py --json benchmarks/results/low_latency.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import anyio
+
+from arduinoio_async.board import Board
+from arduinoio_async.sim import VirtualUno
+
+GOAL_MEAN_MS = 1.8
+
+
+def figures(samples: list[float]) -> dict[str, Any]:
+    ordered = sorted(samples)
+
+    def pct(q: float) -> float:
+        return round(ordered[round(q * (len(ordered) - 1))], 3)
+
+    return {
+        "n": len(samples),
+        "mean_ms": round(statistics.fmean(samples), 3),
+        "p50_ms": pct(0.5),
+        "p90_ms": pct(0.9),
+        "p99_ms": pct(0.99),
+        "min_ms": round(ordered[0], 3),
+        "max_ms": round(ordered[-1], 3),
+    }
+
+
+async def read_ids(board: Board, n: int) -> list[float]:
+    out = []
+    for _ in range(n):
+        start = time.perf_counter()
+        await board.read_id()
+        out.append((time.perf_counter() - start) * 1000)
+    return out
+
+
+async def main(args: argparse.Namespace) -> int:
+    samples: dict[tuple[int, str], list[float]] = {}
+    round_means: dict[tuple[int, str], list[float]] = {}
+    garbage = 0
+    for r in range(args.rounds):
+        for baud in args.bauds:
+            async with (
+                VirtualUno(usb_bridge="16u2", baud=baud, board_id=1) as uno,
+                Board.open(uno.port, baudrate=baud) as board,
+            ):
+                await read_ids(board, 10)  # warm up: memo, page cache
+                got: dict[str, list[float]] = {"off": [], "on": []}
+                for block in range(args.n // args.block):
+                    for mode in ("off", "on") if block % 2 == 0 else ("on", "off"):
+                        await board.set_low_latency(mode == "on")
+                        got[mode] += await read_ids(board, args.block)
+                garbage += board.link.stats.garbage_bytes
+            for mode, values in got.items():
+                samples.setdefault((baud, mode), []).extend(values)
+                round_means.setdefault((baud, mode), []).append(statistics.fmean(values))
+        print(f"round {r + 1} of {args.rounds} done", flush=True)
+    rows = [
+        {
+            "baud": baud,
+            "bridge": "16u2",
+            "low_latency": mode,
+            **figures(values),
+            "round_means_ms": [round(m, 3) for m in round_means[(baud, mode)]],
+        }
+        for (baud, mode), values in sorted(samples.items())
+    ]
+    print("| baud | low latency | n | mean ms | p50 ms | p90 ms | p99 ms | round means ms |")
+    print("|---|---|---|---|---|---|---|---|")
+    for row in rows:
+        means = " ".join(f"{m:.2f}" for m in row["round_means_ms"])
+        print(
+            f"| {row['baud']:,} | {row['low_latency']} | {row['n']} | {row['mean_ms']:.2f} | "
+            f"{row['p50_ms']:.2f} | {row['p90_ms']:.2f} | {row['p99_ms']:.2f} | {means} |"
+        )
+    print(f"garbage bytes seen by the host: {garbage} (filler must never count)")
+    if args.json:
+        command = " ".join([".venv/bin/python", *sys.argv])
+        result = {"command": command, "goal_mean_ms": GOAL_MEAN_MS, "garbage_bytes": garbage}
+        args.json.write_text(json.dumps({**result, "rows": rows}, indent=1) + "\n")
+    return 0
+
+
+def parse_args() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("--json", type=Path)
+    parser.add_argument("--n", type=int, default=400, help="requests per mode and round")
+    parser.add_argument("--block", type=int, default=50, help="requests per mode block")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--bauds", type=int, nargs="+", default=[2_000_000, 1_000_000])
+    return parser.parse_args()
+
+
+if __name__ == "__main__":
+    raise SystemExit(anyio.run(main, parse_args()))
