@@ -182,6 +182,8 @@ class FakeBoard:
         watch = self._analog_watches.get(channel)
         if watch is None or abs(value - watch[1]) <= watch[0]:
             return
+        if self.i2c_speed is not None and channel in (4, 5):
+            return  # the bus lines, not a voltage: silent while the bridge is on
         board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
         event = p.AnalogChange(channel, value, self.analog_sequence, board_us)
         self.analog_sequence = (self.analog_sequence + 1) & 0xFFFF

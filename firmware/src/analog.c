@@ -65,7 +65,9 @@ static void watch_done(uint16_t value)
     uint8_t ch = sampled;
     uint16_t last = reported[ch];
 
-    if (analog_watching >> ch & 1u && (value > last ? value - last : last - value) > deadband[ch]) {
+    /* (A4/A5 read the bus lines while the I2C bridge is on: they stay silent) */
+    if (analog_watching >> ch & 1u && !(i2c_enabled() && (AIO_PINS_I2C >> ch & 1u)) &&
+        (value > last ? value - last : last - value) > deadband[ch]) {
         *p++ = AIO_CT_EVENT;
         *p++ = AIO_DT_EVENT_ANALOG_CHANGE;
         *p++ = ch;

@@ -430,6 +430,13 @@ static void test_analog_watch(void)
     CHECK(B(4, 1, 0), B(4, 1, 0));
     CHECK(B(3, 4, 4, 0, 10), B(0x83, 4, AIO_ERR_PIN_BUSY));
     CHECK(B(3, 4, 0, 0, 10), B(3, 4, 0, 0, 10, 0, 0));
+    /* A4 watched before the bridge went on stays silent while it is on */
+    board();
+    CHECK(B(3, 4, 4, 0, 10), B(3, 4, 4, 0, 10, 0, 0));
+    CHECK(B(4, 1, 0), B(4, 1, 0));
+    fake_adc[4] = 900;
+    analog_sample();
+    EXPECT(outn == 0);
 }
 
 /* ------------------------------------------------------------ I2C */
