@@ -20,6 +20,16 @@ frame time after it happened instead of one round trip after it asked.  The rule
 
 The subscription ends with the ``watch`` block, a new configuration of the pin, its
 release, or a reset of the board (a reconnect does not restore it).
+
+Analog channels (:class:`AnalogChanges`, ``board.analog(A0).watch(deadband=...)``) follow
+the same rules with their own sequence count: the board samples each watched channel from
+its timer (every 0.5 ms x the number of watched channels) and reports a sample that moved
+by **more than** ``deadband`` counts from the value it reported last, which becomes the
+new reference.  Moves between two samples coalesce into one; a move within the deadband
+never reports.  An event the transmit buffer had no room for is a sequence gap
+(:attr:`AnalogChanges.gaps`); the board keeps the old reference, so the next sample
+reports the move again.  While a channel is watched the ADC is the watch's: a stream
+with analog channels is refused (and a watch while one runs), with PIN_BUSY.
 """
 
 from __future__ import annotations
@@ -38,18 +48,21 @@ import anyio
 
 from . import protocol as p
 from ._event_queue import EventQueue
-from .errors import ArduinoIOError, ValueRangeError
+from .errors import ArduinoIOError, BoardError, UsageError, ValueRangeError
 from .transport import Transport
 
 if TYPE_CHECKING:
     from .board import Board
-    from .protocol.pins import DigitalPin
+    from .protocol.pins import AnalogPin, DigitalPin
 
 __all__ = [
     "DEFAULT_CHANGE_BUFFER",
+    "AnalogChanges",
+    "AnalogMove",
     "Change",
     "ChangeStream",
     "CountReports",
+    "watch_analog",
     "watch_changes",
     "watch_counter",
 ]
@@ -207,3 +220,123 @@ async def watch_counter(
                 await link.request(p.CounterWatch(pin, 0))
         finally:
             reports.detach()
+
+
+@dataclass(frozen=True, slots=True)
+class AnalogMove:
+    """A watched analog channel moved past its deadband."""
+
+    channel: int
+    #: The new value (0-1023), now the reference the next move is measured from.
+    value: int
+    #: The board's sequence number (all watched channels share the count).
+    sequence: int
+    #: The board's microsecond clock when the conversion ended (wraps after 71 minutes).
+    board_time_us: int
+    #: ``time.monotonic()`` when the frame was decoded on the host.
+    host_time: float
+
+
+class AnalogChanges(EventQueue[AnalogMove]):
+    """Async iterator over the moves of one analog channel (module docstring: the rules).
+
+    :attr:`baseline` is the value the board measured as the watch began; with
+    ``callback`` the moves go to it instead of the buffer.
+    """
+
+    WHAT = "analog changes"
+
+    def __init__(
+        self,
+        link: Transport,
+        channel: int,
+        buffer: int = DEFAULT_CHANGE_BUFFER,
+        callback: Callable[[AnalogMove], None] | None = None,
+    ) -> None:
+        self.channel = channel
+        self.baseline: int | None = None
+        self.gaps = 0
+        self._callback = callback
+        self._expected: int | None = None
+        super().__init__(link, buffer)
+
+    @property
+    def lost(self) -> int:
+        """Moves that never reached the consumer: sequence gaps plus buffer overflow."""
+        return self.gaps + self.dropped
+
+    def _on_event(self, event: p.Event) -> None:
+        if not isinstance(event, p.AnalogChange):
+            return
+        if self._expected is not None and event.sequence != self._expected:
+            self.gaps += (event.sequence - self._expected) & 0xFFFF
+        self._expected = (event.sequence + 1) & 0xFFFF
+        if event.channel != self.channel:
+            return
+        move = AnalogMove(
+            event.channel, event.value, event.sequence, event.timestamp_us, time.monotonic()
+        )
+        if self._callback is None:
+            self._put(move)
+            return
+        self.received += 1
+        try:
+            self._callback(move)
+        except Exception:  # a user's bug must not hurt the link
+            logger.exception("analog callback %r failed on %r", self._callback, move)
+
+
+#: Watchers per board and channel with their deadband: blocks that agree share the board's
+#: watch, and the last one to end stops it.
+_analog_watchers: weakref.WeakKeyDictionary[Board, dict[int, tuple[int, int]]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+@asynccontextmanager
+async def watch_analog(
+    board: Board,
+    channel: AnalogPin,
+    deadband: int,
+    buffer: int = DEFAULT_CHANGE_BUFFER,
+    callback: Callable[[AnalogMove], None] | None = None,
+) -> AsyncIterator[AnalogChanges]:
+    """Moves of ``channel`` by more than ``deadband`` counts for the block."""
+    if not 1 <= deadband <= p.ANALOG_MAX:
+        raise ValueRangeError("analog deadband (ADC counts)", deadband, f"1-{p.ANALOG_MAX}")
+    watchers = _analog_watchers.setdefault(board, {})
+    count, watched_band = watchers.get(channel, (0, deadband))
+    if watched_band != deadband:
+        raise UsageError(
+            f"{channel.name} is already watched with deadband {watched_band} on {board}: "
+            f"one deadband per channel (end that watch or use the same deadband)"
+        )
+    link = board.link
+    stream = AnalogChanges(link, channel, buffer, callback)
+    watchers[channel] = (count + 1, deadband)
+    try:
+        try:
+            reply = await board.request(p.AnalogWatch(channel, deadband))
+        except BoardError as exc:
+            if getattr(exc.code, "name", "") != "PIN_BUSY":
+                raise
+            raise BoardError(
+                exc.code,
+                exc.request,
+                "the ADC belongs to a running stream with analog channels (stop it first), "
+                "or A4/A5 to the I2C bus",
+            ) from exc
+        stream.baseline = reply.value
+        yield stream
+    finally:
+        left = watchers[channel][0] - 1
+        if left:
+            watchers[channel] = (left, deadband)
+        else:
+            del watchers[channel]
+        try:
+            if not left:
+                with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
+                    await link.request(p.AnalogWatch(channel, 0))
+        finally:
+            stream.detach()

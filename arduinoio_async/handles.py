@@ -20,9 +20,12 @@ from typing import TYPE_CHECKING, NamedTuple
 from . import protocol as p
 from .changes import (
     DEFAULT_CHANGE_BUFFER,
+    AnalogChanges,
+    AnalogMove,
     Change,
     ChangeStream,
     CountReports,
+    watch_analog,
     watch_changes,
     watch_counter,
 )
@@ -239,6 +242,34 @@ class AnalogInput:
 
     async def read_volts(self) -> float:
         return await self.read() * self.vref / 1024
+
+    def watch(
+        self,
+        deadband: int,
+        *,
+        buffer: int = DEFAULT_CHANGE_BUFFER,
+        callback: Callable[[AnalogMove], None] | None = None,
+    ) -> AbstractAsyncContextManager[AnalogChanges]:
+        """``async with a0.watch(deadband=8) as moves: async for move in moves: ...``: the
+        board reports each move by more than ``deadband`` counts (1-1023) until the block
+        ends (extension; :mod:`arduinoio_async.changes` gives the rules)."""
+        return watch_analog(self.board, self.pin, deadband, buffer, callback)
+
+    async def changes(
+        self, deadband: int, *, buffer: int = DEFAULT_CHANGE_BUFFER
+    ) -> AsyncGenerator[AnalogMove, None]:
+        """``async for move in board.analog(A0).changes(deadband=8):`` each move as it
+        happens; leaving the loop unsubscribes when the generator is closed."""
+        async with self.watch(deadband, buffer=buffer) as moves:
+            async for move in moves:
+                yield move
+
+    def on_change(
+        self, callback: Callable[[AnalogMove], None], deadband: int
+    ) -> AbstractAsyncContextManager[AnalogChanges]:
+        """``async with a0.on_change(cb, deadband=8):`` calls ``cb(move)`` for each move
+        while the block runs (on the link's reader: keep it short; exceptions are logged)."""
+        return self.watch(deadband, callback=callback)
 
 
 class PulseOutput(PinHandle):

@@ -145,6 +145,8 @@ class Feature(IntFlag):
     TRANSACTIONS = 0x0800
     #: COUNTER WATCH and CounterReport events (extension, docs/protocol.md 7.4).
     COUNTER_REPORTS = 0x1000
+    #: ANALOG WATCH and AnalogChange events (extension, docs/protocol.md 7.4).
+    ANALOG_CHANGES = 0x2000
     #: SET_LOW_LATENCY and filler bytes after replies (extension, docs/protocol.md 7.6).
     LOW_LATENCY = 0x4000
 

@@ -94,6 +94,9 @@ class FakeBoard:
         self.stream = StreamModel()
         self.failsafe = FailsafeModel()
         self.change_sequence = 0
+        self.analog_sequence = 0
+        #: AnalogWatch: channel -> [deadband, value reported last].
+        self._analog_watches: dict[int, list[int]] = {}
         # The firmware sends change events from its interrupt into the transmit buffer,
         # dropping one that does not fit: a bounded queue models that buffer.
         self._changes_in, self._changes_out = anyio.create_memory_object_stream[p.Event](
@@ -116,6 +119,7 @@ class FakeBoard:
             p.PinRelease: self._release,
             p.AnalogRead: self._analog_read,
             p.AnalogReadAll: lambda r: p.AnalogReadAllReply(tuple(self.analog)),
+            p.AnalogWatch: self._analog_watch,
             p.I2CConfig: self._i2c_config,
             p.I2CRead: self._i2c_read,
             p.I2CWrite: self._i2c_write,
@@ -175,6 +179,25 @@ class FakeBoard:
                     self._report_count(pin, state)
             if state.watched and state.role == "input":
                 self._report_change(pin, level)
+
+    def set_analog(self, channel: int, value: int) -> None:
+        """Move an analog input: a watched channel that moved past its deadband reports
+        (the board finds the move at its next sample; the model at once).  Assigning
+        ``analog[channel]`` directly moves it without reporting."""
+        self.analog[channel] = value
+        watch = self._analog_watches.get(channel)
+        if watch is None or abs(value - watch[1]) <= watch[0]:
+            return
+        if self.i2c_speed is not None and channel in (4, 5):
+            return  # the bus lines, not a voltage: silent while the bridge is on
+        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
+        event = p.AnalogChange(channel, value, self.analog_sequence, board_us)
+        self.analog_sequence = (self.analog_sequence + 1) & 0xFFFF
+        try:
+            self._changes_in.send_nowait(event)
+            watch[1] = value  # a dropped event leaves the reference: the move reports again
+        except anyio.WouldBlock:
+            self.changes_dropped += 1
 
     def _report_change(self, pin: int, level: bool) -> None:
         edge = p.GpioState.HIGH | p.GpioState.ROSE if level else p.GpioState.FELL
@@ -301,6 +324,8 @@ class FakeBoard:
         self.low_latency = False
         self.stream.stop()
         self.stream.sequence = 0
+        self._analog_watches.clear()
+        self.analog_sequence = 0
         self.failsafe.disarm()
         self.failsafe.safe.clear()
         self._booted = anyio.current_time()
@@ -428,6 +453,23 @@ class FakeBoard:
             return self._error(request, E.PIN_BUSY)
         return p.AnalogReadReply(request.channel, self.analog[request.channel])
 
+    def _analog_watch(self, request: p.AnalogWatch) -> p.Frame:
+        channel, deadband = request.channel, request.deadband
+        if channel >= p.ANALOG_CHANNELS:
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        if self.i2c_speed is not None and channel in (4, 5):
+            return self._error(request, E.PIN_BUSY)
+        if deadband > p.ANALOG_MAX:
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        stream = self.stream.request
+        if deadband and self.stream.running and stream is not None and stream.analog_mask:
+            return self._error(request, E.PIN_BUSY)  # the stream's ADC chain owns the ADC
+        if deadband:
+            self._analog_watches[channel] = [deadband, self.analog[channel]]
+        else:
+            self._analog_watches.pop(channel, None)
+        return p.AnalogWatchReply(channel, deadband, self.analog[channel])
+
     def _i2c_config(self, request: p.I2CConfig) -> p.Frame:
         self.i2c_speed = request.speed
         return p.I2CConfigReply(request.speed)
@@ -515,6 +557,8 @@ class FakeBoard:
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
         error = self.stream.check(request, self.baud, self.i2c_speed is not None)
+        if error is None and request.analog_mask and self._analog_watches:
+            error = E.PIN_BUSY  # the ADC samples watched channels
         if error is not None:
             return self._error(request, error)
         self.stream.stop()

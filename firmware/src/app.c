@@ -17,6 +17,8 @@
  */
 #include "app.h"
 
+#include "analog.h"
+
 #include "counter.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -58,11 +60,16 @@ void app_init(void)
     pwm_init();
     counter_init();
     stream_init();
+    analog_init();
     failsafe_init();
     misc_init();
 }
 
-void app_tick(void) { failsafe_tick(); }
+void app_tick(void)
+{
+    failsafe_tick();
+    analog_tick();
+}
 
 /* A parser event: build the reply and queue it at once (the transmitter
  * usually takes its first byte right away); if the buffer is full it stays

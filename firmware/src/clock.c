@@ -1,7 +1,7 @@
 /*
  * clock.c - timebase on Timer2: CTC, prescaler 8 (0.5 us), OCR2A = 199, so
  * one compare interrupt every 100 us.  The interrupt keeps the tick and
- * millisecond counts and, while armed, runs the failsafe check.  It runs
+ * millisecond counts and, while armed or watching, runs app_tick().  It runs
  * with interrupts enabled (only the multi-byte stores are atomic), so it
  * never delays a software PWM edge.
  *
@@ -11,6 +11,7 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
+#include "analog.h"
 #include "app.h"
 #include "clock.h"
 #include "hal.h"
@@ -36,7 +37,8 @@ void clock_init(void)
     TCCR0A = 0; /* normal mode, no output compare pins; started by an alarm */
 }
 
-/* The slow part (failsafe check) runs only while the failsafe is armed.  It
+/* The slow part (failsafe check, watched analog channels: app_tick) runs
+ * only while the failsafe is armed or a channel is watched.  It
  * is reached through clock_slow_call, which saves the registers the C ABI
  * lets clock_slow() clobber: the interrupt itself then makes no C call and
  * saves only the registers it uses. */
@@ -46,7 +48,7 @@ void clock_slow(void)
     if (in_slow)
         return;
     in_slow = 1;
-    failsafe_tick();
+    app_tick();
     in_slow = 0;
 }
 
@@ -109,7 +111,11 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "sts %[div], r24\n\t"
         "lds r24, %[armed]\n\t"
         "tst r24\n\t"
+        "brne 5f\n\t"
+        "lds r24, %[watching]\n\t"
+        "tst r24\n\t"
         "breq 4f\n\t"
+        "5:\n\t"
         "push r1\n\t"
         "clr r1\n\t"
         "call clock_slow_call\n\t"
@@ -120,7 +126,8 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "pop r24\n\t"
         "reti\n\t"
         :
-        : [t0] "i"(&clock_ticks), [div] "i"(&ms_div), [ms] "i"(&millis), [armed] "i"(&failsafe_is_armed));
+        : [t0] "i"(&clock_ticks), [div] "i"(&ms_div), [ms] "i"(&millis), [armed] "i"(&failsafe_is_armed),
+          [watching] "i"(&analog_watching));
 }
 
 uint16_t hal_ticks(void)

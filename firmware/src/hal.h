@@ -68,7 +68,7 @@ void hal_edge_watch(uint16_t mask);  /* pin-change interrupts on these pins (bit
 /* ---- ADC ---- */
 #define HAL_ADC_TEMPERATURE 8u
 uint16_t hal_adc_convert(uint8_t channel); /* blocking; channel 8 uses the 1.1 V reference */
-/* AVCC, interrupt: calls stream_adc_done().  The ADC clock is 16 MHz >>
+/* AVCC, interrupt: calls analog_adc_done().  The ADC clock is 16 MHz >>
  * clock_shift (7: 125 kHz, 104 us a conversion, full accuracy; each step
  * down halves the time and costs accuracy: 4 = 1 MHz, 13 us). */
 #define HAL_ADC_SHIFT_ACCURATE 7u

@@ -12,6 +12,7 @@
 #include <avr/wdt.h>
 #include <util/delay.h>
 
+#include "analog.h"
 #include "counter.h"
 #include "gpio.h"
 #include "aio_protocol.h"
@@ -158,7 +159,7 @@ ISR(ADC_vect, ISR_NOBLOCK)
 {
     uint16_t v = ADC;
     ADCSRA = _BV(ADEN) | ADC_PRESCALE; /* ADIE off until the next start */
-    stream_adc_done(v);
+    analog_adc_done(v);
 }
 
 /* ---------------------------------------------------------------- TWI */

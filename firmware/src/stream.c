@@ -21,6 +21,7 @@
  */
 #include "stream.h"
 
+#include "analog.h"
 #include "counter.h"
 #include "gpio.h"
 #include "hal.h"
@@ -55,6 +56,8 @@ void stream_init(void)
 }
 
 uint8_t stream_running(void) { return running; }
+
+uint8_t stream_converts(void) { return running && mask; }
 
 static uint8_t value_bytes(uint8_t m, uint8_t f)
 {
@@ -237,6 +240,8 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     if (i2c_enabled() && (m & AIO_PINS_I2C))
         return AIO_ERR_PIN_BUSY;
+    if (m && analog_watched())
+        return AIO_ERR_PIN_BUSY; /* the ADC samples watched channels */
     if (!stream_admit(value_bytes(m, f), period, BAUD))
         return AIO_ERR_LINK_CAPACITY;
     shift = stream_adc_clock((uint8_t)(value_bytes(m, 0) / 2u), period);

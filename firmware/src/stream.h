@@ -9,6 +9,8 @@
 void stream_init(void);
 uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp);
 uint8_t stream_running(void);
+/* A stream that converts analog channels runs (the ADC is its own). */
+uint8_t stream_converts(void);
 /* The stream timer's alarm (interrupts enabled): a sampling instant. */
 void stream_alarm(void);
 /* ADC interrupt: a conversion started by hal_adc_start() finished. */

@@ -6,6 +6,7 @@
 
 #include <string.h>
 
+#include "analog.h"
 #include "app.h"
 #include "counter.h"
 #include "gpio.h"
@@ -194,7 +195,7 @@ void fake_adc_complete(void)
     if (ch < 0)
         return;
     fake_adc_pending = -1;
-    stream_adc_done(fake_adc[ch]);
+    analog_adc_done(fake_adc[ch]);
 }
 
 uint8_t hal_irq_save(void)

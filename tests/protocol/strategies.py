@@ -37,6 +37,8 @@ _OVERRIDES: dict[tuple[type[Frame], str], st.SearchStrategy[Any]] = {
     (p.ReadTemperatureReply, "raw"): _ADC,
     (p.AnalogReadReply, "value"): _ADC,
     (p.AnalogReadAllReply, "values"): st.tuples(*[_ADC] * 6),
+    (p.AnalogWatchReply, "value"): _ADC,
+    (p.AnalogChange, "value"): _ADC,
     (p.GpioChange, "state"): st.sampled_from(
         [p.GpioState.HIGH | p.GpioState.ROSE, p.GpioState.FELL]
     ),
