@@ -26,6 +26,18 @@ import serial
 
 from ..errors import BoardDisconnectedError, PortBusyError
 
+try:  # pyserial's POSIX back end lets termios.error (not an OSError) out of open()
+    from termios import error as _TermiosError
+except ImportError:  # pragma: no cover - Windows
+
+    class _TermiosError(Exception):  # type: ignore[no-redef]
+        """Never raised: stands in for termios.error where there is no termios."""
+
+
+#: What pyserial raises when a port cannot be opened or configured: a pty or USB device
+#: that vanishes between ``open()`` and its ``tcsetattr()`` gives ``termios.error`` (EIO).
+_OPEN_ERRORS = (serial.SerialException, OSError, ValueError, _TermiosError)
+
 __all__ = ["SerialByteStream", "open_serial_stream"]
 
 
@@ -262,7 +274,7 @@ async def open_serial_stream(
             url, baudrate=baudrate, timeout=0, write_timeout=0, do_not_open=True, **serial_options
         )
         await anyio.to_thread.run_sync(port.open)
-    except (serial.SerialException, OSError, ValueError) as exc:
+    except _OPEN_ERRORS as exc:
         if "exclusively lock" in str(exc):  # pyserial's wording for a failed flock
             raise PortBusyError(url) from exc
         raise BoardDisconnectedError(f"cannot open {url}: {exc}") from exc

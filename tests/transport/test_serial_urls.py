@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import os
+import termios
 
 import anyio
 import anyio.abc
 import pytest
+import serial
 
 from arduinoio_async import D2
 from arduinoio_async.board import Board
-from arduinoio_async.errors import PortBusyError
+from arduinoio_async.errors import BoardDisconnectedError, PortBusyError
+from arduinoio_async.manager import BoardManager
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport._serial import open_serial_stream
 
@@ -58,3 +61,30 @@ async def test_a_port_held_by_another_program_is_refused_not_shared() -> None:
     finally:
         os.close(master)
         os.close(slave)
+
+
+class _VanishingPort:
+    """A port that disappears between open() and its termios set-up, as a pty or USB
+    device unplugged at that moment does: pyserial then raises ``termios.error`` (EIO),
+    which is not an ``OSError``."""
+
+    def open(self) -> None:
+        raise termios.error(5, "Input/output error")
+
+
+async def test_a_port_that_vanishes_while_opening_is_a_disconnect(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(serial, "serial_for_url", lambda *args, **kwargs: _VanishingPort())
+    with pytest.raises(BoardDisconnectedError, match="Input/output error"):
+        await open_serial_stream("/dev/ttyACM9")
+
+
+async def test_the_manager_outlives_a_port_that_vanishes_while_opening(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """It crashed the manager's rescan with a raw termios.error before (a replug test)."""
+    monkeypatch.setattr(serial, "serial_for_url", lambda *args, **kwargs: _VanishingPort())
+    async with BoardManager(ports=["/dev/ttyACM9"], rescan_interval=None) as boards:
+        assert "Input/output error" in boards.probed()["/dev/ttyACM9"].error
+        assert not boards.present()
