@@ -308,6 +308,7 @@ async def test_control_commands(virtual_uno_factory: VirtualUnoFactory) -> None:
         assert (await link.request(bytes([0x8B, 0]), 1))[0] & 0x08  # WDRF
         assert await uno.eeprom(0, 2) == b"\xbe\xef"
         await uno.reset()
+        await link.wait_answering()  # bytes sent before the rebooted firmware's UART is on are lost
         assert await link.uptime_ms() < 100
         with pytest.raises(SimulatorError):
             await uno.command("no_such_command")
