@@ -12,6 +12,8 @@ are its own and what to count on them (sequence gaps, missed reports), then call
 from __future__ import annotations
 
 import collections
+import logging
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Generic, TypeVar
 
 import anyio
@@ -22,7 +24,9 @@ from .errors import BoardDisconnectedError, ValueRangeError
 if TYPE_CHECKING:
     from .transport import LinkState, Transport
 
-__all__ = ["EventQueue"]
+__all__ = ["EventQueue", "SequencedQueue"]
+
+logger = logging.getLogger(__name__)
 
 T = TypeVar("T")
 
@@ -80,3 +84,41 @@ class EventQueue(Generic[T]):
         """Stop listening to the link (the consumer is done)."""
         self._unsubscribe()
         self._stop_state()
+
+
+class SequencedQueue(EventQueue[T]):
+    """An :class:`EventQueue` of numbered frames (stream samples, change events).
+
+    The board numbers each kind of event with a 16-bit sequence; a number that jumps
+    counts the frames the board dropped or the line lost in :attr:`gaps`.  With
+    ``callback`` the items go to it on the link's reader instead of the buffer; an
+    exception in it is logged and never reaches the link.
+    """
+
+    def __init__(
+        self, link: Transport, buffer: int, callback: Callable[[T], None] | None = None
+    ) -> None:
+        self.gaps = 0
+        self._expected: int | None = None
+        self._callback = callback
+        super().__init__(link, buffer)
+
+    @property
+    def lost(self) -> int:
+        """Items that never reached the consumer: sequence gaps plus buffer overflow."""
+        return self.gaps + self.dropped
+
+    def _count_gap(self, sequence: int) -> None:
+        if self._expected is not None and sequence != self._expected:
+            self.gaps += (sequence - self._expected) & 0xFFFF
+        self._expected = (sequence + 1) & 0xFFFF
+
+    def _deliver(self, item: T) -> None:
+        if self._callback is None:
+            self._put(item)
+            return
+        self.received += 1
+        try:
+            self._callback(item)
+        except Exception:  # a user's bug must not hurt the link
+            logger.exception("%s callback %r failed on %r", self.WHAT, self._callback, item)

@@ -36,18 +36,17 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import logging
 import time
 import weakref
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import anyio
 
 from . import protocol as p
-from ._event_queue import EventQueue
+from ._event_queue import EventQueue, SequencedQueue
 from .errors import ArduinoIOError, BoardError, UsageError, ValueRangeError
 from .transport import Transport
 
@@ -66,8 +65,6 @@ __all__ = [
     "watch_changes",
     "watch_counter",
 ]
-
-logger = logging.getLogger(__name__)
 
 DEFAULT_CHANGE_BUFFER = 1000
 
@@ -99,7 +96,7 @@ class Change:
         return cls(event.pin, event.level, event.sequence, event.timestamp_us, host_time)
 
 
-class ChangeStream(EventQueue[Change]):
+class ChangeStream(SequencedQueue[Change]):
     """Async iterator over the changes of one pin (see the module docstring for the rules).
 
     With ``callback`` the changes go to it instead of the buffer.
@@ -115,33 +112,28 @@ class ChangeStream(EventQueue[Change]):
         callback: Callable[[Change], None] | None = None,
     ) -> None:
         self.pin = pin
-        self.gaps = 0
-        self._callback = callback
-        self._expected: int | None = None
-        super().__init__(link, buffer)
-
-    @property
-    def lost(self) -> int:
-        """Changes that never reached the consumer: sequence gaps plus buffer overflow."""
-        return self.gaps + self.dropped
+        super().__init__(link, buffer, callback)
 
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.GpioChange):
             return
-        if self._expected is not None and event.sequence != self._expected:
-            self.gaps += (event.sequence - self._expected) & 0xFFFF
-        self._expected = (event.sequence + 1) & 0xFFFF
-        if event.pin != self.pin:
-            return
-        change = Change.from_event(event, time.monotonic())
-        if self._callback is None:
-            self._put(change)
-            return
-        self.received += 1
-        try:
-            self._callback(change)
-        except Exception:  # a user's bug must not hurt the link
-            logger.exception("change callback %r failed on %r", self._callback, change)
+        self._count_gap(event.sequence)  # the count is shared by every watched pin
+        if event.pin == self.pin:
+            self._deliver(Change.from_event(event, time.monotonic()))
+
+
+async def _end_watch(link: Transport, stop: p.Request[Any] | None, queue: EventQueue[Any]) -> None:
+    """Send ``stop`` (None: other watchers keep the board's subscription) and detach.
+
+    Shielded, so a cancelled block still unsubscribes; a failure means the link is gone or
+    the pin was reconfigured, and nothing is watched any more either way.
+    """
+    try:
+        if stop is not None:
+            with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
+                await link.request(stop)
+    finally:
+        queue.detach()
 
 
 @asynccontextmanager
@@ -161,14 +153,7 @@ async def watch_changes(
         yield stream
     finally:
         watchers[pin] -= 1
-        try:
-            if not watchers[pin]:
-                # a failure means the link is gone or the pin was reconfigured: nothing
-                # is watched any more either way
-                with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
-                    await link.request(p.GpioWatch(pin, False))
-        finally:
-            stream.detach()
+        await _end_watch(link, p.GpioWatch(pin, False) if not watchers[pin] else None, stream)
 
 
 #: Watchers per board and pin, so that one block's end keeps the others' subscription.
@@ -215,11 +200,7 @@ async def watch_counter(
         await board.request(p.CounterWatch(pin, every))
         yield reports
     finally:
-        try:
-            with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
-                await link.request(p.CounterWatch(pin, 0))
-        finally:
-            reports.detach()
+        await _end_watch(link, p.CounterWatch(pin, 0), reports)
 
 
 @dataclass(frozen=True, slots=True)
@@ -237,7 +218,7 @@ class AnalogMove:
     host_time: float
 
 
-class AnalogChanges(EventQueue[AnalogMove]):
+class AnalogChanges(SequencedQueue[AnalogMove]):
     """Async iterator over the moves of one analog channel (module docstring: the rules).
 
     :attr:`baseline` is the value the board measured as the watch began; with
@@ -255,35 +236,18 @@ class AnalogChanges(EventQueue[AnalogMove]):
     ) -> None:
         self.channel = channel
         self.baseline: int | None = None
-        self.gaps = 0
-        self._callback = callback
-        self._expected: int | None = None
-        super().__init__(link, buffer)
-
-    @property
-    def lost(self) -> int:
-        """Moves that never reached the consumer: sequence gaps plus buffer overflow."""
-        return self.gaps + self.dropped
+        super().__init__(link, buffer, callback)
 
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.AnalogChange):
             return
-        if self._expected is not None and event.sequence != self._expected:
-            self.gaps += (event.sequence - self._expected) & 0xFFFF
-        self._expected = (event.sequence + 1) & 0xFFFF
-        if event.channel != self.channel:
-            return
-        move = AnalogMove(
-            event.channel, event.value, event.sequence, event.timestamp_us, time.monotonic()
-        )
-        if self._callback is None:
-            self._put(move)
-            return
-        self.received += 1
-        try:
-            self._callback(move)
-        except Exception:  # a user's bug must not hurt the link
-            logger.exception("analog callback %r failed on %r", self._callback, move)
+        self._count_gap(event.sequence)  # the count is shared by every watched channel
+        if event.channel == self.channel:
+            self._deliver(
+                AnalogMove(
+                    event.channel, event.value, event.sequence, event.timestamp_us, time.monotonic()
+                )
+            )
 
 
 #: Watchers per board and channel with their deadband: blocks that agree share the board's
@@ -334,9 +298,4 @@ async def watch_analog(
             watchers[channel] = (left, deadband)
         else:
             del watchers[channel]
-        try:
-            if not left:
-                with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
-                    await link.request(p.AnalogWatch(channel, 0))
-        finally:
-            stream.detach()
+        await _end_watch(link, p.AnalogWatch(channel, 0) if not left else None, stream)

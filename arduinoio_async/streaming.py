@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import anyio
 
 from . import protocol as p
-from ._event_queue import EventQueue
+from ._event_queue import SequencedQueue
 from .errors import ArduinoIOError, LinkCapacityError, ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
 from .transport import Transport
@@ -114,21 +114,14 @@ def stream_request(
     return p.StreamStart(mask, flags, period_us)
 
 
-class SampleStream(EventQueue[Sample]):
+class SampleStream(SequencedQueue[Sample]):
     """Async iterator over the samples of a running stream (see the module docstring)."""
 
     WHAT = "a stream"
 
     def __init__(self, link: Transport, request: p.StreamStart, buffer: int) -> None:
         self.request = request
-        self.gaps = 0
-        self._expected: int | None = None
         super().__init__(link, buffer)
-
-    @property
-    def lost(self) -> int:
-        """Samples that never reached the consumer: sequence gaps plus buffer overflow."""
-        return self.gaps + self.dropped
 
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.StreamSample):
@@ -136,11 +129,6 @@ class SampleStream(EventQueue[Sample]):
         sample = Sample.from_frame(event, time.monotonic())
         self._count_gap(sample.sequence)
         self._put(sample)
-
-    def _count_gap(self, sequence: int) -> None:
-        if self._expected is not None and sequence != self._expected:
-            self.gaps += (sequence - self._expected) & 0xFFFF
-        self._expected = (sequence + 1) & 0xFFFF
 
     def finish(self, next_sequence: int) -> None:
         """Account for samples sent before the stop but never received."""

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 
 import anyio
 import anyio.lowlevel
@@ -14,21 +12,13 @@ import pytest
 
 from arduinoio_async import A0, A2
 from arduinoio_async import protocol as p
-from arduinoio_async.board import Board
 from arduinoio_async.changes import AnalogMove
 from arduinoio_async.errors import BoardError, UsageError, ValueRangeError
 from arduinoio_async.testing import FakeBoard
 
+from .fake_boards import connected
+
 pytestmark = pytest.mark.anyio
-
-
-@asynccontextmanager
-async def connected() -> AsyncIterator[tuple[Board, FakeBoard]]:
-    async with (
-        FakeBoard(board_id=0x0042) as fake,
-        Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as board,
-    ):
-        yield board, fake
 
 
 async def test_moves_past_the_deadband_arrive_in_order_from_the_last_reported_value() -> None:

@@ -6,8 +6,6 @@ import subprocess
 import sys
 import textwrap
 import threading
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from pathlib import Path
 
 import anyio
@@ -36,15 +34,7 @@ from arduinoio_async.manager import BoardManager
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport import memory_link
 
-
-@asynccontextmanager
-async def connected() -> AsyncIterator[tuple[Board, FakeBoard]]:
-    """A board on a fake (not a yield fixture: task groups must exit in their own task)."""
-    async with (
-        FakeBoard(board_id=0x0042) as fake,
-        Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as board,
-    ):
-        yield board, fake
+from .fake_boards import connected
 
 
 async def test_connect_reads_id_capabilities_and_tags_the_session() -> None:

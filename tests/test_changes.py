@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 
 import anyio
 import anyio.lowlevel
@@ -13,21 +11,12 @@ import pytest
 
 from arduinoio_async import D2, D3, D5, D7
 from arduinoio_async import protocol as p
-from arduinoio_async.board import Board
 from arduinoio_async.changes import Change
 from arduinoio_async.errors import BoardError
-from arduinoio_async.testing import FakeBoard
+
+from .fake_boards import connected
 
 pytestmark = pytest.mark.anyio
-
-
-@asynccontextmanager
-async def connected() -> AsyncIterator[tuple[Board, FakeBoard]]:
-    async with (
-        FakeBoard(board_id=0x0042) as fake,
-        Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as board,
-    ):
-        yield board, fake
 
 
 async def test_the_fake_board_announces_change_events() -> None:

@@ -6,27 +6,16 @@ board was told; the table must agree with it and refuse what the board would ref
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
-
 import anyio
 import pytest
 
 from arduinoio_async import D3, D4, D5, D9, PinRoleError, StaleHandleError
 from arduinoio_async import protocol as p
-from arduinoio_async.board import Board, Claim, PinRoles
+from arduinoio_async.board import Claim, PinRoles
 from arduinoio_async.errors import BoardError
 from arduinoio_async.handles import DigitalOutput, input_setup, output_setup
-from arduinoio_async.testing import FakeBoard
 
-
-@asynccontextmanager
-async def connected(board_id: int = 0x0042) -> AsyncIterator[tuple[Board, FakeBoard]]:
-    async with (
-        FakeBoard(board_id=board_id) as fake,
-        Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as board,
-    ):
-        yield board, fake
+from .fake_boards import connected
 
 
 async def test_the_table_shows_each_claimed_pin_with_its_handle_and_setup() -> None:

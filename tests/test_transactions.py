@@ -2,28 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
-
 import anyio
 import pytest
 
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D13
 from arduinoio_async import protocol as p
-from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardError, FailsafeTrippedError, ValueRangeError
-from arduinoio_async.testing import FakeBoard
+
+from .fake_boards import connected
 
 pytestmark = pytest.mark.anyio
-
-
-@asynccontextmanager
-async def connected() -> AsyncIterator[tuple[Board, FakeBoard]]:
-    async with (
-        FakeBoard(board_id=0x0042) as fake,
-        Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as board,
-    ):
-        yield board, fake
 
 
 async def test_items_run_in_order_and_each_gets_its_reply() -> None:
