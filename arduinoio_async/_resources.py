@@ -42,6 +42,7 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import ArduinoIOError
+from .protocol import FIRMWARE_BAUDS  # the Makefile's BAUDS: built and shipped
 
 __all__ = [
     "ENV_CACHE_DIR",
@@ -61,14 +62,13 @@ __all__ = [
     "source_tree",
 ]
 
+
 _log = logging.getLogger(__name__)
 
 ENV_FIRMWARE_DIR = "ARDUINOIO_FIRMWARE_DIR"
 ENV_SIM_BIN = "ARDUINOIO_SIM_BIN"
 ENV_CACHE_DIR = "ARDUINOIO_CACHE_DIR"
 
-#: The baud rates the firmware is built and shipped for (``firmware/Makefile`` BAUDS).
-FIRMWARE_BAUDS = (115200, 1_000_000, 2_000_000)
 
 #: Debian/Ubuntu packages the harness build needs (compiler, simavr headers and library).
 HARNESS_PACKAGES = ("gcc", "libsimavr-dev", "libelf-dev")

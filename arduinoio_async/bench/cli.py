@@ -10,10 +10,11 @@ from rich.console import Console
 from rich.progress import Progress
 
 from ..errors import ArduinoIOError
+from ..protocol import DEFAULT_BAUD
 from ..sim import SimulatorNotAvailable
 from .commands import COMMANDS
 from .report import print_scenario, write_json, write_plot
-from .runner import ScenarioResult, Target, host_overhead, run_scenario
+from .runner import SCENARIO_GROUPS, ScenarioResult, Target, host_overhead, run_scenario
 
 __all__ = ["build_parser", "main"]
 
@@ -25,14 +26,15 @@ def build_parser() -> argparse.ArgumentParser:
     target = parser.add_mutually_exclusive_group()
     target.add_argument("--port", help="real board (default: a virtual Uno per scenario)")
     target.add_argument("--id", type=lambda t: int(t, 0), help="real board found by ID")
-    parser.add_argument("--baud", type=int, default=115200, help="baud rate of a real board")
+    parser.add_argument("--baud", type=int, default=DEFAULT_BAUD, help="baud rate of a real board")
     parser.add_argument("-n", "--count", type=int, default=300, help="requests per command")
     parser.add_argument(
         "--warmup", type=int, default=200, help="requests before measuring (sim and caches settle)"
     )
     parser.add_argument("--paper", action="store_true", help="115200 baud + 16U2 bridge model")
     parser.add_argument("--pipelined", action="store_true", help="16U2 model, many in flight")
-    parser.add_argument("--fast", action="store_true", help="1,000,000 baud, no bridge")
+    parser.add_argument("--fast", action="store_true", help="1,000,000 baud (default), no bridge")
+    parser.add_argument("--fastest", action="store_true", help="2,000,000 baud, no bridge")
     parser.add_argument("--host", action="store_true", help="library CPU per command")
     parser.add_argument("--all", action="store_true", help="every scenario (the default)")
     parser.add_argument("--json", type=Path, help="write every figure to this file")
@@ -41,12 +43,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 async def _run(args: argparse.Namespace, console: Console) -> list[ScenarioResult]:
-    chosen = [name for name in ("paper", "pipelined", "fast", "host") if getattr(args, name)]
+    chosen = [name for name in SCENARIO_GROUPS if getattr(args, name)]
     if args.all or not chosen:
-        chosen = ["paper", "pipelined", "fast", "host"]
-    runs = [
-        s for name in chosen for s in (["fast", "fast-pipelined"] if name == "fast" else [name])
-    ]
+        chosen = list(SCENARIO_GROUPS)
+    runs = [scenario for name in chosen for scenario in SCENARIO_GROUPS[name]]
     target = Target(port=args.port, board_id=args.id, baud=args.baud)
     results: list[ScenarioResult] = []
     with Progress(console=console, transient=True) as progress:

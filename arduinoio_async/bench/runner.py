@@ -35,7 +35,14 @@ from .model import LinkModel, predict_ms
 from .responder import InstantStream
 from .stats import Summary, summarize
 
-__all__ = ["CommandResult", "ScenarioResult", "Target", "host_overhead", "run_scenario"]
+__all__ = [
+    "SCENARIO_GROUPS",
+    "CommandResult",
+    "ScenarioResult",
+    "Target",
+    "host_overhead",
+    "run_scenario",
+]
 
 Progress = Callable[[str, int], None]
 
@@ -87,17 +94,37 @@ SCENARIOS: dict[str, dict[str, Any]] = {
         "pipelined": True,
     },
     "fast": {
-        "description": "1,000,000 baud, no bridge delay, one request at a time",
+        "description": "1,000,000 baud (the default), no bridge delay, one request at a time",
         "baud": 1_000_000,
         "usb_bridge": "none",
         "pipelined": False,
     },
     "fast-pipelined": {
-        "description": "1,000,000 baud, no bridge delay, many requests in flight",
+        "description": "1,000,000 baud (the default), no bridge delay, many requests in flight",
         "baud": 1_000_000,
         "usb_bridge": "none",
         "pipelined": True,
     },
+    "fastest": {
+        "description": "2,000,000 baud, no bridge delay, one request at a time",
+        "baud": 2_000_000,
+        "usb_bridge": "none",
+        "pipelined": False,
+    },
+    "fastest-pipelined": {
+        "description": "2,000,000 baud, no bridge delay, many requests in flight",
+        "baud": 2_000_000,
+        "usb_bridge": "none",
+        "pipelined": True,
+    },
+}
+#: The command-line choices and the scenarios each runs, in the order they run.
+SCENARIO_GROUPS: dict[str, tuple[str, ...]] = {
+    "paper": ("paper",),
+    "pipelined": ("pipelined",),
+    "fast": ("fast", "fast-pipelined"),
+    "fastest": ("fastest", "fastest-pipelined"),
+    "host": ("host",),
 }
 
 

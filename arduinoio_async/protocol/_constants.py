@@ -208,5 +208,15 @@ FAILSAFE_MAX_TIMEOUT_MS: Final = 10000
 
 #: Where the board ID lives in the AVR's EEPROM (big-endian, two bytes).
 EEPROM_ID_ADDRESS: Final = 0
-DEFAULT_BAUD: Final = 115200
-FAST_BAUD: Final = 1000000
+#: The paper's rate (Table IV was measured at it): UBRR 16 with U2X, really 117,647 baud.
+PAPER_BAUD: Final = 115200
+#: The default for new users (docs/performance.md, "Choosing the baud rate"): exact at
+#: 16 MHz on both ends of a Uno's link (UBRR 1 with U2X, as the 16U2's own divider gives),
+#: reported to work with the stock 16U2 firmware for short request/reply frames, supported
+#: by CH340, FTDI and CP2102N bridges, and 8.7x the paper's byte rate.
+DEFAULT_BAUD: Final = 1_000_000
+#: The fastest exact rate (UBRR 0 with U2X); the stock 16U2 firmware has reported trouble
+#: with heavy two-way traffic this fast, so it is a choice, not the default.
+FAST_BAUD: Final = 2_000_000
+#: Every rate the shipped firmware is built for.
+FIRMWARE_BAUDS: Final = (PAPER_BAUD, DEFAULT_BAUD, FAST_BAUD)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 
 from .._resources import project_path
-from ._constants import DEFAULT_BAUD, FAST_BAUD, STREAM_FRAME_OVERHEAD, ClassTag, StreamFlags
+from ._constants import FIRMWARE_BAUDS, STREAM_FRAME_OVERHEAD, ClassTag, StreamFlags
 from ._layout import Layout
 from ._messages import EVENT_TYPES, REQUEST_TYPES
 from .commands.stream import sample_payload_size, stream_min_period_us
@@ -71,8 +71,10 @@ def render_layouts() -> str:
         "",
     ]
     out += [
-        "| analog channels | flags | frame bytes | 115200 baud | 1,000,000 baud |",
-        "|---|---|---|---|---|",
+        "| analog channels | flags | frame bytes | "
+        + " | ".join(f"{baud:,} baud" for baud in FIRMWARE_BAUDS)
+        + " |",
+        "|---|---|---|" + "---|" * len(FIRMWARE_BAUDS),
     ]
     for channels in range(1, 7):
         for flags in (
@@ -82,11 +84,11 @@ def render_layouts() -> str:
             mask = (1 << channels) - 1
             frame_bytes = STREAM_FRAME_OVERHEAD + sample_payload_size(mask, flags)
             cells = []
-            for baud in (DEFAULT_BAUD, FAST_BAUD):
+            for baud in FIRMWARE_BAUDS:
                 period = stream_min_period_us(mask, flags, baud)
                 cells.append(f"{period} us ({1e6 / period:.0f} Hz)")
             label = "none" if not flags else "levels+edges+counters"
-            out.append(f"| {channels} | {label} | {frame_bytes} | {cells[0]} | {cells[1]} |")
+            out.append(f"| {channels} | {label} | {frame_bytes} | {' | '.join(cells)} |")
     return "\n".join(out)
 
 

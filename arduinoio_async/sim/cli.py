@@ -17,6 +17,7 @@ from typing import Any
 
 import anyio
 
+from ..protocol import DEFAULT_BAUD, FIRMWARE_BAUDS
 from .harness import SimulatorError, SimulatorNotAvailable
 from .virtual_uno import start_virtual_unos
 
@@ -42,7 +43,7 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
         help="board ID (repeat for several boards; 0x prefix allowed)",
     )
     p.add_argument("--fixture", choices=["open", "loopback", "r2r"], default="open")
-    p.add_argument("--baud", type=int, choices=[115200, 1000000, 2000000], default=115200)
+    p.add_argument("--baud", type=int, choices=FIRMWARE_BAUDS, default=DEFAULT_BAUD)
     p.add_argument("--fast", action="store_true", help="run unpaced, as fast as possible")
     p.add_argument("--usb-bridge", choices=["none", "16u2"], default="none")
     p.add_argument("--reset-on-open", action="store_true", help="reset like a real Uno on open")

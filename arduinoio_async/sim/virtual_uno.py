@@ -25,6 +25,7 @@ import anyio.abc
 import anyio.to_thread
 from anyio.streams.buffered import BufferedByteReceiveStream
 
+from ..protocol import DEFAULT_BAUD
 from .harness import (
     INSTALL_HINT,
     SimulatorError,
@@ -116,7 +117,7 @@ class VirtualUno:
         *,
         board_id: int | None = None,
         fixture: Fixture = "open",
-        baud: int = 115200,
+        baud: int = DEFAULT_BAUD,
         fast: bool = False,
         reset_on_open: bool = False,
         boot_delay_ms: int | None = None,

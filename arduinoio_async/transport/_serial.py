@@ -25,6 +25,7 @@ import anyio.lowlevel
 import serial
 
 from ..errors import BoardDisconnectedError, PortBusyError
+from ..protocol import DEFAULT_BAUD
 
 try:  # pyserial's POSIX back end lets termios.error (not an OSError) out of open()
     from termios import error as _TermiosError
@@ -259,7 +260,7 @@ def _has_fileno(port: serial.SerialBase) -> bool:
 
 
 async def open_serial_stream(
-    url: str, baudrate: int = 115200, **serial_options: Any
+    url: str, baudrate: int = DEFAULT_BAUD, **serial_options: Any
 ) -> anyio.abc.ByteStream:
     """Open ``url`` (a device path or any pyserial URL) as a byte stream.
 

@@ -42,16 +42,21 @@ from arduinoio_async.sim import VirtualUno
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peer_firmware import FIRMATA_BAUD, FirmataUnavailable, firmata_elf
-from peers_table import render_markdown, render_summary, replace_between
+from peers_table import OPT_IN, goal_table, goals, render_markdown, render_summary, replace_between
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 WORKER = HERE / "firmata_clients.py"
 PEER_PYTHON = REPO / ".venv-peers" / "bin" / "python"
 LINKS = ("none", "16u2")
-PROJECT_BAUD = 115_200
-FAST_BAUD = 1_000_000
+#: The project at its default configuration (issue 13's goals are about it) ...
+PROJECT_BAUD = p.DEFAULT_BAUD
+#: ... and opt-in choices, marked OPT_IN in the client name: 2 Mbaud for (c), the
+#: low-latency mode behind the 16U2 for (a) and (b).
+FAST_BAUD = p.FAST_BAUD
 FIRMATA_LIBRARIES = ("pyfirmata2", "pymata4", "pymata_express")
+#: (d): one task waits for each acknowledgement; concurrent tasks keep writes in flight.
+WRITE_TASKS = (1, 8, 32)
 
 
 @dataclass
@@ -131,18 +136,24 @@ A_SEQUENTIAL = "arduinoio_async: write, then read"
 A_PIPELINED = "arduinoio_async: write + read pipelined"
 A_EVENT = "arduinoio_async: write + change event"
 A_TRANSACTION = "arduinoio_async: write + read in one transaction"
+B_READ_ID = "arduinoio_async: read ID"
+LOW_LATENCY = f"low-latency mode, {OPT_IN}"
 
 
 @asynccontextmanager
-async def project_board(uno: VirtualUno) -> AsyncIterator[Board]:
+async def project_board(uno: VirtualUno, low_latency: bool = False) -> AsyncIterator[Board]:
     async with Board.open(uno.port, baudrate=uno.baud) as board:
+        if low_latency:
+            await board.set_low_latency(True)
         yield board
 
 
-async def project_a(uno: VirtualUno, n: int, pipelined: bool) -> list[float]:
+async def project_a(
+    uno: VirtualUno, n: int, pipelined: bool, low_latency: bool = False
+) -> list[float]:
     """D2 written, D3 read back through the jumper; the reply must show the new level."""
     samples = []
-    async with project_board(uno) as board:
+    async with project_board(uno, low_latency) as board:
         d2, d3 = board.gpio(D2), board.gpio(D3)
         level = False
         await d2.write(level)
@@ -189,10 +200,10 @@ async def project_a_event(uno: VirtualUno, n: int) -> list[float]:
     return samples
 
 
-async def project_a_transaction(uno: VirtualUno, n: int) -> list[float]:
+async def project_a_transaction(uno: VirtualUno, n: int, low_latency: bool = False) -> list[float]:
     """D2 written and D3 read in one TRANSACTION frame, run back to back on the board."""
     samples = []
-    async with project_board(uno) as board:
+    async with project_board(uno, low_latency) as board:
         await board.digital_output(D2)
         await board.digital_input(D3)
         level = False
@@ -209,9 +220,9 @@ async def project_a_transaction(uno: VirtualUno, n: int) -> list[float]:
     return samples
 
 
-async def project_b(uno: VirtualUno, n: int) -> list[float]:
+async def project_b(uno: VirtualUno, n: int, low_latency: bool = False) -> list[float]:
     samples = []
-    async with project_board(uno) as board:
+    async with project_board(uno, low_latency) as board:
         await board.read_id()
         for _ in range(n):
             await anyio.sleep(random.uniform(0.0, 0.005))
@@ -363,8 +374,17 @@ class Bench:
                     got_ms = await project_a_transaction(aio, per_round)
                     samples.setdefault((A_TRANSACTION, "a", link), []).extend(got_ms)
                     got_ms = await project_b(aio, per_round)
-                    key = ("arduinoio_async: read ID", "b", link)
-                    samples.setdefault(key, []).extend(got_ms)
+                    samples.setdefault((B_READ_ID, "b", link), []).extend(got_ms)
+                    if link == "16u2":  # the mode exists for the 16U2's tick
+                        got_ms = await project_a(aio, per_round, True, low_latency=True)
+                        key = (f"{A_PIPELINED}, {LOW_LATENCY}", "a", link)
+                        samples.setdefault(key, []).extend(got_ms)
+                        got_ms = await project_a_transaction(aio, per_round, low_latency=True)
+                        key = (f"{A_TRANSACTION}, {LOW_LATENCY}", "a", link)
+                        samples.setdefault(key, []).extend(got_ms)
+                        got_ms = await project_b(aio, per_round, low_latency=True)
+                        key = (f"{B_READ_ID}, {LOW_LATENCY}", "b", link)
+                        samples.setdefault(key, []).extend(got_ms)
             self.log(f"(a), (b): round {r + 1} of {s.rounds} done")
         for (client, test, link), values in samples.items():
             system = AIO if client.startswith("arduinoio") else "firmata"
@@ -389,6 +409,8 @@ class Bench:
                     got = await project_c(unos[system], self.sizes.seconds)
                 rate = round(got["count"] / got["seconds"], 1)
                 client = f"arduinoio_async: stream, {got['period_us']} us, lost {got['lost']}"
+                if system == "fast":
+                    client += f", {FAST_BAUD:,} baud {OPT_IN}"
                 baud = FAST_BAUD if system == "fast" else PROJECT_BAUD
                 self.rows.append(row(AIO, client, "c", link, baud, n=got["count"], rate_per_s=rate))
             self.log(f"(c) on link {link} done")
@@ -420,7 +442,7 @@ class Bench:
                         )
             async with self.powered(link, AIO) as unos:
                 aio = unos[AIO]
-                for tasks in (1, 8):
+                for tasks in WRITE_TASKS:
 
                     async def project_writes(tasks: int = tasks, aio: VirtualUno = aio) -> float:
                         return await project_d(aio, n, tasks)
@@ -507,9 +529,10 @@ async def main(args: argparse.Namespace) -> int:
             "python": platform.python_version(),
         },
         "harness": bench.harness,
+        "goals": goals(bench.rows, PROJECT_BAUD),
         "rows": bench.rows,
     }
-    table = render_markdown(bench.rows)
+    table = render_markdown(bench.rows) + "\n" + goal_table(bench.rows, PROJECT_BAUD)
     print(table)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
@@ -519,7 +542,7 @@ async def main(args: argparse.Namespace) -> int:
     if args.doc:
         args.doc.write_text(replace_between(args.doc.read_text(), "table", table))
     if args.readme:
-        summary = render_summary(bench.rows)
+        summary = render_summary(bench.rows, PROJECT_BAUD)
         args.readme.write_text(replace_between(args.readme.read_text(), "summary", summary))
     return 0
 

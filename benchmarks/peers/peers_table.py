@@ -4,7 +4,7 @@ Both go between HTML comment markers, so a new run replaces them in place:
 ``<!-- peers:table:begin -->`` ... ``<!-- peers:table:end -->`` in docs/performance.md and
 ``<!-- peers:summary:begin -->`` ... ``<!-- peers:summary:end -->`` in the README.
 
-    .venv/bin/python benchmarks/peers/peers_table.py benchmarks/results/peers.json
+    .venv/bin/python benchmarks/peers/peers_table.py benchmarks/results/peers.json [BAUD]
 """
 
 from __future__ import annotations
@@ -13,6 +13,12 @@ import json
 import sys
 from pathlib import Path
 from typing import Any
+
+#: Marks a project row measured in a configuration the user must choose (not the default);
+#: issue 13's goals are judged on the default configuration only.
+OPT_IN = "opt-in"
+#: Issue 13: the project beats the best Firmata client and the raw floor by this factor.
+GOAL_FACTOR = {"a": 1.5, "b": 1.5, "c": 4.0, "d": 1.5, "e": 4.0}
 
 TESTS = {
     "a": "host sets D2 -> host knows D3's new level (jumper)",
@@ -60,6 +66,79 @@ def render_markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(out).rstrip() + "\n"
 
 
+def _higher_is_better(test: str) -> bool:
+    return test in "cd"
+
+
+def _figure(r: dict[str, Any]) -> float:
+    """What a test is judged by: rate for (c), (d); p50 for the latencies."""
+    return float(r["rate_per_s"] if _higher_is_better(r["test"]) else r["p50_ms"])
+
+
+def goals(rows: list[dict[str, Any]], default_baud: int) -> list[dict[str, Any]]:
+    """Per test and link: the best Firmata row (the raw floor is one of them) against the
+    project's best row at its default configuration, as a factor (>1: the project is
+    better), with issue 13's goal."""
+    out = []
+    for test in TESTS:
+        for link in ("16u2", "none"):
+            here = [r for r in rows if (r["test"], r["link"]) == (test, link)]
+            firmata = [r for r in here if r["system"] == "firmata"]
+            project = [
+                r
+                for r in here
+                if r["system"] == "arduinoio"
+                and r["baud"] == default_baud
+                and OPT_IN not in str(r["client"])
+            ]
+            if not firmata or not project:
+                continue
+            pick = max if _higher_is_better(test) else min
+            peer = pick(firmata, key=_figure)
+            best = pick(project, key=_figure)
+            factor = (
+                _figure(best) / _figure(peer)
+                if _higher_is_better(test)
+                else _figure(peer) / _figure(best)
+            )
+            out.append(
+                {
+                    "test": test,
+                    "link": link,
+                    "firmata_client": peer["client"],
+                    "firmata": _figure(peer),
+                    "project_client": best["client"],
+                    "project": _figure(best),
+                    "factor": round(factor, 2),
+                    "goal": GOAL_FACTOR[test],
+                    "met": factor >= GOAL_FACTOR[test],
+                }
+            )
+    return out
+
+
+def goal_table(rows: list[dict[str, Any]], default_baud: int) -> str:
+    """Markdown of ``goals``: empty when there is nothing to compare (no Firmata rows)."""
+    judged = goals(rows, default_baud)
+    if not judged:
+        return ""
+    out = [
+        f"**Issue 13's goals** (the project at its default {default_baud:,} baud, best way; "
+        "p50 for (a), (b), (e), rate for (c), (d))\n",
+        "| test | link | best Firmata | project, default configuration | factor | goal |",
+        "|---|---|---|---|---|---|",
+    ]
+    for g in judged:
+        unit = "/s" if _higher_is_better(g["test"]) else " ms"
+        out.append(
+            f"| ({g['test']}) | {g['link']} | {g['firmata_client']}: {g['firmata']:,.2f}{unit} | "
+            f"{str(g['project_client']).removeprefix('arduinoio_async: ')}: "
+            f"{g['project']:,.2f}{unit} | {g['factor']:.2f}x | "
+            f">= {g['goal']}x: {'met' if g['met'] else 'NOT met'} |"
+        )
+    return "\n".join(out) + "\n"
+
+
 def _cell(r: dict[str, Any]) -> str:
     if r["test"] in "cd":
         return _rate(r["rate_per_s"]) + "/s"
@@ -68,15 +147,17 @@ def _cell(r: dict[str, Any]) -> str:
     return f"{r['p50_ms']:.2f} ms"
 
 
-def render_summary(rows: list[dict[str, Any]]) -> str:
+def render_summary(rows: list[dict[str, Any]], default_baud: int) -> str:
     """One line per Firmata client and one for the project; "16u2 / none" in each cell
     (p50 for (a), (b), mean for (e)).  The project's variants share its line, named."""
     lines: dict[str, dict[str, list[str]]] = {}
     for r in rows:
         project = r["system"] == "arduinoio"
-        name = "arduinoio_async (115,200)" if project else f"Firmata: {r['client']} (57,600)"
+        name = (
+            f"arduinoio_async ({default_baud:,})" if project else f"Firmata: {r['client']} (57,600)"
+        )
         variant = str(r["client"]).removeprefix("arduinoio_async: ") if project else ""
-        if project and r["baud"] != 115200:
+        if project and r["baud"] != default_baud:
             variant += f" at {r['baud']:,} baud"
         cell = lines.setdefault(name, {}).setdefault(r["test"], [])
         pair = {link: "-" for link in ("16u2", "none")}
@@ -116,5 +197,7 @@ def replace_between(text: str, name: str, content: str) -> str:
 
 if __name__ == "__main__":
     data = json.loads(Path(sys.argv[1]).read_text())
+    baud = int(sys.argv[2]) if len(sys.argv) > 2 else 1_000_000
     print(render_markdown(data))
-    print(render_summary(data))
+    print(goal_table(data, baud))
+    print(render_summary(data, baud))

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from arduinoio_async import protocol as p
 from arduinoio_async.sim import SimulatorNotAvailable, find_firmware_elf, find_harness_binary
 
 pytestmark = pytest.mark.sim
@@ -53,13 +54,20 @@ def test_peer_benchmark_tiny_run_writes_rows_and_renders(tmp_path: Path) -> None
             for r in project:
                 assert isinstance(r["p50_ms"], float) and r["p50_ms"] > 0
                 assert isinstance(r["mean_ms"], float) and r["rate_per_s"] is None
-        # (a) is measured four ways (write then read, pipelined, change event, one
-        # transaction); (c) at 115200 and 1,000,000 baud; (d) 1 and 8 tasks
-        assert len(find("arduinoio", "a", link)) == 4
-        assert {r["baud"] for r in find("arduinoio", "c", link)} == {115200, 1000000}
+        # (a) is measured four ways at the default configuration (write then read,
+        # pipelined, change event, one transaction), two more in the opt-in low-latency
+        # mode behind the 16U2; (b) likewise; (c) at 1,000,000 and (opt-in) 2,000,000 baud;
+        # (d) from 1, 8 and 32 tasks
+        opt_in = 2 if link == "16u2" else 0
+        assert len(find("arduinoio", "a", link)) == 4 + opt_in
+        assert len(find("arduinoio", "b", link)) == 1 + opt_in // 2
+        assert {r["baud"] for r in find("arduinoio", "c", link)} == {p.DEFAULT_BAUD, p.FAST_BAUD}
         assert all("lost 0" in str(r["client"]) for r in find("arduinoio", "c", link))
+        for r in rows:
+            if r["system"] == "arduinoio" and r["baud"] != p.DEFAULT_BAUD:
+                assert "opt-in" in str(r["client"]), r
         writes = find("arduinoio", "d", link)
-        assert len(writes) == 2
+        assert len(writes) == 3
         assert all(r["n"] == 40 and r["p50_ms"] is None for r in writes)  # every write landed
         assert all(isinstance(r["rate_per_s"], float) for r in writes)
     firmata = [r for r in rows if r["system"] == "firmata"]
@@ -68,9 +76,53 @@ def test_peer_benchmark_tiny_run_writes_rows_and_renders(tmp_path: Path) -> None
         assert all(r["baud"] == 57600 for r in firmata)
         raw_writes = [r for r in firmata if r["test"] == "d" and r["client"] == "raw"]
         assert [r["n"] for r in raw_writes] == [40, 40]  # no write lost on the way
+        assert "Issue 13's goals" in doc.read_text()
     else:
         assert not firmata
     text = doc.read_text()
     assert text.startswith("before\n") and text.endswith("after\n") and "old" not in text
     assert "(a) host sets D2" in text and "arduinoio_async: read ID" in text
     assert "| client (baud) |" in readme.read_text()
+
+
+def _row(
+    system: str, client: str, test: str, link: str, baud: int, value: float
+) -> dict[str, object]:
+    rate = test in "cd"
+    return {
+        "system": system,
+        "client": client,
+        "test": test,
+        "link": link,
+        "baud": baud,
+        "n": 1,
+        "p50_ms": None if rate else value,
+        "rate_per_s": value if rate else None,
+    }
+
+
+def test_goals_judge_the_default_configuration_against_the_best_firmata_client() -> None:
+    sys.path.insert(0, str(PEERS))
+    from peers_table import goals
+
+    rows = [
+        _row("firmata", "raw", "a", "none", 57600, 1.3),
+        _row("firmata", "pyfirmata2", "a", "none", 57600, 1.6),
+        _row("arduinoio", "write, then read", "a", "none", 1_000_000, 0.9),
+        _row("arduinoio", "pipelined", "a", "none", 1_000_000, 0.8),
+        _row("arduinoio", "faster, opt-in", "a", "none", 1_000_000, 0.1),
+        _row("arduinoio", "paper rate", "a", "none", 115200, 0.05),
+        _row("firmata", "raw", "d", "none", 57600, 1800.0),
+        _row("firmata", "pymata_express", "d", "none", 57600, 1900.0),
+        _row("arduinoio", "32 tasks", "d", "none", 1_000_000, 2800.0),
+    ]
+    judged = {g["test"]: g for g in goals(rows, 1_000_000)}
+    # (a): lower is better; the raw floor is the best Firmata; opt-in and other bauds
+    # do not count
+    assert judged["a"]["firmata_client"] == "raw"
+    assert judged["a"]["project_client"] == "pipelined"
+    assert judged["a"]["factor"] == round(1.3 / 0.8, 2) and judged["a"]["met"]
+    # (d): higher is better; 2800 / 1900 = 1.47 misses 1.5
+    assert judged["d"]["firmata_client"] == "pymata_express"
+    assert judged["d"]["factor"] == 1.47 and not judged["d"]["met"]
+    assert set(judged) == {"a", "d"}

@@ -24,7 +24,15 @@ def test_bench_all_scenarios_write_json_and_plot(tmp_path: Path) -> None:
     assert code == 0
     data = json.loads(out.read_text())
     scenarios = {s["name"]: s for s in data["scenarios"]}
-    assert set(scenarios) == {"paper", "pipelined", "fast", "fast-pipelined", "host"}
+    assert set(scenarios) == {
+        "paper",
+        "pipelined",
+        "fast",
+        "fast-pipelined",
+        "fastest",
+        "fastest-pipelined",
+        "host",
+    }
     for scenario in scenarios.values():
         assert [c["name"] for c in scenario["commands"]] == [c.name for c in COMMANDS]
         assert all(c["latency"]["n"] >= 3 for c in scenario["commands"])

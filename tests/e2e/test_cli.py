@@ -50,7 +50,7 @@ async def test_list_finds_the_boards(virtual_uno_factory: VirtualUnoFactory) -> 
     assert code == 0
     rows = {row["port"]: row for row in json.loads(out)}
     assert rows[one.port]["id"] == 1 and rows[two.port]["id"] == 2
-    assert rows[one.port]["protocol"] == 1 and rows[one.port]["baud"] == 115200
+    assert rows[one.port]["protocol"] == 1 and rows[one.port]["baud"] == p.DEFAULT_BAUD
     code, out = await run("list", "--ports", one.port)
     assert code == 0 and "0x0001" in out
 
@@ -266,14 +266,19 @@ async def test_tables_are_plain_when_piped_and_json_on_request(
     assert not set("│┃━─") & set(out)
     code, out = await run("info", "--port", uno.port, "--json")
     info = json.loads(out)
-    assert code == 0 and info["id"] == 1 and info["failsafe"] == "off" and info["baud"] == 115200
+    assert (
+        code == 0
+        and info["id"] == 1
+        and info["failsafe"] == "off"
+        and info["baud"] == p.DEFAULT_BAUD
+    )
 
 
 async def test_a_stream_the_link_cannot_carry_names_the_shortest_period(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
-    uno = await virtual_uno_factory(board_id=1)
-    async with Board.open(uno.port) as board:
+    uno = await virtual_uno_factory(board_id=1, baud=p.PAPER_BAUD)
+    async with Board.open(uno.port, baudrate=p.PAPER_BAUD) as board:
         channels = [A0, A1, A2, A3]
         with pytest.raises(LinkCapacityError) as refused:
             async with board.stream(analog=channels, period_ms=1):

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from arduinoio_async import Board, _resources
+from arduinoio_async import protocol as p
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 from tests.e2e.test_cli import run
 
@@ -46,30 +47,30 @@ async def test_flash_an_empty_board_then_it_answers_its_id(
     assert "bytes, verified" in out and "0x0005 stored" in out
     async with Board.open(uno.port) as board:
         assert await board.read_id() == 5
-        assert board.capabilities.baud == 115200
+        assert board.capabilities.baud == p.DEFAULT_BAUD
 
 
 async def test_flash_over_running_firmware_resets_into_the_bootloader(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
     uno = await virtual_uno_factory(
-        bootloader=optiboot(), elf=_resources.firmware_image(115200, "elf"), board_id=9
+        bootloader=optiboot(), elf=_resources.firmware_image(p.DEFAULT_BAUD, "elf"), board_id=9
     )
     async with Board.open(uno.port) as board:  # the application runs after power-up
         assert await board.read_id() == 9
-    code, out = await run("flash", "--port", uno.port, "--firmware-baud", "1000000")
+    code, out = await run("flash", "--port", uno.port, "--firmware-baud", "2000000")
     assert code == 0, out
-    assert "arduinoio-1000000.hex" in out
-    # The board now runs the 1,000,000-baud build: only that speed answers, ID kept.
-    async with Board.open(uno.port, baudrate=1_000_000) as board:
-        assert board.capabilities.baud == 1_000_000
+    assert "arduinoio-2000000.hex" in out
+    # The board now runs the 2,000,000-baud build: only that speed answers, ID kept.
+    async with Board.open(uno.port, baudrate=2_000_000) as board:
+        assert board.capabilities.baud == 2_000_000
         assert await board.read_id() == 9
 
 
 async def test_dry_run_prints_the_avrdude_command(tmp_path: Path) -> None:
     code, out = await run("flash", "--port", "/dev/ttyACM7", "--baud", "57600", "--dry-run")
     assert code == 0
-    image = _resources.firmware_image(115200, "hex")
+    image = _resources.firmware_image(p.DEFAULT_BAUD, "hex")
     assert "-c arduino -P /dev/ttyACM7 -b 57600 -D" in out
     assert f"flash:w:{image}:i" in out
 

@@ -197,7 +197,7 @@ def test_arduinoio_flash_from_the_wheel_through_a_bootloader(installed: Installe
             installed.run(installed.exe("arduinoio"), "flash", "--port", port, "--id", "7")
         )
         print(flashed.stdout)
-        assert "arduinoio-115200.hex" in flashed.stdout and "0x0007 stored" in flashed.stdout
+        assert "arduinoio-1000000.hex" in flashed.stdout and "0x0007 stored" in flashed.stdout
         assert _read_id(installed, port) == "7"
     finally:
         assert _stop_sim(process) == 0
