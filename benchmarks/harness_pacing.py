@@ -28,9 +28,9 @@ from arduinoio_async import protocol as p
 from arduinoio_async.sim import find_firmware_elf, start_virtual_unos
 
 
-def bursts(port: str, seconds: float, burst: int, period: float) -> int:
+def bursts(port: str, baud: int, seconds: float, burst: int, period: float) -> int:
     """Blocking pyserial client (run in a worker thread); returns the commands answered."""
-    link = serial.Serial(port, timeout=2.0)
+    link = serial.Serial(port, baud, timeout=2.0)
     try:
         link.write(p.GpioConfig(4, p.GpioFlags.OUTPUT).encode())
         if len(link.read(5)) != 5:
@@ -59,7 +59,9 @@ async def one_round(
         counts = [0] * boards
 
         async def load(i: int) -> None:
-            counts[i] = await anyio.to_thread.run_sync(bursts, unos[i].port, seconds, burst, period)
+            counts[i] = await anyio.to_thread.run_sync(
+                bursts, unos[i].port, unos[i].baud, seconds, burst, period
+            )
 
         async with anyio.create_task_group() as tg:
             for i in range(boards):

@@ -28,6 +28,71 @@ uint64_t hold_until_ns;
 unsigned long open_count;
 unsigned long host_rx_stalls;
 static int host_rx_stalled;
+unsigned long baud_mismatch_bytes;
+static int baud_mismatch_logged;
+
+/* ------------------------------------------------------------------ baud rates */
+/* A real Uno's USB bridge runs its UART at the rate the host sets on the port
+ * (CDC SET_LINE_CODING, i.e. pyserial's baudrate), so a host at another rate
+ * than the firmware's UART garbles every byte both ways.  A pty carries the
+ * host's termios speed (the master reads the slave's settings); it is compared
+ * with the rate the AVR's UART is set to now (UBRR0 and U2X0: a bootloader and
+ * the application may use different rates) within 5 %, a UART's tolerance
+ * (115200 against the AVR's 117,647 is 2.1 %).  A mismatch loses the bytes both
+ * ways, counted in status.baud_mismatch_bytes and logged once per open, so a
+ * program that opens a virtual Uno at the wrong rate fails as on a real one. */
+#define UBRR0L_ADDR 0xC4
+#define UBRR0H_ADDR 0xC5
+#define UCSR0A_ADDR 0xC0
+#define U2X0_BIT 0x02
+#define TXEN0_BIT 0x08
+
+static unsigned host_baud(void)
+{
+	static const struct { speed_t code; unsigned baud; } rates[] = {
+		{B1200, 1200}, {B2400, 2400}, {B4800, 4800}, {B9600, 9600},
+		{B19200, 19200}, {B38400, 38400}, {B57600, 57600}, {B115200, 115200},
+		{B230400, 230400}, {B460800, 460800}, {B500000, 500000},
+		{B576000, 576000}, {B921600, 921600}, {B1000000, 1000000},
+		{B1152000, 1152000}, {B1500000, 1500000}, {B2000000, 2000000},
+		{B2500000, 2500000}, {B3000000, 3000000},
+	};
+	struct termios tio;
+	if (master_fd < 0 || tcgetattr(master_fd, &tio) != 0)
+		return 0;
+	speed_t code = cfgetospeed(&tio);
+	for (size_t i = 0; i < sizeof(rates) / sizeof(rates[0]); i++)
+		if (rates[i].code == code)
+			return rates[i].baud;
+	return 0; /* a rate this table does not know: not judged */
+}
+
+static unsigned avr_uart_baud(void)
+{
+	if (!(avr->data[UCSR0B_ADDR] & (RXEN0_BIT | TXEN0_BIT)))
+		return 0; /* UART off: the UART model loses the bytes anyway */
+	unsigned ubrr = ((unsigned)(avr->data[UBRR0H_ADDR] & 0x0F) << 8) | avr->data[UBRR0L_ADDR];
+	unsigned divisor = (avr->data[UCSR0A_ADDR] & U2X0_BIT) ? 8u : 16u;
+	return (unsigned)(F_CPU / ((uint64_t)divisor * (ubrr + 1)));
+}
+
+/* Whether ``n`` bytes must be lost because the host's rate is not the UART's. */
+int baud_mismatch(size_t n)
+{
+	unsigned host = host_baud(), board = avr_uart_baud();
+	if (!host || !board)
+		return 0;
+	double ratio = (double)host / (double)board;
+	if (ratio > 0.95 && ratio < 1.05)
+		return 0;
+	baud_mismatch_bytes += (unsigned long)n;
+	if (!baud_mismatch_logged) {
+		baud_mismatch_logged = 1;
+		logf_("the host opened the port at %u baud but the firmware's UART runs at %u: "
+		      "bytes are lost both ways, as on a real Uno", host, board);
+	}
+	return 1;
+}
 
 int open_pty(void)
 {
@@ -65,6 +130,7 @@ static void on_slave_open(void)
 {
 	slave_open = 1;
 	open_count++;
+	baud_mismatch_logged = 0;
 	if (opt_reset_on_open && plugged) {
 		reset_avr(MCUSR_EXTRF);
 		avr->state = cpu_Running;
@@ -104,6 +170,8 @@ static void read_master(void)
 				bytes_discarded += (unsigned long)n;
 				continue;
 			}
+			if (baud_mismatch((size_t)n))
+				continue;
 			host_rx_stalled = 0;
 			host_bytes_in(buf, (size_t)n);
 			continue;

@@ -3,6 +3,7 @@
 #define VIRTUAL_UNO_PTY_H
 
 #include <poll.h>
+#include <stddef.h>
 #include <stdint.h>
 
 extern int master_fd;
@@ -13,6 +14,10 @@ extern int holding_reset;       /* DTR auto-reset: held in reset until hold_unti
 extern uint64_t hold_until_ns;
 extern unsigned long open_count;
 extern unsigned long host_rx_stalls;  /* times the harness stopped reading the pty (queue full) */
+extern unsigned long baud_mismatch_bytes; /* lost because host and UART rates differ */
+
+/* for wire.c: whether these n bytes are lost to a baud-rate mismatch (counts them) */
+int baud_mismatch(size_t n);
 
 int open_pty(void);
 void do_unplug(void);

@@ -125,6 +125,10 @@ void flush_out(void)
 		out_len = 0;
 		return;
 	}
+	if (baud_mismatch(out_len)) {
+		out_len = 0;
+		return;
+	}
 	ssize_t n = write(master_fd, out_buf, out_len);
 	pty_writes++;
 	if (n > 0) {

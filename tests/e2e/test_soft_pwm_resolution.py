@@ -67,7 +67,7 @@ async def test_widths_exact_to_a_microsecond_with_the_link_idle(
 
 async def test_one_microsecond_steps_and_stop(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await virtual_uno_factory(baud=115_200)
-    async with Board.open(uno.port) as board:
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
         pwm = await board.soft_pwm(D4, pulse_us=1500)
         for width in (1500, 1501, 1502, 1250):
             await pwm.set_pulse(width)

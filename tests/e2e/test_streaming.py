@@ -114,7 +114,7 @@ async def test_four_channels_at_1ms_for_10s_at_1mbaud(
 async def test_largest_documented_rate_at_115200(virtual_uno_factory: VirtualUnoFactory) -> None:
     period_us = p.stream_min_period_us(0b1111, p.StreamFlags.NONE, 115200)
     uno = await virtual_uno_factory(board_id=1, baud=115_200)
-    async with Board.open(uno.port) as board:
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
         samples, commanded, gaps, dropped = await stream_with_steps(board, uno, period_us / 1000, 6)
     deltas = spacing_us(samples)
     print(f"\n115200 baud, 4 channels, {period_us} us: {len(samples)} samples, gaps {gaps}")
@@ -127,7 +127,7 @@ async def test_more_than_the_link_carries_is_refused(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
     uno = await virtual_uno_factory(board_id=1, baud=115_200)
-    async with Board.open(uno.port) as board:
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
         too_fast = p.stream_min_period_us(0b1111, p.StreamFlags.NONE, 115200) - 100
         with pytest.raises(LinkCapacityError) as info:
             async with board.stream(analog=FOUR, period_ms=too_fast / 1000):

@@ -22,6 +22,7 @@ import anyio.abc
 import pytest
 from anyio.streams.buffered import BufferedByteReceiveStream
 
+from arduinoio_async import protocol as p
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -73,7 +74,7 @@ def serve_unos(virtual_uno_factory: VirtualUnoFactory, tmp_path: Path) -> ServeF
         ports_dir.mkdir()
         unos = {bid: await virtual_uno_factory(board_id=bid, **uno_options) for bid in ids}
         endpoint = free_endpoint().replace("tcp/", "tls/" if "--config" in server_args else "tcp/")
-        baud = int(str(uno_options.get("baud", 115200)))
+        baud = int(str(uno_options.get("baud", p.DEFAULT_BAUD)))
         env = {k: v for k, v in os.environ.items() if k != "ARDUINOIO_PORTS"}
         command = [sys.executable, "-m", "arduinoio_async", "serve", "--no-usb"]
         command += ["--ports", str(ports_dir / "uno-*"), "--baud", str(baud)]

@@ -46,7 +46,7 @@ test_elf.__test__ = False  # type: ignore[attr-defined]
 
 async def start_test_board(factory: VirtualUnoFactory, **options: Any) -> VirtualUno:
     """Start a board running the test firmware at ``options['baud']`` (default 115200)."""
-    baud = int(options.get("baud", 115200))
+    baud = int(options.setdefault("baud", 115200))
     options.setdefault("elf", test_elf(baud))
     return await factory(**options)
 
@@ -60,8 +60,9 @@ class Link:
         self.pending = bytearray()
 
     @classmethod
-    async def open(cls, port: str, timeout: float = 1.0) -> Link:
-        return cls(await open_serial_stream(port), timeout)
+    async def open(cls, uno: VirtualUno, timeout: float = 1.0) -> Link:
+        """The board's port at the baud rate its firmware runs at (any other loses bytes)."""
+        return cls(await open_serial_stream(uno.port, uno.baud), timeout)
 
     async def close(self) -> None:
         await self.stream.aclose()

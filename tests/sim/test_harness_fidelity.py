@@ -9,7 +9,9 @@ Each test has an oracle that failed on the harness before the fix:
   once could vanish;
 * an idle board woke the harness on every 100 us firmware tick; now it runs ahead in
   bounded slices, and 8 boards under pipelined load answer every command (whether they
-  also keep up with the wall clock depends on spare cores: ``benchmarks/harness_pacing.py``).
+  also keep up with the wall clock depends on spare cores: ``benchmarks/harness_pacing.py``);
+* a host that opened the port at another baud rate than the firmware's was answered as if
+  the rates matched; now, as on a real Uno, its bytes are lost both ways.
 
 Blocking pyserial calls run in worker threads (``anyio.to_thread``).
 """
@@ -25,6 +27,8 @@ import pytest
 import serial
 
 from arduinoio_async import protocol as proto
+from arduinoio_async.board import Board
+from arduinoio_async.errors import BoardTimeoutError
 from arduinoio_async.sim import VirtualUno, find_firmware_elf
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -38,9 +42,9 @@ pytestmark = pytest.mark.sim
 UCSR0B, RXEN0 = 0xC1, 0x10
 
 
-def _flood(port: str, data: bytes) -> int:
+def _flood(port: str, baud: int, data: bytes) -> int:
     """Write ``data`` at once from this thread while another drains the echoes."""
-    link = serial.Serial(port, timeout=2.0, write_timeout=60.0)
+    link = serial.Serial(port, baud, timeout=2.0, write_timeout=60.0)
     try:
         received = [0]
 
@@ -68,7 +72,7 @@ async def test_host_flood_is_back_pressured_not_dropped(
     """
     uno = await start_test_board(virtual_uno_factory, baud=1000000)
     data = bytes(i % 128 for i in range(40_000))
-    echoed = await anyio.to_thread.run_sync(_flood, uno.port, data)
+    echoed = await anyio.to_thread.run_sync(_flood, uno.port, uno.baud, data)
     status = await uno.status()
     print(
         f"\nflood: {status['bytes_from_host']} of {len(data)} bytes entered the UART, "
@@ -81,8 +85,8 @@ async def test_host_flood_is_back_pressured_not_dropped(
     assert status["bytes_to_host"] == echoed
 
 
-def _echo_bursts(port: str, size: int, repeats: int) -> None:
-    link = serial.Serial(port, timeout=2.0)
+def _echo_bursts(port: str, baud: int, size: int, repeats: int) -> None:
+    link = serial.Serial(port, baud, timeout=2.0)
     try:
         for r in range(repeats):
             burst = bytes((r + i) % 128 for i in range(size))
@@ -99,9 +103,9 @@ async def test_16u2_releases_on_the_97th_waiting_byte(
     always waits for the 4.096 ms tick, a 97-byte one (inside one tick) goes at once."""
     uno = await start_test_board(virtual_uno_factory, baud=1000000, usb_bridge="16u2")
     before = (await uno.status())["bridge_full_releases"]
-    await anyio.to_thread.run_sync(_echo_bursts, uno.port, 96, 8)
+    await anyio.to_thread.run_sync(_echo_bursts, uno.port, uno.baud, 96, 8)
     after_96 = (await uno.status())["bridge_full_releases"]
-    await anyio.to_thread.run_sync(_echo_bursts, uno.port, 97, 8)
+    await anyio.to_thread.run_sync(_echo_bursts, uno.port, uno.baud, 97, 8)
     after_97 = (await uno.status())["bridge_full_releases"]
     print(f"\nthreshold releases: 96-byte bursts {after_96 - before}, 97: {after_97 - after_96}")
     assert after_96 == before
@@ -110,8 +114,8 @@ async def test_16u2_releases_on_the_97th_waiting_byte(
     assert after_97 - after_96 >= 1
 
 
-def _request_at_once(port: str, request: bytes, reply_len: int) -> bytes:
-    link = serial.Serial(port, timeout=1.0)
+def _request_at_once(port: str, baud: int, request: bytes, reply_len: int) -> bytes:
+    link = serial.Serial(port, baud, timeout=1.0)
     try:
         link.write(request)
         return bytes(link.read(reply_len))
@@ -131,7 +135,9 @@ async def test_port_is_announced_once_the_receiver_is_on(
         else:
             uno = await start_test_board(virtual_uno_factory, baud=1000000)
             request, reply_len = b"\x41", 1
-        reply = await anyio.to_thread.run_sync(_request_at_once, uno.port, request, reply_len)
+        reply = await anyio.to_thread.run_sync(
+            _request_at_once, uno.port, uno.baud, request, reply_len
+        )
         assert len(reply) == reply_len, f"attempt {attempt}: request lost ({reply!r})"
         ucsr0b = (await uno.command("peek", addr=UCSR0B, length=1))["bytes"][0]
         assert ucsr0b & RXEN0
@@ -153,7 +159,9 @@ async def test_idle_board_runs_ahead_in_bounded_slices(
     assert max(leads) <= 2100  # RUNAHEAD: 2 ms (+ one 100 us tick)
     assert max(leads) > 200  # it does run ahead (the busy-link bound is 30 us)
     jumps = (await uno.status())["runahead_jumps"]
-    reply = await anyio.to_thread.run_sync(_request_at_once, uno.port, proto.ReadId().encode(), 5)
+    reply = await anyio.to_thread.run_sync(
+        _request_at_once, uno.port, uno.baud, proto.ReadId().encode(), 5
+    )
     status = await uno.status()
     assert proto.Decoder.from_board().feed(reply) == [proto.ReadIdReply(board_id=3)]
     assert status["runahead_jumps"] >= jumps
@@ -174,7 +182,7 @@ async def test_eight_boards_under_pipelined_load_answer_every_command(
     counts: list[int] = [0] * 8
 
     async def load(i: int, uno: VirtualUno) -> None:
-        counts[i] = await anyio.to_thread.run_sync(bursts, uno.port, 3.0, 8, 0.02)
+        counts[i] = await anyio.to_thread.run_sync(bursts, uno.port, uno.baud, 3.0, 8, 0.02)
 
     async with anyio.create_task_group() as tg:
         for i, uno in enumerate(unos):
@@ -187,3 +195,18 @@ async def test_eight_boards_under_pipelined_load_answer_every_command(
     )
     # bursts() raises on a missing or wrong reply; 150 bursts of 8 are due in 3 s
     assert all(count >= 8 * 149 for count in counts), counts
+
+
+async def test_a_host_at_another_baud_rate_gets_no_answer(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """The firmware's UART runs at 115200 (the paper's build); the host opens the port at
+    the library's default.  A real Uno's bridge would run at the host's rate and garble
+    every byte; the virtual Uno loses them and counts them."""
+    uno = await virtual_uno_factory(baud=proto.PAPER_BAUD, board_id=4)
+    with pytest.raises(BoardTimeoutError):
+        async with Board.open(uno.port, baudrate=proto.DEFAULT_BAUD, ready_timeout=0.5):
+            pass
+    assert (await uno.status())["baud_mismatch_bytes"] > 0
+    async with Board.open(uno.port, baudrate=proto.PAPER_BAUD) as board:
+        assert await board.read_id() == 4

@@ -35,7 +35,7 @@ async def _median_rtt(link: Link, n: int) -> float:
 @pytest.mark.parametrize("baud", [115200, 1000000])
 async def test_echo_round_trip(virtual_uno_factory: VirtualUnoFactory, baud: int) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=baud, board_id=0x0102)
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         rtt = await _median_rtt(link, 100)
         print(f"\necho round trip at {baud} baud, no USB bridge model: median {rtt:.0f} us")
@@ -49,7 +49,7 @@ async def test_echo_round_trip(virtual_uno_factory: VirtualUnoFactory, baud: int
 
 async def test_16u2_model_delays_replies_in_ticks(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=1000000, usb_bridge="16u2")
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         rtts = [await link.echo_rtt_us() for _ in range(40)]
         med = statistics.median(rtts)
@@ -86,7 +86,7 @@ async def test_pacing_keeps_up_with_pipelined_project_firmware(
     INT0/INT1 low-level poll (a cycle timer firing every cycle) running for good.
     """
     uno = await virtual_uno_factory(baud=1000000, board_id=1)
-    link = await Link.open(uno.port, timeout=2)
+    link = await Link.open(uno, timeout=2)
     try:
         await link.write(proto.GpioConfig(2, proto.GpioFlags.OUTPUT).encode())
         assert len(await link.read(5)) == 5
@@ -124,7 +124,7 @@ async def test_pacing_keeps_up_with_pipelined_project_firmware(
 
 async def test_loopback_fixture(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, fixture="loopback")
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         await link.pin_mode(9, 3)  # D9 output high drives D8
         await link.pin_mode(8, 0)
@@ -149,7 +149,7 @@ async def test_loopback_fixture(virtual_uno_factory: VirtualUnoFactory) -> None:
 @pytest.mark.parametrize("tolerance", [0.0, 5.0])
 async def test_r2r_fixture(virtual_uno_factory: VirtualUnoFactory, tolerance: float) -> None:
     uno = await start_test_board(virtual_uno_factory, fixture="r2r", r2r_tolerance=tolerance)
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         for b1 in (0, 1):
             for b0 in (0, 1):
@@ -178,7 +178,7 @@ async def test_auto_reset_on_open(virtual_uno_factory: VirtualUnoFactory) -> Non
 
     await poll_until(booted, "the first boot")
     before = await uno.status()
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         await link.write(b"lost")  # the "bootloader" swallows bytes
         assert await link.read(4, timeout=0.1) == b""
@@ -204,7 +204,7 @@ async def test_no_reset_on_open_by_default(virtual_uno_factory: VirtualUnoFactor
         return bool((await uno.status())["sim_us"] >= 300_000)
 
     await poll_until(ran_300_ms, "300 ms of simulated time")
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         assert await link.uptime_ms() > 250
     finally:
@@ -213,7 +213,7 @@ async def test_no_reset_on_open_by_default(virtual_uno_factory: VirtualUnoFactor
 
 async def test_unplug_and_replug(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, board_id=7)
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     old_port = uno.port
     try:
         await link.echo_rtt_us()
@@ -227,7 +227,7 @@ async def test_unplug_and_replug(virtual_uno_factory: VirtualUnoFactory) -> None
     new_port = await uno.replug()
     assert new_port == uno.port and new_port != old_port
     print(f"\nreplug: {old_port} -> {new_port}")
-    link = await Link.open(new_port)
+    link = await Link.open(uno)
     try:
         await link.wait_answering()  # bytes sent before the UART is enabled are lost
         await link.echo_rtt_us()
@@ -239,7 +239,7 @@ async def test_unplug_and_replug(virtual_uno_factory: VirtualUnoFactory) -> None
 
 async def test_faults_corrupt_at_roughly_the_rate(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=1000000, fault_drop=0.1, seed=42)
-    link = await Link.open(uno.port, timeout=0.05)
+    link = await Link.open(uno, timeout=0.05)
     sent = received = 0
     try:
         payload = bytes(range(0x20, 0x20 + 50))
@@ -266,7 +266,7 @@ async def test_faults_corrupt_at_roughly_the_rate(virtual_uno_factory: VirtualUn
 
 async def test_control_commands(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await start_test_board(virtual_uno_factory, baud=1000000, board_id=0xBEEF)
-    link = await Link.open(uno.port)
+    link = await Link.open(uno)
     try:
         assert await uno.eeprom(0, 2) == b"\xbe\xef"
         await uno.set_analog(3, 2500)
