@@ -53,7 +53,7 @@ __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_
      * reply on the stack): frame[1] holds rp->len until the DT goes there. */
     aio_reply_t *rp = (aio_reply_t *)(void *)(frame + 1);
     aio_handler_t h = handler(rq->ct);
-    uint8_t err, i, len, cs;
+    uint8_t err, len, i, cs, *p;
 
     failsafe_feed();
     rp->len = 0;
@@ -65,12 +65,13 @@ __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_
         err = h(rq, rp);
     if (err)
         return dispatch_error((uint8_t)(rq->ct | AIO_ERROR_FLAG), rq->dt, err, frame);
-    len = rp->len;
+    /* 8-bit pointer steps: the frame is at most AIO_FRAME_MAX bytes */
+    len = i = rp->len;
+    cs = (uint8_t)(rq->ct ^ rq->dt);
     frame[0] = rq->ct;
     frame[1] = rq->dt;
-    cs = (uint8_t)(rq->ct ^ rq->dt);
-    for (i = 0; i < len; i++)
-        cs ^= frame[2 + i];
-    frame[2 + len] = cs;
+    for (p = frame + 2; i; i--)
+        cs ^= *p++;
+    *p = cs;
     return (uint8_t)(len + 3u);
 }
