@@ -112,12 +112,16 @@ __attribute__((optimize("O2"))) uint8_t gpio_handle(const aio_request_t *rq, aio
 
     if (rq->dt != AIO_DT_GPIO_WRITE)
         return gpio_handle_other(rq, rp);
-    if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
-        return AIO_ERR_PIN_NOT_CAPABLE;
-    if (arg > 1)
-        return AIO_ERR_VALUE_OUT_OF_RANGE;
-    if (pins_role[pin] != ROLE_GPIO_OUT)
+    /* A pin holds ROLE_GPIO_OUT only if it is capable (pins_claim_check), so
+     * one test admits every good request; a refused one gets the checks in
+     * their order for its precise error. */
+    if (!(pin < PINS_COUNT && pins_role[pin] == ROLE_GPIO_OUT && arg <= 1)) {
+        if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
+            return AIO_ERR_PIN_NOT_CAPABLE;
+        if (arg > 1)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
         return AIO_ERR_PIN_NOT_CONFIGURED;
+    }
     hal_pin_write(pin, arg);
     rp->data[0] = pin; /* the echo, without aio_echo's loop */
     rp->data[1] = arg;
