@@ -47,6 +47,23 @@ static aio_handler_t handler(uint8_t ct)
     }
 }
 
+/* The short path for GPIO WRITE, the request a host pipelines most: no
+ * handler table, no generic framing.  Its reply echoes the request's pin and
+ * level, so the checksum is CT ^ DT ^ pin ^ level as for any reply. */
+_Static_assert(AIO_REPLY_LEN_GPIO_WRITE == 2u, "GPIO WRITE replies pin and level");
+static inline __attribute__((always_inline)) uint8_t gpio_write_reply(const aio_request_t *rq, uint8_t *frame)
+{
+    uint8_t err = gpio_write(rq), pin = rq->data[0], level = rq->data[1];
+    if (err)
+        return dispatch_error((uint8_t)(AIO_CT_GPIO | AIO_ERROR_FLAG), AIO_DT_GPIO_WRITE, err, frame);
+    frame[0] = AIO_CT_GPIO;
+    frame[1] = AIO_DT_GPIO_WRITE;
+    frame[2] = pin;
+    frame[3] = level;
+    frame[4] = (uint8_t)(AIO_CT_GPIO ^ AIO_DT_GPIO_WRITE ^ pin ^ level);
+    return 5u;
+}
+
 __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_t *frame)
 {
     /* The handler writes its reply data straight into the frame (no copy, no
@@ -56,6 +73,8 @@ __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_
     uint8_t err, len, i, cs, *p;
 
     failsafe_feed();
+    if (rq->ct == AIO_CT_GPIO && rq->dt == AIO_DT_GPIO_WRITE && !failsafe_tripped())
+        return gpio_write_reply(rq, frame);
     rp->len = 0;
     if (!h)
         err = AIO_ERR_UNKNOWN_CLASS; /* not reached: the parser checked the tags */
