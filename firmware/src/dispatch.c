@@ -69,12 +69,13 @@ __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_
     /* The handler writes its reply data straight into the frame (no copy, no
      * reply on the stack): frame[1] holds rp->len until the DT goes there. */
     aio_reply_t *rp = (aio_reply_t *)(void *)(frame + 1);
-    aio_handler_t h = handler(rq->ct);
+    aio_handler_t h;
     uint8_t err, len, i, cs, *p;
 
     failsafe_feed();
     if (rq->ct == AIO_CT_GPIO && rq->dt == AIO_DT_GPIO_WRITE && !failsafe_tripped())
         return gpio_write_reply(rq, frame);
+    h = handler(rq->ct);
     rp->len = 0;
     if (!h)
         err = AIO_ERR_UNKNOWN_CLASS; /* not reached: the parser checked the tags */

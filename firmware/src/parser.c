@@ -164,7 +164,7 @@ uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t coun
         *d++ = b;
         sum ^= b;
     }
-    if (sum != *f)
+    if (sum != ring[last])
         return 0;
     p->rq.ct = ct;
     p->rq.dt = dt;
