@@ -71,7 +71,7 @@ def symbols(elf: str) -> list[tuple[int, str]]:
     found = []
     for line in out.splitlines():
         fields = line.split()
-        if len(fields) == 3 and fields[1] in "tTwW" and int(fields[0], 16) < 0x800000:
+        if len(fields) == 3 and fields[1] in "tT" and int(fields[0], 16) < 0x800000:
             found.append((int(fields[0], 16), fields[2]))
     return found
 

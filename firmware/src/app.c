@@ -104,6 +104,9 @@ static void handle(uint8_t event)
  * inlined into it (flatten), which saves their calls and register saves
  * once per pipelined request. */
 static void answer_batch(uint8_t n) __attribute__((flatten, noinline, optimize("O2")));
+/* A RESET (MISC) is never quick, so it is always a batch of its own and the
+ * loop need not look for misc_reset_pending after each request. */
+_Static_assert(AIO_CT_MISC != AIO_CT_GPIO && AIO_CT_MISC < AIO_CT_PWM, "MISC is not quick (dispatch_quick)");
 static void answer_batch(uint8_t n)
 {
     hal_rx_view_t rx;
@@ -117,7 +120,7 @@ static void answer_batch(uint8_t n)
     do {
         hal_rx_consume(n);
         len = (uint8_t)(len + dispatch(&parser.rq, out + len));
-        if (!--batch || misc_reset_pending || (uint8_t)(room - len) < AIO_FRAME_MAX)
+        if (!--batch || (uint8_t)(room - len) < AIO_FRAME_MAX)
             break;
         rx = hal_rx_view();
         n = parser_take(&parser, rx.ring, rx.tail, rx.count);
