@@ -77,26 +77,23 @@ def symbols(elf: str) -> list[tuple[int, str]]:
 
 
 def profile(binary: Path, elf: str, n: int) -> dict[str, Any]:
-    """Cycles per pipelined command by function and by hottest address."""
+    """Cycles per pipelined command by function and at the hottest addresses."""
     result = run(binary, elf, "profile", str(n))
+    per_address = [(address, cycles / n) for address, cycles in result.pop("profile")]
     table = symbols(elf)
     by_function: dict[str, float] = {}
-    for address, cycles in result.pop("profile"):
+    for address, cycles in per_address:
         name = "?"
         for start, symbol in table:
             if start > address:
                 break
             name = symbol
-        by_function[name] = by_function.get(name, 0.0) + cycles / n
-    hottest = sorted(result_addresses(binary, elf, n), key=lambda item: -item[1])[:40]
-    result["by_function"] = dict(sorted(by_function.items(), key=lambda item: -item[1]))
+        by_function[name] = by_function.get(name, 0.0) + cycles
+    hottest = sorted(per_address, key=lambda item: -item[1])[:40]
+    ranked = sorted(by_function.items(), key=lambda item: -item[1])
+    result["by_function"] = {name: round(cycles, 2) for name, cycles in ranked}
     result["hottest"] = [[f"0x{address:04x}", round(cycles, 2)] for address, cycles in hottest]
     return result
-
-
-def result_addresses(binary: Path, elf: str, n: int) -> list[tuple[int, float]]:
-    result = run(binary, elf, "profile", str(n))
-    return [(address, cycles / n) for address, cycles in result["profile"]]
 
 
 def main() -> None:

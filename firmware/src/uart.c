@@ -4,7 +4,10 @@
  * RX: every byte goes from the interrupt into a FIFO of 128 bytes (a
  * 256-aligned ring of 256, so the 8-bit indices are address bytes); a full
  * FIFO or a hardware data overrun sets the overflow flag.  The parser reads
- * whole frames in place (hal_rx_view).
+ * whole frames in place (hal_rx_view).  The indices both interrupts use are
+ * kept in the general purpose I/O registers (RX_HEAD, RX_STOP, TX_TAIL
+ * below): at 2 Mbaud the two interrupts are half of the firmware's work per
+ * pipelined request.
  * TX: a 256-aligned ring holding at most AIO_TX_BUFFER_SIZE bytes, emptied by
  * the UDRE interrupt.  Producers (main loop and interrupts) reserve room for
  * a whole frame with interrupts disabled for a few cycles, copy it with
