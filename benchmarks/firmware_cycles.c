@@ -12,6 +12,10 @@
  *   firmware_cycles ELF writes N [WINDOW]   pipelined GPIO WRITE to D13
  *   firmware_cycles ELF pwm N WIDTH_US      soft PWM D2-D7 at WIDTH_US, N pipelined
  *                                           writes meanwhile (0: link idle, 200 ms)
+ *   firmware_cycles ELF profile N           as writes, plus the cycles spent at each
+ *                                           program address ("profile": [[byte address,
+ *                                           cycles], ...], interrupt entry counted at
+ *                                           the interrupted instruction, sleep apart)
  *   firmware_cycles ELF seq N               one request at a time (READ ID, then GPIO
  *                                           WRITE): cycles from reading the request's
  *                                           last byte from UDR0 to writing the first
@@ -37,6 +41,9 @@ static unsigned long reply_bytes;
 static int measuring;
 
 static void send(const uint8_t *b, int n);
+
+/* profile mode: cycles per program word while measuring */
+static uint64_t *profile;
 
 /* seq mode: UDR0 reads are watched (the UART module's own read handler is
  * wrapped, as the virtual Uno does) */
@@ -147,11 +154,15 @@ int main(int argc, char **argv)
     int window = 24, pwm = 0;
     uint64_t start, asleep = 0;
 
-    if (argc < 4 || (strcmp(argv[2], "writes") && strcmp(argv[2], "pwm") && strcmp(argv[2], "seq"))) {
-        fprintf(stderr, "usage: %s ELF writes N [WINDOW] | ELF pwm N WIDTH_US | ELF seq N\n", argv[0]);
+    if (argc < 4 || (strcmp(argv[2], "writes") && strcmp(argv[2], "pwm") && strcmp(argv[2], "seq") &&
+                      strcmp(argv[2], "profile"))) {
+        fprintf(stderr, "usage: %s ELF writes|profile N [WINDOW] | ELF pwm N WIDTH_US | ELF seq N\n",
+                argv[0]);
         return 2;
     }
     n = strtoul(argv[3], 0, 0);
+    if (!strcmp(argv[2], "profile"))
+        profile = calloc(32768 / 2, sizeof *profile);
     if (!strcmp(argv[2], "pwm"))
         pwm = argc > 4 ? atoi(argv[4]) : 1500;
     else if (argc > 4)
@@ -236,9 +247,12 @@ int main(int argc, char **argv)
             }
             int sleeping = avr->state == cpu_Sleeping;
             uint64_t c0 = avr->cycle;
+            avr_flashaddr_t pc = avr->pc;
             avr_run(avr);
             if (measuring && sleeping)
                 asleep += avr->cycle - c0;
+            else if (measuring && profile && pc < 32768)
+                profile[pc / 2] += avr->cycle - c0;
             if (avr->state == cpu_Done || avr->state == cpu_Crashed) {
                 fprintf(stderr, "the AVR stopped\n");
                 return 1;
@@ -264,6 +278,16 @@ int main(int argc, char **argv)
         printf(", \"pwm_us\": %d, \"pulses\": %lu, \"width_min_us\": %.3f, \"width_max_us\": %.3f, "
                "\"width_mean_us\": %.3f",
                pwm, count, count ? lo : 0.0, hi, count ? sum / count : 0.0);
+    }
+    if (profile) {
+        const char *sep = "";
+        printf(", \"profile\": [");
+        for (unsigned w = 0; w < 32768 / 2; w++)
+            if (profile[w]) {
+                printf("%s[%u, %llu]", sep, w * 2, (unsigned long long)profile[w]);
+                sep = ", ";
+            }
+        printf("]");
     }
     printf("}\n");
     return 0;

@@ -103,22 +103,42 @@ void gpio_release(uint8_t pin) { set_watch(pin, 0); }
 
 static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp) __attribute__((noinline));
 
-/* WRITE, the hot request, stays in a small function that saves few
- * registers; the other requests go to gpio_handle_other. */
+/* GPIO WRITE, the hot request, for gpio_handle and for the dispatcher's
+ * short path (gpio_write). */
+__attribute__((always_inline)) static inline uint8_t write_pin(uint8_t pin, uint8_t level)
+{
+    /* A pin holds ROLE_GPIO_OUT only if it is capable (pins_claim_check), so
+     * one test admits every good request; a refused one gets the checks in
+     * their order for its precise error. */
+    if (!(pin < PINS_COUNT && pins_role[pin] == ROLE_GPIO_OUT && level <= 1)) {
+        if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
+            return AIO_ERR_PIN_NOT_CAPABLE;
+        if (level > 1)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        return AIO_ERR_PIN_NOT_CONFIGURED;
+    }
+    hal_pin_write(pin, level);
+    return 0;
+}
+
+__attribute__((optimize("O2"))) uint8_t gpio_write(const aio_request_t *rq)
+{
+    return write_pin(rq->data[0], rq->data[1]);
+}
+
+/* WRITE stays in a small function that saves few registers; the other
+ * requests go to gpio_handle_other. */
 __attribute__((optimize("O2"))) uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
     uint8_t pin = rq->data[0];
     uint8_t arg = rq->data[1];
+    uint8_t err;
 
     if (rq->dt != AIO_DT_GPIO_WRITE)
         return gpio_handle_other(rq, rp);
-    if (!pins_capable(pin, AIO_PINS_DIGITAL_INPUT | AIO_PINS_DIGITAL_OUTPUT))
-        return AIO_ERR_PIN_NOT_CAPABLE;
-    if (arg > 1)
-        return AIO_ERR_VALUE_OUT_OF_RANGE;
-    if (pins_role[pin] != ROLE_GPIO_OUT)
-        return AIO_ERR_PIN_NOT_CONFIGURED;
-    hal_pin_write(pin, arg);
+    err = write_pin(pin, arg);
+    if (err)
+        return err;
     rp->data[0] = pin; /* the echo, without aio_echo's loop */
     rp->data[1] = arg;
     rp->len = 2;

@@ -139,9 +139,12 @@ uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t coun
 {
     const uint8_t *f = ring + tail;
     uint8_t *d = p->rq.data;
-    uint8_t ct, dt, e, data_len, i, b, sum;
+    uint8_t ct, dt, e, data_len, last, i, b, sum;
 
-    if (p->state != ST_IDLE || count < 3u || tail > HAL_RX_RING - 3u)
+    /* 8-bit arithmetic throughout (this runs once per pipelined request):
+     * `last`, the index of the checksum byte, is below `tail` when the frame
+     * would run across the end of the ring (tail <= 253, data_len <= 15). */
+    if (p->state != ST_IDLE || count < 3u || tail > (uint8_t)(HAL_RX_RING - 3u))
         return 0;
     ct = f[0];
     dt = f[1];
@@ -151,7 +154,8 @@ uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t coun
     if (!e || (e & 0x70u)) /* unknown, or with a variable part: byte by byte */
         return 0;
     data_len = e & 0x0Fu;
-    if (count < (uint8_t)(data_len + 3u) || tail > HAL_RX_RING - 3u - data_len)
+    last = (uint8_t)(tail + 2u + data_len);
+    if (count <= (uint8_t)(data_len + 2u) || last < tail)
         return 0;
     sum = (uint8_t)(ct ^ dt);
     f += 2;
@@ -160,7 +164,7 @@ uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t coun
         *d++ = b;
         sum ^= b;
     }
-    if (sum != *f)
+    if (sum != ring[last])
         return 0;
     p->rq.ct = ct;
     p->rq.dt = dt;

@@ -369,10 +369,21 @@ static void test_gpio(void)
     CHECK(B(2, 2, 0xFF), B(0x82, 2, AIO_ERR_PIN_NOT_CAPABLE));
     CHECK(B(2, 2, 8), B(0x82, 2, AIO_ERR_PIN_NOT_CONFIGURED));
     CHECK(B(2, 4, 0), B(0x82, 4, AIO_ERR_PIN_NOT_CAPABLE));
+    /* WRITE's refusals in their order: capability, value, role (its handler
+     * admits good requests with one test and checks the others one by one) */
+    CHECK(B(2, 3, 1, 2), B(0x82, 3, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 3, 14, 0), B(0x82, 3, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 3, 0xFF, 1), B(0x82, 3, AIO_ERR_PIN_NOT_CAPABLE));
+    CHECK(B(2, 3, 8, 2), B(0x82, 3, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(2, 3, 8, 1), B(0x82, 3, AIO_ERR_PIN_NOT_CONFIGURED));
+    CHECK(B(2, 3, 7, 0xFF), B(0x82, 3, AIO_ERR_VALUE_OUT_OF_RANGE)); /* an input */
+    CHECK(B(2, 3, 13, 1), B(2, 3, 13, 1));
+    EXPECT(fake_pin_level[13] == 1);
     /* one role per pin */
     CHECK(B(5, 1, 3, 0x05, 0xDC), B(5, 1, 3, 0x05, 0xDC));
     CHECK(B(2, 1, 3, 1), B(0x82, 1, AIO_ERR_PIN_BUSY));
     CHECK(B(2, 2, 3), B(0x82, 2, AIO_ERR_PIN_NOT_CONFIGURED));
+    CHECK(B(2, 3, 3, 1), B(0x82, 3, AIO_ERR_PIN_NOT_CONFIGURED)); /* a PWM pin */
     CHECK(B(2, 4, 3), B(2, 4, 3));
     CHECK(B(2, 1, 3, 1), B(2, 1, 3, 1));
     CHECK(B(2, 4, 3), B(2, 4, 3));
