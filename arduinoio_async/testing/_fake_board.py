@@ -317,7 +317,18 @@ class FakeBoard:
         return p.ErrorReply(request.LAYOUT.class_tag, request.LAYOUT.descriptor, code)
 
     def _reset(self, request: p.Reset) -> p.Frame:
+        self.reboot()
+        return p.ResetReply()
+
+    def reboot(self) -> None:
+        """A fresh boot (watchdog, power loss, the reset button): RAM state is gone, the
+        subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
         self._pins = {n: _Pin() for n in range(2, 14)}
+        self.counters = dict.fromkeys(self.counters, 0)
+        self.change_sequence = 0
+        with contextlib.suppress(anyio.WouldBlock):
+            while True:  # events still in the transmit buffer never leave it
+                self._changes_out.receive_nowait()
         self.pulses.clear()
         self.i2c_speed = None
         self.session = 0
@@ -329,7 +340,6 @@ class FakeBoard:
         self.failsafe.disarm()
         self.failsafe.safe.clear()
         self._booted = anyio.current_time()
-        return p.ResetReply()
 
     def _status(self, request: p.ReadStatus) -> p.Frame:
         flags = self.failsafe.status()
