@@ -118,6 +118,9 @@ class EventQueue(Generic[T]):
             self._unsubscribe = link.subscribe(self._on_event)
             self._stop_state = link.on_state_change(self._on_state)
 
+    def resubscribing(self) -> None:
+        """The watch is about to be subscribed again (after a reset or a replayed set-up)."""
+
     def restored(self, reply: p.Reply) -> None:
         """The board accepted the watch again with ``reply`` (a subclass may read it)."""
 

@@ -177,9 +177,9 @@ class CountReports(EventQueue[p.CounterReport]):
         self._last: int | None = None
         super().__init__(link, buffer)
 
-    def restart(self, session: int, link: Transport) -> None:
-        """After a reset the board counts from 0 again: no report counts as missed."""
-        super().restart(session, link)
+    def resubscribing(self) -> None:
+        """The counter's replayed set-up (after a reset, too) starts it at 0 again: the next
+        report is compared with nothing, so none counts as missed."""
         self._last = None
 
     def _on_event(self, event: p.Event) -> None:

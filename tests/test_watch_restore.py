@@ -226,3 +226,27 @@ async def test_a_watch_cancelled_during_the_restore_leaves_no_subscription_on_th
         assert (change.pin, change.sequence, d4_changes.restarts) == (4, 0, 1)
         assert len(board.watches) == 0
         assert await board.read_id() == board.board_id
+
+
+async def test_replaying_the_roles_without_a_reset_keeps_the_watches() -> None:
+    """A replayed set-up ends the pin's subscription on the board (GPIO CONFIG, COUNTER
+    CONFIG): ``board.restore()`` and re-arming the failsafe subscribe again, no restart."""
+    async with connected() as (board, fake):
+        counter = await board.counter(D2)
+        led = await board.digital_output(D5)
+        await board.arm_failsafe(1000, {led: False})
+        counts = []
+        async with board.gpio(D3).watch() as changes, counter.reports(every=2) as reports:
+            for again in (board.restore, fake.expire_failsafe, board.rearm_failsafe, None):
+                fake.drive(3, not fake.levels[3])
+                for _ in range(2):
+                    fake.drive(2, True)
+                    fake.drive(2, False)
+                with anyio.fail_after(2):
+                    await anext(changes)
+                    counts.append((await anext(reports)).count)
+                if again is not None:
+                    await again()
+        assert counts == [2, 2, 4, 2]  # a replayed counter set-up counts from 0; a trip not
+        assert changes.received == 4 and changes.restarts == changes.gaps == 0
+        assert reports.received == 4 and reports.missed == reports.restarts == 0

@@ -11,13 +11,17 @@ When the board is restored after a reset (:meth:`Board.adopt
 <arduinoio_async.board.Board.adopt>`, as the manager does on its own, or
 :meth:`Board.restore <arduinoio_async.board.Board.restore>` / ``reset(restore=True)``), the
 pin roles are replayed first, then :meth:`Watches.restore_on` sends each subscription's
-request again, so the caller's ``async for`` goes on:
+request again, so the caller's ``async for`` goes on.  (Replaying a pin's set-up ends its
+subscription on the board even without a reset, so every replay of the roles -- re-arming
+the failsafe after a trip too -- is followed by the watches.)
 
 * every queue is told first (:meth:`EventQueue.restart
   <arduinoio_async._event_queue.EventQueue.restart>`): its counts start afresh, as the
   board's sequence numbers do at boot, so the restart is not a gap of 65,000 events; its
   ``restarts`` counts the resets it lived through.  Events between the reset and the
   restore are unknown (the board was not watching) and in no count.
+* a counter's replayed set-up starts its count at 0: its queue expects no particular
+  next count (:meth:`EventQueue.resubscribing`);
 * a subscription the board refuses (the pin has another role now, or none) ends each of
   its queues with :class:`~arduinoio_async.errors.WatchLostError`: the iterator raises it
   after the buffered items, and a callback watch logs it and raises it at its block's end.
@@ -141,23 +145,25 @@ class Watches:
             queue.detach()
 
     async def restore_on(self, link: Transport) -> None:
-        """Subscribe again, on ``link``, everything the board forgot in a reset.
+        """Subscribe every watch again, on ``link``, after the pin roles were replayed.
 
-        Called after the pin roles were replayed (a watch needs its pin's role).  See the
-        module docstring for what the queues see.  A link error propagates with the rest
-        still pending; a refusal ends that subscription's queues with WatchLostError.
+        After a reset the board forgot them all; without one, the replayed set-up of a
+        pin (``board.restore()``, re-arming the failsafe) ended that pin's subscription
+        on the board all the same.  See the module docstring for what the queues see.  A
+        link error propagates with the rest still pending; a refusal ends that
+        subscription's queues with WatchLostError.
         """
         session = self._board.session
         async with self._lock:
-            pending = [
-                (key, sub) for key, sub in self._subscriptions.items() if sub.session != session
-            ]
+            subscriptions = list(self._subscriptions.items())
             # Every queue first: the board numbers events of all watched pins together, so
             # the first restored pin's events reach the others' queues too.
-            for _key, sub in pending:
+            for _key, sub in subscriptions:
                 for queue in sub.queues:
-                    queue.restart(session, link)
-            for key, sub in pending:
+                    if sub.session != session:
+                        queue.restart(session, link)
+                    queue.resubscribing()
+            for key, sub in subscriptions:
                 if all(queue.closed for queue in sub.queues):
                     sub.link, sub.session = None, session  # nobody follows it (link lost)
                     continue
@@ -167,10 +173,11 @@ class Watches:
                 except BoardError as exc:
                     self._lose(key, sub, exc)
                     continue
+                if sub.session != session:
+                    logger.info("%r: %s restored after a reset", self._board, sub.request)
                 sub.session = session
                 for queue in sub.queues:
                     queue.restored(reply)
-                logger.info("%r: %s restored after a reset", self._board, sub.request)
 
     def _lose(self, key: Hashable, sub: Subscription, refusal: BoardError) -> None:
         """The board refused ``sub`` after a reset: end its queues with WatchLostError."""
