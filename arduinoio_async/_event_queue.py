@@ -111,7 +111,7 @@ class EventQueue(Generic[T]):
             return
         self._restart_session = session
         self.restarts += 1
-        if link is not self._link and not self._detached:
+        if link is not self._link and not self._detached and self._closed is None:
             self.detach()
             self._detached = False
             self._link = link

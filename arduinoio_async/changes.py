@@ -250,7 +250,7 @@ class AnalogChanges(SequencedQueue[AnalogMove]):
         super().__init__(link, buffer, callback)
 
     def restored(self, reply: p.Reply) -> None:
-        """The board measured a new baseline when the watch was restored after a reset."""
+        """The board measured a new baseline when the watch was subscribed again."""
         if isinstance(reply, p.AnalogWatchReply):
             self.baseline = reply.value
 
