@@ -14,9 +14,10 @@ from contextlib import AsyncExitStack, asynccontextmanager
 from dataclasses import dataclass
 
 import anyio
+import anyio.lowlevel
 import pytest
 
-from arduinoio_async import A0, D2, D3
+from arduinoio_async import A0, D2, D3, D4, D5, D6, D7, D8
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.changes import AnalogChanges, ChangeStream, CountReports
@@ -139,3 +140,74 @@ async def test_a_watch_the_firmware_refuses_to_restore_ends_with_watch_lost_erro
         assert lost.value.request == p.GpioWatch(D3, True)
         assert "PIN_NOT_CONFIGURED" in lost.value.reason
         assert (await board.gpio(D3).read()).level is True  # the output role was restored
+
+
+async def test_many_concurrent_watches_and_a_watch_cancelled_during_the_restore(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """Ten blocks on five pins follow their changes through a watchdog reset, while an
+    eleventh block (D8) is cancelled as the restore runs: the board then watches D8 no
+    more (a D8 edge uses up no sequence number: the next D3 change has the next one)."""
+    uno = await virtual_uno_factory(board_id=24)
+    pins = (D3, D4, D5, D6, D7)
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        got: dict[int, list[tuple[bool, int]]] = {key: [] for key in range(2 * len(pins))}
+        entered = 0
+        all_in = anyio.Event()
+        before_reset = anyio.Event()
+        d8_in = anyio.Event()
+        d8_scope = anyio.CancelScope()
+
+        async def follow(key: int) -> None:
+            nonlocal entered
+            async with board.gpio(pins[key % len(pins)]).watch() as changes:
+                entered += 1
+                if entered == len(got):
+                    all_in.set()
+                async for change in changes:
+                    got[key].append((change.level, changes.restarts))
+                    if all(len(levels) >= 2 for levels in got.values()):
+                        before_reset.set()
+                    if len(got[key]) == 4:
+                        assert changes.gaps == 0
+                        return
+
+        async def watch_d8() -> None:
+            with d8_scope:
+                async with board.gpio(D8).watch():
+                    d8_in.set()
+                    await anyio.sleep_forever()
+
+        async def drive_all() -> None:
+            for pin in pins:
+                await uno.drive(pin.name, 1)
+                await uno.drive(pin.name, 0)
+
+        async def cancel_d8_during_the_restore() -> None:
+            with anyio.fail_after(10):
+                while not board.watches._lock.locked():
+                    await anyio.lowlevel.checkpoint()
+            d8_scope.cancel()
+
+        with anyio.fail_after(30):
+            async with anyio.create_task_group() as tg:
+                for key in got:
+                    tg.start_soon(follow, key)
+                tg.start_soon(watch_d8)
+                await all_in.wait()
+                await d8_in.wait()
+                await drive_all()
+                await before_reset.wait()
+                tg.start_soon(cancel_d8_during_the_restore)
+                await board.reset(restore=True)
+                await drive_all()
+        assert all(
+            levels == [(True, 0), (False, 0), (True, 1), (False, 1)] for levels in got.values()
+        ), got
+        assert board.watches.requests() == []
+        async with board.gpio(D3).watch() as changes:
+            await uno.drive("D8", 1)  # no longer watched: no event, no sequence number
+            await uno.drive("D3", 1)
+            with anyio.fail_after(5):
+                change = await anext(changes)
+        assert (change.pin, change.sequence) == (3, 2 * len(pins))
