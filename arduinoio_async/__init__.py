@@ -32,6 +32,7 @@ from .errors import (
     StaleHandleError,
     UsageError,
     ValueRangeError,
+    WatchLostError,
 )
 from .protocol.pins import (
     A0,
@@ -177,6 +178,7 @@ __all__ = [
     "UsageError",
     "ValueRangeError",
     "VirtualUno",
+    "WatchLostError",
     "__version__",
     "errors",
     "protocol",

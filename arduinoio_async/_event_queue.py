@@ -7,6 +7,11 @@ items and drops the **oldest** when its consumer falls behind (counted in
 :class:`BoardDisconnectedError` once the link closes.  A subclass decides which events
 are its own and what to count on them (sequence gaps, missed reports), then calls
 :meth:`_put`.
+
+A watch's queue outlives a reset of the board (:mod:`arduinoio_async.board.watches`
+subscribes it again): :meth:`EventQueue.restart` starts its counts afresh, as the board's
+numbering does at boot, and :attr:`EventQueue.restarts` counts the resets it lived
+through; a watch that could not be restored ends with :meth:`EventQueue.end`.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ from typing import TYPE_CHECKING, Generic, TypeVar
 import anyio
 
 from . import protocol as p
-from .errors import BoardDisconnectedError, ValueRangeError
+from .errors import BoardDisconnectedError, LinkError, ValueRangeError
 
 if TYPE_CHECKING:
     from .transport import LinkState, Transport
@@ -43,9 +48,17 @@ class EventQueue(Generic[T]):
         self.buffer_size = buffer
         self.received = 0
         self.dropped = 0
+        #: Resets of the board this queue's watch was restored through.  The events of
+        #: the time between a reset and the restore are unknown and in no other count:
+        #: the board was not watching.
+        self.restarts = 0
+        self._restart_session: int | None = None
         self._buffer: collections.deque[T] = collections.deque()
         self._arrived = anyio.Event()
         self._closed: BaseException | None = None
+        self._raised = False  # whether __anext__ has raised _closed to the consumer
+        self._link = link
+        self._detached = False
         self._unsubscribe = link.subscribe(self._on_event)
         self._stop_state = link.on_state_change(self._on_state)
 
@@ -61,9 +74,55 @@ class EventQueue(Generic[T]):
         self._arrived.set()
 
     def _on_state(self, state: LinkState) -> None:
-        if state.value == "closed":
+        if state.value == "closed" and self._closed is None:
             self._closed = BoardDisconnectedError(f"the link closed while watching {self.WHAT}")
             self._arrived.set()
+
+    @property
+    def closed(self) -> bool:
+        """True once iteration will end (after the buffered items): link lost or watch lost."""
+        return self._closed is not None
+
+    def end(self, error: BaseException) -> None:
+        """End iteration with ``error`` once the buffered items are consumed; stop listening."""
+        if self._closed is None:
+            self._closed = error
+        self._arrived.set()
+        self.detach()
+
+    def raise_unreported(self) -> None:
+        """Raise the error :meth:`end` gave, unless iteration raised it already.
+
+        For the end of a watch block: a callback watch never iterates, and its block is
+        where the caller learns that the watch was lost.
+        """
+        closed = self._closed
+        if closed is not None and not self._raised and not isinstance(closed, LinkError):
+            self._raised = True
+            raise closed
+
+    def restart(self, session: int, link: Transport) -> None:
+        """The board reset (its new boot is tagged ``session``) and the watch is being
+        subscribed again on ``link``: counts start afresh, as the board's do at boot.
+
+        Called once per boot however often a failing restore is retried.
+        """
+        if self._restart_session == session:
+            return
+        self._restart_session = session
+        self.restarts += 1
+        if link is not self._link and not self._detached and self._closed is None:
+            self.detach()
+            self._detached = False
+            self._link = link
+            self._unsubscribe = link.subscribe(self._on_event)
+            self._stop_state = link.on_state_change(self._on_state)
+
+    def resubscribing(self) -> None:
+        """The watch is about to be subscribed again (after a reset or a replayed set-up)."""
+
+    def restored(self, reply: p.Reply) -> None:
+        """The board accepted the watch again with ``reply`` (a subclass may read it)."""
 
     def __aiter__(self) -> EventQueue[T]:
         return self
@@ -71,6 +130,7 @@ class EventQueue(Generic[T]):
     async def __anext__(self) -> T:
         while not self._buffer:
             if self._closed is not None:
+                self._raised = True
                 raise self._closed
             self._arrived = anyio.Event()
             await self._arrived.wait()
@@ -81,7 +141,10 @@ class EventQueue(Generic[T]):
         return len(self._buffer)
 
     def detach(self) -> None:
-        """Stop listening to the link (the consumer is done)."""
+        """Stop listening to the link (the consumer is done); once is enough."""
+        if self._detached:
+            return
+        self._detached = True
         self._unsubscribe()
         self._stop_state()
 
@@ -107,6 +170,11 @@ class SequencedQueue(EventQueue[T]):
     def lost(self) -> int:
         """Items that never reached the consumer: sequence gaps plus buffer overflow."""
         return self.gaps + self.dropped
+
+    def restart(self, session: int, link: Transport) -> None:
+        """After a reset the board numbers from 0 again: the next number is no gap."""
+        super().restart(session, link)
+        self._expected = None
 
     def _count_gap(self, sequence: int) -> None:
         if self._expected is not None and sequence != self._expected:

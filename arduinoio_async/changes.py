@@ -18,8 +18,24 @@ frame time after it happened instead of one round trip after it asked.  The rule
 * A callback (:meth:`Gpio.on_change <arduinoio_async.handles.Gpio.on_change>`) runs on the
   link's reader for each change; an exception in it is logged and never reaches the link.
 
-The subscription ends with the ``watch`` block, a new configuration of the pin, its
-release, or a reset of the board (a reconnect does not restore it).
+The subscription ends with the ``watch`` block, a new configuration of the pin or its
+release.  **A reset of the board** (power loss, watchdog, brown-out, ``board.reset()``)
+forgets it on the board; the restore after the reset (the manager's, or
+``board.restore()`` / ``board.reset(restore=True)``) subscribes it again after the pin
+roles, and the ``async for`` goes on (:mod:`arduinoio_async.board.watches`):
+
+* the board numbers its events from 0 again after a boot: the queue starts its count
+  afresh, so the restart is no gap; ``restarts`` counts the resets the watch lived
+  through, and the changes between the reset and the restore are unknown (the board was
+  not watching) and in no count: read the pin after a restart if its level matters;
+* a counter counts from 0 again (its reports too: no report counts as ``missed``); an
+  analog watch takes the restore's measurement as its new :attr:`AnalogChanges.baseline`;
+* a watch the board refuses to restore (the pin has another role now, or none) ends its
+  iterator with :class:`~arduinoio_async.errors.WatchLostError` after the buffered
+  items; a callback watch logs it and its block raises it when it ends;
+* a replug (a new link) ends the watch with
+  :class:`~arduinoio_async.errors.BoardDisconnectedError`, as the link it listened to
+  is gone: start it again on the re-attached board.
 
 Analog channels (:class:`AnalogChanges`, ``board.analog(A0).watch(deadband=...)``) follow
 the same rules with their own sequence count: the board samples each watched channel from
@@ -34,20 +50,16 @@ with analog channels is refused (and a watch while one runs), with PIN_BUSY.
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import time
-import weakref
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
-
-import anyio
+from typing import TYPE_CHECKING
 
 from . import protocol as p
 from ._event_queue import EventQueue, SequencedQueue
-from .errors import ArduinoIOError, BoardError, UsageError, ValueRangeError
+from .errors import BoardError, ValueRangeError
 from .transport import Transport
 
 if TYPE_CHECKING:
@@ -122,18 +134,8 @@ class ChangeStream(SequencedQueue[Change]):
             self._deliver(Change.from_event(event, time.monotonic()))
 
 
-async def _end_watch(link: Transport, stop: p.Request[Any] | None, queue: EventQueue[Any]) -> None:
-    """Send ``stop`` (None: other watchers keep the board's subscription) and detach.
-
-    Shielded, so a cancelled block still unsubscribes; a failure means the link is gone or
-    the pin was reconfigured, and nothing is watched any more either way.
-    """
-    try:
-        if stop is not None:
-            with anyio.CancelScope(shield=True), contextlib.suppress(ArduinoIOError):
-                await link.request(stop)
-    finally:
-        queue.detach()
+def _name(pin: int) -> str:
+    return str(getattr(pin, "name", f"D{pin}"))
 
 
 @asynccontextmanager
@@ -143,21 +145,19 @@ async def watch_changes(
     buffer: int = DEFAULT_CHANGE_BUFFER,
     callback: Callable[[Change], None] | None = None,
 ) -> AsyncIterator[ChangeStream]:
-    """Subscribe ``pin`` (already a GPIO input) for the block; unsubscribe after it."""
-    link = board.link
-    stream = ChangeStream(link, pin, buffer, callback)
-    watchers = _watchers.setdefault(board, collections.Counter())
-    watchers[pin] += 1  # the board's subscription ends with the last watcher of the pin
-    try:
-        await board.request(p.GpioWatch(pin, True))
+    """Subscribe ``pin`` (already a GPIO input) for the block; the last block watching the
+    pin unsubscribes it.  Restored after a reset (:mod:`arduinoio_async.board.watches`);
+    a watch the board refuses to restore raises WatchLostError when its block ends."""
+    stream = ChangeStream(board.link, pin, buffer, callback)
+    async with board.watches.subscribe(
+        ("gpio", int(pin)),
+        p.GpioWatch(pin, True),
+        p.GpioWatch(pin, False),
+        stream,
+        conflict=lambda held: f"{_name(pin)} is already watched as {held}",
+    ):
         yield stream
-    finally:
-        watchers[pin] -= 1
-        await _end_watch(link, p.GpioWatch(pin, False) if not watchers[pin] else None, stream)
-
-
-#: Watchers per board and pin, so that one block's end keeps the others' subscription.
-_watchers: weakref.WeakKeyDictionary[Board, collections.Counter[int]] = weakref.WeakKeyDictionary()
+    stream.raise_unreported()
 
 
 class CountReports(EventQueue[p.CounterReport]):
@@ -177,6 +177,11 @@ class CountReports(EventQueue[p.CounterReport]):
         self._last: int | None = None
         super().__init__(link, buffer)
 
+    def resubscribing(self) -> None:
+        """The counter's replayed set-up (after a reset, too) starts it at 0 again: the next
+        report is compared with nothing, so none counts as missed."""
+        self._last = None
+
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.CounterReport) or event.pin != self.pin:
             return
@@ -194,13 +199,19 @@ async def watch_counter(
     """Reports of counter ``pin`` every ``every`` counts for the block."""
     if not 1 <= every <= 0xFFFF:
         raise ValueRangeError("counter report interval (counts)", every, "1-65535")
-    link = board.link
-    reports = CountReports(link, pin, every, buffer)
-    try:
-        await board.request(p.CounterWatch(pin, every))
+    reports = CountReports(board.link, pin, every, buffer)
+    async with board.watches.subscribe(
+        ("counter", int(pin)),
+        p.CounterWatch(pin, every),
+        p.CounterWatch(pin, 0),
+        reports,
+        conflict=lambda held: (
+            f"{_name(pin)} already reports every {getattr(held, 'every', '?')} counts on "
+            f"{board}: one interval per counter (end that block or use the same interval)"
+        ),
+    ):
         yield reports
-    finally:
-        await _end_watch(link, p.CounterWatch(pin, 0), reports)
+    reports.raise_unreported()
 
 
 @dataclass(frozen=True, slots=True)
@@ -238,6 +249,11 @@ class AnalogChanges(SequencedQueue[AnalogMove]):
         self.baseline: int | None = None
         super().__init__(link, buffer, callback)
 
+    def restored(self, reply: p.Reply) -> None:
+        """The board measured a new baseline when the watch was subscribed again."""
+        if isinstance(reply, p.AnalogWatchReply):
+            self.baseline = reply.value
+
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.AnalogChange):
             return
@@ -250,13 +266,6 @@ class AnalogChanges(SequencedQueue[AnalogMove]):
             )
 
 
-#: Watchers per board and channel with their deadband: blocks that agree share the board's
-#: watch, and the last one to end stops it.
-_analog_watchers: weakref.WeakKeyDictionary[Board, dict[int, tuple[int, int]]] = (
-    weakref.WeakKeyDictionary()
-)
-
-
 @asynccontextmanager
 async def watch_analog(
     board: Board,
@@ -265,37 +274,36 @@ async def watch_analog(
     buffer: int = DEFAULT_CHANGE_BUFFER,
     callback: Callable[[AnalogMove], None] | None = None,
 ) -> AsyncIterator[AnalogChanges]:
-    """Moves of ``channel`` by more than ``deadband`` counts for the block."""
+    """Moves of ``channel`` by more than ``deadband`` counts for the block.
+
+    Blocks that agree on the deadband share the board's watch, and the last one to end
+    stops it; restored after a reset like every watch."""
     if not 1 <= deadband <= p.ANALOG_MAX:
         raise ValueRangeError("analog deadband (ADC counts)", deadband, f"1-{p.ANALOG_MAX}")
-    watchers = _analog_watchers.setdefault(board, {})
-    count, watched_band = watchers.get(channel, (0, deadband))
-    if watched_band != deadband:
-        raise UsageError(
-            f"{channel.name} is already watched with deadband {watched_band} on {board}: "
-            f"one deadband per channel (end that watch or use the same deadband)"
-        )
-    link = board.link
-    stream = AnalogChanges(link, channel, buffer, callback)
-    watchers[channel] = (count + 1, deadband)
+    stream = AnalogChanges(board.link, channel, buffer, callback)
+    subscription = board.watches.subscribe(
+        ("analog", int(channel)),
+        p.AnalogWatch(channel, deadband),
+        p.AnalogWatch(channel, 0),
+        stream,
+        conflict=lambda held: (
+            f"{channel.name} is already watched with deadband {getattr(held, 'deadband', '?')} "
+            f"on {board}: one deadband per channel (end that watch or use the same deadband)"
+        ),
+    )
     try:
-        try:
-            reply = await board.request(p.AnalogWatch(channel, deadband))
-        except BoardError as exc:
-            if getattr(exc.code, "name", "") != "PIN_BUSY":
-                raise
-            raise BoardError(
-                exc.code,
-                exc.request,
-                "the ADC belongs to a running stream with analog channels (stop it first), "
-                "or A4/A5 to the I2C bus",
-            ) from exc
+        reply = await subscription.__aenter__()
+    except BoardError as exc:
+        if getattr(exc.code, "name", "") != "PIN_BUSY":
+            raise
+        raise BoardError(
+            exc.code,
+            exc.request,
+            "the ADC belongs to a running stream with analog channels (stop it first), "
+            "or A4/A5 to the I2C bus",
+        ) from exc
+    async with contextlib.AsyncExitStack() as stack:
+        stack.push_async_exit(subscription)
         stream.baseline = reply.value
         yield stream
-    finally:
-        left = watchers[channel][0] - 1
-        if left:
-            watchers[channel] = (left, deadband)
-        else:
-            del watchers[channel]
-        await _end_watch(link, p.AnalogWatch(channel, 0) if not left else None, stream)
+    stream.raise_unreported()

@@ -39,6 +39,7 @@ __all__ = [
     "StaleHandleError",
     "UsageError",
     "ValueRangeError",
+    "WatchLostError",
 ]
 
 
@@ -200,6 +201,22 @@ class LinkCapacityError(BoardError):
 
 class FailsafeTrippedError(BoardError):
     """The link watchdog fired; outputs are in their safe states until it is re-armed."""
+
+
+class WatchLostError(ArduinoIOError):
+    """A watch (change events, counter reports, analog moves) was not restored after the
+    board reset, so no further event will come: its iterator ends with this error.
+
+    ``request`` is the watch request the restore sent; ``reason`` says why it failed (the
+    board's refusal: the pin has another role now, or none).
+    """
+
+    def __init__(self, request: object, reason: str) -> None:
+        self.request = request
+        self.reason = reason
+        super().__init__(
+            f"the board reset and {describe_request(request)} could not be restored: {reason}"
+        )
 
 
 # --- the link failed ------------------------------------------------------------------------

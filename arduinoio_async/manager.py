@@ -290,6 +290,11 @@ class BoardManager:
         if ports:
             raise DuplicateBoardError(board_id, ports)
 
+    def _wake(self) -> None:
+        """Wake every waiter (wait_connected) to look at the boards again."""
+        changed, self._changed = self._changed, anyio.Event()
+        changed.set()
+
     def _emit(self, event: ManagerEvent) -> None:
         logger.info(
             "board 0x%04X %s on %s%s",
@@ -298,8 +303,7 @@ class BoardManager:
             event.port,
             f" ({event.detail})" if event.detail else "",
         )
-        changed, self._changed = self._changed, anyio.Event()
-        changed.set()
+        self._wake()
         for callback in list(self._listeners):
             try:
                 callback(event)
@@ -409,6 +413,7 @@ class BoardManager:
         async def restore_after_reset() -> None:
             self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
             await board.adopt(link)
+            self._wake()  # connected again: wait_connected() returns
 
         async def rearm_after_trip() -> None:
             self._emit(ManagerEvent("failsafe", board.board_id, link.name, "re-arming"))

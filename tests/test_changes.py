@@ -12,7 +12,7 @@ import pytest
 from arduinoio_async import D2, D3, D5, D7
 from arduinoio_async import protocol as p
 from arduinoio_async.changes import Change
-from arduinoio_async.errors import BoardError
+from arduinoio_async.errors import BoardError, UsageError
 
 from .fake_boards import connected
 
@@ -177,3 +177,20 @@ async def test_a_watched_counter_reports_every_n_counts() -> None:
         fake.drive(2, True)  # the block ended the watch: no report follows
         assert await counter.read() == 8
         assert reports.received == 2
+
+
+async def test_report_blocks_of_one_counter_share_the_board_watch_and_one_interval() -> None:
+    async with connected() as (board, fake):
+        counter = await board.counter(D2)
+        async with counter.reports(every=2) as outer:
+            async with counter.reports(every=2):
+                pass  # its end must not end the outer block's reports
+            with pytest.raises(UsageError, match="every 2 counts"):
+                async with counter.reports(every=3):
+                    pass
+            for _ in range(2):
+                fake.drive(2, True)
+                fake.drive(2, False)
+            with anyio.fail_after(2):
+                assert (await anext(outer)).count == 2
+        assert len(board.watches) == 0

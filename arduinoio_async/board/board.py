@@ -52,6 +52,7 @@ from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_strea
 from ..transport._ready import wait_ready
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
+from .watches import Watches
 
 __all__ = ["READY_TIMEOUT", "Board"]
 
@@ -82,6 +83,8 @@ class Board:
         self.session_found = 0
         #: Low-latency mode as this library last set it (replayed after a reset).
         self.low_latency = False
+        #: The change, counter and analog watches, restored after a reset with the roles.
+        self.watches = Watches(self)
         self._failsafe = Failsafe(self)
         self._failsafe.listen(link)
 
@@ -281,7 +284,7 @@ class Board:
             gpio.released = True
 
     async def restore(self) -> None:
-        """Replay every pin role and the I2C speed on a board that has lost them."""
+        """Replay every pin role, the I2C speed and the watches on a board that reset."""
         await self._restore_on(self.link)
 
     async def _restore_on(self, link: Transport) -> None:
@@ -289,6 +292,7 @@ class Board:
             await link.request(setup)
         if self.low_latency:
             await link.request(p.SetLowLatency(True))
+        await self.watches.restore_on(link)  # after the roles: a watch needs its pin's role
 
     async def set_low_latency(self, enabled: bool = True) -> None:
         """Ask the board to pad each burst of replies with filler bytes (an extension).
@@ -417,8 +421,9 @@ class Board:
     async def reset(self, *, restore: bool = False, deadline: float = READY_TIMEOUT) -> None:
         """Reset the board through its watchdog and wait until it answers again.
 
-        Pin roles are lost on the board; the local records are kept, and with
-        ``restore=True`` (or a later :meth:`restore`) they are set up again.
+        Pin roles and watches are lost on the board; the local records are kept, and with
+        ``restore=True`` (or a later :meth:`restore`) they are set up again (a watch's
+        ``async for`` waits meanwhile).
         """
         await self.request(p.Reset())
         await self.wait_rebooted(deadline=deadline)

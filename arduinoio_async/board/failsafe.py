@@ -150,6 +150,7 @@ class Failsafe:
         if restore:
             for setup in self.board.roles.setups():
                 await link.request(setup)
+            await self.board.watches.restore_on(link)  # a replayed set-up ended them
 
     # ---- keepalive ---------------------------------------------------------------------
 

@@ -17,9 +17,17 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
-from ..protocol.pins import Function, pin_mask
 from ..transport import MemoryByteStream, memory_link
 from ._faults import Faults, corrupt
+from ._peripherals import (
+    DIGITAL,
+    INPUT,
+    PULSE,
+    PeripheralModels,
+    PinModel,
+    check_pulse,
+    has,
+)
 from ._timed import FailsafeModel, StreamModel
 
 __all__ = ["FakeBoard"]
@@ -27,32 +35,11 @@ __all__ = ["FakeBoard"]
 E = p.ErrorCode
 
 
-_DIGITAL = pin_mask(Function.DIGITAL_OUTPUT)
-_SOFT_PWM = pin_mask(Function.SOFT_PWM)
-_SERVO = pin_mask(Function.SERVO_PWM)
-_COUNTER = pin_mask(Function.COUNTER)
-_INPUT = pin_mask(Function.DIGITAL_INPUT)
 _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
-def _has(mask: int, pin: int) -> bool:
-    return 0 <= pin < 16 and bool(mask & (1 << pin))
-
-
 @dataclass
-class _Pin:
-    role: str = "free"  # free | input | output | pwm | counter
-    pull_up: bool = False
-    rose: bool = False
-    fell: bool = False
-    edge: p.Edge = p.Edge.RISING  # what a counter on this pin counts
-    watched: bool = False  # GpioWatch: its changes are sent as GpioChange events
-    report_every: int = 0  # CounterWatch: a CounterReport every this many counts
-    since_report: int = 0
-
-
-@dataclass
-class FakeBoard:
+class FakeBoard(PeripheralModels):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -82,7 +69,7 @@ class FakeBoard:
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
-        self._pins = {n: _Pin() for n in range(2, 14)}
+        self._pins = {n: PinModel() for n in range(2, 14)}
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
@@ -209,7 +196,7 @@ class FakeBoard:
         except anyio.WouldBlock:
             self.changes_dropped += 1  # its sequence number is used up, as on the board
 
-    def _report_count(self, pin: int, state: _Pin) -> None:
+    def _report_count(self, pin: int, state: PinModel) -> None:
         state.since_report += 1
         if state.since_report < state.report_every:
             return
@@ -312,12 +299,19 @@ class FakeBoard:
 
     # ---- command models ----------------------------------------------------------------------
 
-    @staticmethod
-    def _error(request: p.Frame, code: p.ErrorCode) -> p.ErrorReply:
-        return p.ErrorReply(request.LAYOUT.class_tag, request.LAYOUT.descriptor, code)
-
     def _reset(self, request: p.Reset) -> p.Frame:
-        self._pins = {n: _Pin() for n in range(2, 14)}
+        self.reboot()
+        return p.ResetReply()
+
+    def reboot(self) -> None:
+        """A fresh boot (watchdog, power loss, the reset button): RAM state is gone, the
+        subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
+        self._pins = {n: PinModel() for n in range(2, 14)}
+        self.counters = dict.fromkeys(self.counters, 0)
+        self.change_sequence = 0
+        with contextlib.suppress(anyio.WouldBlock):
+            while True:  # events still in the transmit buffer never leave it
+                self._changes_out.receive_nowait()
         self.pulses.clear()
         self.i2c_speed = None
         self.session = 0
@@ -329,7 +323,6 @@ class FakeBoard:
         self.failsafe.disarm()
         self.failsafe.safe.clear()
         self._booted = anyio.current_time()
-        return p.ResetReply()
 
     def _status(self, request: p.ReadStatus) -> p.Frame:
         flags = self.failsafe.status()
@@ -372,7 +365,7 @@ class FakeBoard:
         return p.SetSessionReply(request.session)
 
     def _gpio_config(self, request: p.GpioConfig) -> p.Frame:
-        if not _has(_DIGITAL, request.pin):
+        if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role not in ("free", "input", "output"):
@@ -394,7 +387,7 @@ class FakeBoard:
         return p.GpioConfigReply(request.pin, request.flags)
 
     def _gpio_read(self, request: p.GpioRead) -> p.Frame:
-        if not _has(_DIGITAL, request.pin):
+        if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role not in ("input", "output"):
@@ -406,7 +399,7 @@ class FakeBoard:
         return p.GpioReadReply(request.pin, state)
 
     def _gpio_write(self, request: p.GpioWrite) -> p.Frame:
-        if not _has(_DIGITAL, request.pin):
+        if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if self._pins[request.pin].role != "output":
             return self._error(request, E.PIN_NOT_CONFIGURED)
@@ -414,7 +407,7 @@ class FakeBoard:
         return p.GpioWriteReply(request.pin, request.value)
 
     def _gpio_watch(self, request: p.GpioWatch) -> p.Frame:
-        if not _has(_DIGITAL, request.pin):
+        if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role != "input":
@@ -440,9 +433,9 @@ class FakeBoard:
         return p.TransactionReply(bytes(results))
 
     def _release(self, request: p.PinRelease) -> p.Frame:
-        if not _has(_DIGITAL, request.pin):
+        if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
-        self._pins[request.pin] = _Pin()
+        self._pins[request.pin] = PinModel()
         self.pulses.pop(request.pin, None)
         return p.PinReleaseReply(request.pin)
 
@@ -469,89 +462,6 @@ class FakeBoard:
         else:
             self._analog_watches.pop(channel, None)
         return p.AnalogWatchReply(channel, deadband, self.analog[channel])
-
-    def _i2c_config(self, request: p.I2CConfig) -> p.Frame:
-        self.i2c_speed = request.speed
-        return p.I2CConfigReply(request.speed)
-
-    def _i2c_device(self, request: p.I2CRead | p.I2CWrite) -> bytearray | p.ErrorReply:
-        if self.i2c_speed is None:
-            return self._error(request, E.I2C_NOT_CONFIGURED)
-        if request.address > 0x7F:
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
-        device = self.i2c_devices.get(request.address)
-        return device if device is not None else self._error(request, E.I2C_NACK_ADDRESS)
-
-    def _i2c_read(self, request: p.I2CRead) -> p.Frame:
-        device = self._i2c_device(request)
-        if isinstance(device, p.ErrorReply):
-            return device
-        if not 1 <= request.length <= p.I2C_MAX_LENGTH:
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
-        data = bytes(device[(request.register + i) % 256] for i in range(request.length))
-        return p.I2CReadReply(request.address, request.register, data)
-
-    def _i2c_write(self, request: p.I2CWrite) -> p.Frame:
-        device = self._i2c_device(request)
-        if isinstance(device, p.ErrorReply):
-            return device
-        for i, byte in enumerate(request.data):
-            device[(request.register + i) % 256] = byte
-        return p.I2CWriteReply(request.address, request.register, len(request.data))
-
-    def _pwm(self, request: p.PwmConfig | p.PwmSet) -> p.Frame:
-        pin, pulse = request.pin, request.pulse_us
-        soft = _has(_SOFT_PWM, pin)
-        if not (soft or _has(_SERVO, pin)):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        state = self._pins[pin]
-        if isinstance(request, p.PwmConfig):
-            if state.role not in ("free", "pwm"):
-                return self._error(request, E.PIN_BUSY)
-        elif state.role != "pwm":
-            return self._error(request, E.PIN_NOT_CONFIGURED)
-        error = _check_pulse(pin, pulse)
-        if error is not None:
-            return self._error(request, error)
-        state.role = "pwm"
-        self.pulses[pin] = pulse
-        if isinstance(request, p.PwmConfig):
-            return p.PwmConfigReply(pin, pulse)
-        return p.PwmSetReply(pin, pulse)
-
-    def _counter_config(self, request: p.CounterConfig) -> p.Frame:
-        if not _has(_COUNTER, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        state = self._pins[request.pin]
-        if state.role not in ("free", "counter"):
-            return self._error(request, E.PIN_BUSY)
-        if int(request.edge) not in (p.Edge.FALLING, p.Edge.RISING):
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
-        state.role = "counter"
-        state.edge = p.Edge(request.edge)
-        state.report_every = state.since_report = 0  # a new configuration ends a watch
-        self.counters[request.pin] = 0
-        return p.CounterConfigReply(request.pin, request.edge)
-
-    def _counter_read(self, request: p.CounterRead | p.CounterReset) -> p.Frame:
-        if not _has(_COUNTER, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self._pins[request.pin].role != "counter":
-            return self._error(request, E.PIN_NOT_CONFIGURED)
-        count = self.counters[request.pin]
-        if isinstance(request, p.CounterReset):
-            self.counters[request.pin] = 0
-            return p.CounterResetReply(request.pin, count)
-        return p.CounterReadReply(request.pin, count)
-
-    def _counter_watch(self, request: p.CounterWatch) -> p.Frame:
-        if not _has(_COUNTER, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        state = self._pins[request.pin]
-        if state.role != "counter":
-            return self._error(request, E.PIN_NOT_CONFIGURED)
-        state.report_every, state.since_report = request.every, 0
-        return p.CounterWatchReply(request.pin, request.every)
 
     # ---- extensions: stream and failsafe ----------------------------------------------------
 
@@ -588,7 +498,7 @@ class FakeBoard:
                     return
 
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
-        levels = sum(1 << n for n, high in enumerate(self.levels) if high and _has(_INPUT, n))
+        levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
         return self.stream.sample(request, self.analog, levels, self.counters, board_us)
 
@@ -600,9 +510,9 @@ class FakeBoard:
         pin = request.pin
         error = self.failsafe.set_safe_state(
             request,
-            digital=_has(_DIGITAL, pin),
-            pulse_capable=_has(_SOFT_PWM | _SERVO, pin),
-            check_pulse=_check_pulse,
+            digital=has(DIGITAL, pin),
+            pulse_capable=has(PULSE, pin),
+            check_pulse=check_pulse,
         )
         if error is not None:
             return self._error(request, error)
@@ -674,11 +584,3 @@ def _changes_output(request: p.Frame) -> bool:
     if tag == p.ClassTag.GPIO:
         return not isinstance(request, p.GpioRead | p.GpioWatch)
     return tag == p.ClassTag.PWM
-
-
-def _check_pulse(pin: int, pulse: int) -> p.ErrorCode | None:
-    """The firmware's pulse-width rule: 0 (off) or the servo range, soft PWM in steps."""
-    valid = pulse == 0 or p.PULSE_MIN_US <= pulse <= p.PULSE_MAX_US
-    if not valid or (_has(_SOFT_PWM, pin) and pulse % p.SOFT_PWM_STEP_US):
-        return E.VALUE_OUT_OF_RANGE
-    return None

@@ -1,0 +1,158 @@
+"""The fake board's peripherals: pin state, and the I2C, PWM and counter command models.
+
+Split from :mod:`._fake_board` by idea: these handlers follow the firmware's checks for
+one peripheral each and touch only the state declared on :class:`PeripheralModels`;
+the board's link, events and timers stay in the fake board itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .. import protocol as p
+from ..protocol.pins import Function, pin_mask
+
+__all__ = [
+    "COUNTER",
+    "DIGITAL",
+    "INPUT",
+    "PULSE",
+    "SERVO",
+    "SOFT_PWM",
+    "PeripheralModels",
+    "PinModel",
+    "check_pulse",
+    "has",
+]
+
+E = p.ErrorCode
+
+DIGITAL = pin_mask(Function.DIGITAL_OUTPUT)
+SOFT_PWM = pin_mask(Function.SOFT_PWM)
+SERVO = pin_mask(Function.SERVO_PWM)
+PULSE = SOFT_PWM | SERVO
+COUNTER = pin_mask(Function.COUNTER)
+INPUT = pin_mask(Function.DIGITAL_INPUT)
+
+
+def has(mask: int, pin: int) -> bool:
+    return 0 <= pin < 16 and bool(mask & (1 << pin))
+
+
+@dataclass
+class PinModel:
+    """One digital pin as the firmware keeps it (a reset makes a fresh one)."""
+
+    role: str = "free"  # free | input | output | pwm | counter
+    pull_up: bool = False
+    rose: bool = False
+    fell: bool = False
+    edge: p.Edge = p.Edge.RISING  # what a counter on this pin counts
+    watched: bool = False  # GpioWatch: its changes are sent as GpioChange events
+    report_every: int = 0  # CounterWatch: a CounterReport every this many counts
+    since_report: int = 0
+
+
+class PeripheralModels:
+    """The I2C bridge, the pulse outputs and the counters (mixed into the FakeBoard)."""
+
+    _pins: dict[int, PinModel]
+    pulses: dict[int, int]
+    counters: dict[int, int]
+    i2c_speed: p.I2CSpeed | None
+    i2c_devices: dict[int, bytearray]
+
+    @staticmethod
+    def _error(request: p.Frame, code: p.ErrorCode) -> p.ErrorReply:
+        return p.ErrorReply(request.LAYOUT.class_tag, request.LAYOUT.descriptor, code)
+
+    def _i2c_config(self, request: p.I2CConfig) -> p.Frame:
+        self.i2c_speed = request.speed
+        return p.I2CConfigReply(request.speed)
+
+    def _i2c_device(self, request: p.I2CRead | p.I2CWrite) -> bytearray | p.ErrorReply:
+        if self.i2c_speed is None:
+            return self._error(request, E.I2C_NOT_CONFIGURED)
+        if request.address > 0x7F:
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        device = self.i2c_devices.get(request.address)
+        return device if device is not None else self._error(request, E.I2C_NACK_ADDRESS)
+
+    def _i2c_read(self, request: p.I2CRead) -> p.Frame:
+        device = self._i2c_device(request)
+        if isinstance(device, p.ErrorReply):
+            return device
+        if not 1 <= request.length <= p.I2C_MAX_LENGTH:
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        data = bytes(device[(request.register + i) % 256] for i in range(request.length))
+        return p.I2CReadReply(request.address, request.register, data)
+
+    def _i2c_write(self, request: p.I2CWrite) -> p.Frame:
+        device = self._i2c_device(request)
+        if isinstance(device, p.ErrorReply):
+            return device
+        for i, byte in enumerate(request.data):
+            device[(request.register + i) % 256] = byte
+        return p.I2CWriteReply(request.address, request.register, len(request.data))
+
+    def _pwm(self, request: p.PwmConfig | p.PwmSet) -> p.Frame:
+        pin, pulse = request.pin, request.pulse_us
+        soft = has(SOFT_PWM, pin)
+        if not (soft or has(SERVO, pin)):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        state = self._pins[pin]
+        if isinstance(request, p.PwmConfig):
+            if state.role not in ("free", "pwm"):
+                return self._error(request, E.PIN_BUSY)
+        elif state.role != "pwm":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        error = check_pulse(pin, pulse)
+        if error is not None:
+            return self._error(request, error)
+        state.role = "pwm"
+        self.pulses[pin] = pulse
+        if isinstance(request, p.PwmConfig):
+            return p.PwmConfigReply(pin, pulse)
+        return p.PwmSetReply(pin, pulse)
+
+    def _counter_config(self, request: p.CounterConfig) -> p.Frame:
+        if not has(COUNTER, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        state = self._pins[request.pin]
+        if state.role not in ("free", "counter"):
+            return self._error(request, E.PIN_BUSY)
+        if int(request.edge) not in (p.Edge.FALLING, p.Edge.RISING):
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        state.role = "counter"
+        state.edge = p.Edge(request.edge)
+        state.report_every = state.since_report = 0  # a new configuration ends a watch
+        self.counters[request.pin] = 0
+        return p.CounterConfigReply(request.pin, request.edge)
+
+    def _counter_read(self, request: p.CounterRead | p.CounterReset) -> p.Frame:
+        if not has(COUNTER, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        if self._pins[request.pin].role != "counter":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        count = self.counters[request.pin]
+        if isinstance(request, p.CounterReset):
+            self.counters[request.pin] = 0
+            return p.CounterResetReply(request.pin, count)
+        return p.CounterReadReply(request.pin, count)
+
+    def _counter_watch(self, request: p.CounterWatch) -> p.Frame:
+        if not has(COUNTER, request.pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        state = self._pins[request.pin]
+        if state.role != "counter":
+            return self._error(request, E.PIN_NOT_CONFIGURED)
+        state.report_every, state.since_report = request.every, 0
+        return p.CounterWatchReply(request.pin, request.every)
+
+
+def check_pulse(pin: int, pulse: int) -> p.ErrorCode | None:
+    """The firmware's pulse-width rule: 0 (off) or the servo range, soft PWM in steps."""
+    valid = pulse == 0 or p.PULSE_MIN_US <= pulse <= p.PULSE_MAX_US
+    if not valid or (has(SOFT_PWM, pin) and pulse % p.SOFT_PWM_STEP_US):
+        return E.VALUE_OUT_OF_RANGE
+    return None
