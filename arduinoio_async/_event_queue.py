@@ -124,6 +124,9 @@ class EventQueue(Generic[T]):
     def restored(self, reply: p.Reply) -> None:
         """The board accepted the watch again with ``reply`` (a subclass may read it)."""
 
+    def stopped(self, reply: p.Reply) -> None:
+        """The board ended the subscription with ``reply`` (a subclass may read it)."""
+
     def __aiter__(self) -> EventQueue[T]:
         return self
 

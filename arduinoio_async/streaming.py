@@ -11,6 +11,12 @@ consumer.  Nothing is lost silently:
   (a controller wants the newest data) and counted in :attr:`SampleStream.dropped`;
 * when the stream stops, the board's ``next_sequence`` reveals samples that were sent but
   never arrived.
+
+A stream is one of the board's watches (:mod:`arduinoio_async.board.watches`): a reset
+of the board forgets it, and restoring the board starts it again with the same layout
+(the sequence numbers start at 0 again, counted in :attr:`SampleStream.restarts`, not as
+a gap).  The board runs one stream: blocks asking for the same layout share it, another
+layout is refused with :class:`UsageError` while it runs.
 """
 
 from __future__ import annotations
@@ -18,16 +24,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import AsyncIterator, Sequence
-from contextlib import asynccontextmanager
+from contextlib import AsyncExitStack, asynccontextmanager
 from dataclasses import dataclass
-
-import anyio
+from typing import TYPE_CHECKING, Any
 
 from . import protocol as p
 from ._event_queue import SequencedQueue
-from .errors import ArduinoIOError, LinkCapacityError, ValueRangeError
+from .errors import LinkCapacityError, ValueRangeError
 from .protocol.pins import AnalogPin, DigitalPin, Function, require
 from .transport import Transport
+
+if TYPE_CHECKING:
+    from .board import Board
 
 __all__ = ["DEFAULT_BUFFER", "Sample", "SampleStream", "run_stream", "stream_request"]
 
@@ -130,42 +138,53 @@ class SampleStream(SequencedQueue[Sample]):
         self._count_gap(sample.sequence)
         self._put(sample)
 
-    def finish(self, next_sequence: int) -> None:
+    def stopped(self, reply: p.Reply) -> None:
         """Account for samples sent before the stop but never received."""
+        if not isinstance(reply, p.StreamStopReply):
+            return
         if self._expected is not None:
-            self.gaps += (next_sequence - self._expected) & 0xFFFF
-        elif next_sequence:
-            self.gaps += next_sequence
-        self.detach()
+            self.gaps += (reply.next_sequence - self._expected) & 0xFFFF
+        elif reply.next_sequence:
+            self.gaps += reply.next_sequence
+
+
+def _describe(request: p.Request[Any]) -> str:
+    if not isinstance(request, p.StreamStart):
+        return str(request)
+    channels = [f"A{n}" for n in range(p.ANALOG_CHANNELS) if request.analog_mask >> n & 1]
+    return f"analog {', '.join(channels) or 'none'} every {request.period_us} us"
 
 
 @asynccontextmanager
 async def run_stream(
-    link: Transport, request: p.StreamStart, buffer: int, baud: int
+    board: Board, request: p.StreamStart, buffer: int
 ) -> AsyncIterator[SampleStream]:
-    """Start ``request`` on ``link``, yield its samples, stop it when the block ends.
+    """Start ``request`` on ``board``, yield its samples, stop it when the block ends.
 
     The body of :meth:`Board.stream <arduinoio_async.board.Board.stream>`.  A period the
     link cannot carry comes back as :class:`LinkCapacityError` naming the shortest period
-    at ``baud``; the stop (shielded from cancellation) accounts for samples never received.
+    at the board's baud rate; the stop (shielded from cancellation) accounts for samples
+    never received.
     """
-    samples = SampleStream(link, request, buffer)
-    try:
-        await link.request(request)
-    except LinkCapacityError as exc:
-        samples.detach()
-        shortest = p.stream_min_period_us(request.analog_mask, request.flags, baud)
-        raise LinkCapacityError(exc.code, exc.request, min_period_us=shortest, baud=baud) from exc
-    except BaseException:
-        samples.detach()
-        raise
-    try:
+    samples = SampleStream(board.link, request, buffer)
+    async with AsyncExitStack() as stack:
+        try:
+            await stack.enter_async_context(
+                board.watches.subscribe(
+                    ("stream",),
+                    request,
+                    p.StreamStop(),
+                    samples,
+                    conflict=lambda held: (
+                        f"{board} already streams {_describe(held)}: one stream per board "
+                        "(end that block, or ask for the same layout to share it)"
+                    ),
+                )
+            )
+        except LinkCapacityError as exc:
+            baud = board.capabilities.baud
+            shortest = p.stream_min_period_us(request.analog_mask, request.flags, baud)
+            raise LinkCapacityError(
+                exc.code, exc.request, min_period_us=shortest, baud=baud
+            ) from exc
         yield samples
-    finally:
-        with anyio.CancelScope(shield=True):
-            try:
-                stopped = await link.request(p.StreamStop())
-            except ArduinoIOError:
-                samples.detach()
-            else:
-                samples.finish(stopped.next_sequence)

@@ -474,7 +474,7 @@ class Board:
         :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms)
-        async with run_stream(self.link, request, buffer, self.capabilities.baud) as samples:
+        async with run_stream(self, request, buffer) as samples:
             yield samples
 
     # ---- failsafe and keepalive (extension; :mod:`arduinoio_async.board.failsafe`) ---------

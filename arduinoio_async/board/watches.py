@@ -1,11 +1,12 @@
 """The board's watches: subscriptions the board keeps in RAM, recorded to restore them.
 
-Change watches (``board.gpio(D3).watch()``), counter reports (``counter.reports(every=N)``)
-and analog deadband watches (``board.analog(A0).watch(deadband=N)``) are subscriptions
-the board holds in RAM: a reset (power loss, watchdog, brown-out, ``board.reset()``)
-forgets them, as it forgets the pin roles.  :class:`Watches` is one board's record: one
-:class:`Subscription` per pin or channel, shared by every watch block that asked for it
-(the last block to end stops it on the board), with the request that made it.
+Change watches (``board.gpio(D3).watch()``), counter reports (``counter.reports(every=N)``),
+analog deadband watches (``board.analog(A0).watch(deadband=N)``) and the stream
+(``board.stream(...)``) are subscriptions the board holds in RAM: a reset (power loss,
+watchdog, brown-out, ``board.reset()``) forgets them, as it forgets the pin roles.
+:class:`Watches` is one board's record: one :class:`Subscription` per pin or channel (one
+for the stream), shared by every block that asked for it (the last block to end stops it
+on the board), with the request that made it.
 
 When the board is restored after a reset (:meth:`Board.adopt
 <arduinoio_async.board.Board.adopt>`, as the manager does on its own, or
@@ -140,7 +141,7 @@ class Watches:
                     del self._subscriptions[key]
                     if sub.link is not None:
                         with contextlib.suppress(ArduinoIOError):
-                            await sub.link.request(sub.stop)
+                            queue.stopped(await sub.link.request(sub.stop))
         finally:
             queue.detach()
 
