@@ -21,6 +21,15 @@ interleaved, the bench measures batches of sequential round trips of
 * ``floor_done_callback``: the ``floor`` get with a per-query "done" callback as well
   (what the remote stream used before it watched for vanished servers once per stream:
   ``done_callback_cost_us`` is its cost, round by round);
+* ``floor_held`` (a reading aid, not the goal's floor): the ``floor`` get on a queryable
+  that holds each query, in Zenoh's thread, as long as the local ``read_id`` takes (the
+  served board's serial round trip) before it answers; recorded is the round trip
+  *minus the hold the queryable measured*.  It is Zenoh's own round trip as the served
+  path meets it: both processes idle for a millisecond between query and reply, and
+  threads that slept wake up slower and with colder caches than in the back-to-back
+  ``floor``;
+* ``floor_held_server_loop``: the same, held and answered in the queryable's event loop
+  (plus the one thread-to-loop hop any asyncio server adds);
 
 then the pipelined throughput (many concurrent tasks) of the remote and the local board.
 The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  The
@@ -39,6 +48,7 @@ after another.
 from __future__ import annotations
 
 import argparse
+import asyncio
 import json
 import os
 import platform
@@ -67,6 +77,8 @@ from arduinoio_async.transport import run
 
 ECHO_KEY = "arduinoio/bench/echo"
 ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
+ECHO_HELD_KEY = "arduinoio/bench/echo_held"
+ECHO_HELD_LOOP_KEY = "arduinoio/bench/echo_held_loop"
 #: The floor's query and reply carry frames of the sizes the measured call sends and gets.
 QUERY = p.ReadId().encode()
 REPLY = p.ReadIdReply(0x0001).encode()
@@ -80,19 +92,42 @@ def free_endpoint() -> str:
 
 async def run_echo(endpoint: str) -> None:
     """The floor's peer: ``echo`` answers in Zenoh's thread, nothing else; ``echo_loop``
-    answers from this process's event loop (one thread-to-loop hop, as a server has)."""
+    answers from this process's event loop (one thread-to-loop hop, as a server has);
+    ``echo_held`` (in Zenoh's thread) and ``echo_held_loop`` (from the loop) answer after
+    holding the query for the microseconds its attachment asks, and attach the
+    microseconds they held it."""
     session = zenoh.open(zenoh_config(listen=[endpoint]))
+    loop = asyncio.get_running_loop()
 
     def answer(query: zenoh.Query) -> None:
         with query:
             query.reply(query.key_expr, REPLY)
 
+    def asked_hold(query: zenoh.Query) -> float:
+        attachment = query.attachment
+        return int.from_bytes(attachment.to_bytes() if attachment else b"", "little") / 1e6
+
+    def answer_held(query: zenoh.Query, arrived: float) -> None:
+        held_us = round((time.perf_counter() - arrived) * 1e6)
+        with query:
+            query.reply(query.key_expr, REPLY, attachment=held_us.to_bytes(4, "little"))
+
+    def hold_here(query: zenoh.Query) -> None:
+        arrived = time.perf_counter()
+        time.sleep(asked_hold(query))  # blocks Zenoh's thread: queries come one at a time
+        answer_held(query, arrived)
+
+    def hold_in_loop(query: zenoh.Query) -> None:
+        loop.call_later(asked_hold(query), answer_held, query, time.perf_counter())
+
     direct = session.declare_queryable(ECHO_KEY, zenoh_callback(answer))
     looped = session.declare_queryable(ECHO_LOOP_KEY, LoopHandle().forward(answer))
+    held = session.declare_queryable(ECHO_HELD_KEY, zenoh_callback(hold_here))
+    held_looped = session.declare_queryable(ECHO_HELD_LOOP_KEY, LoopHandle().forward(hold_in_loop))
     print("ready", flush=True)
     await anyio.to_thread.run_sync(sys.stdin.read)  # until the bench closes our stdin
-    undeclare(direct)
-    undeclare(looped)
+    for entity in (direct, looped, held, held_looped):
+        undeclare(entity)
     session.close()  # type: ignore[no-untyped-call]
 
 
@@ -110,6 +145,16 @@ async def batch(call: Callable[[], Awaitable[object]], count: int) -> list[float
         begin = time.perf_counter()
         await call()
         samples.append((time.perf_counter() - begin) * 1000)
+    return samples
+
+
+async def held_batch(call: Callable[[], Awaitable[float]], count: int) -> list[float]:
+    """Round trips minus the time the far end held each query (ms)."""
+    samples = []
+    for _ in range(count):
+        begin = time.perf_counter()
+        held = await call()
+        samples.append((time.perf_counter() - begin - held) * 1000)
     return samples
 
 
@@ -173,27 +218,44 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
             looped_querier = session.declare_querier(
                 ECHO_LOOP_KEY, consolidation=zenoh.ConsolidationMode.NONE
             )
+            held_querier = session.declare_querier(
+                ECHO_HELD_KEY, consolidation=zenoh.ConsolidationMode.NONE
+            )
+            held_looped_querier = session.declare_querier(
+                ECHO_HELD_LOOP_KEY, consolidation=zenoh.ConsolidationMode.NONE
+            )
+            hold = zenoh.ZBytes(b"")  # set after the warm-up: the local round trip
 
-            async def get(on: zenoh.Querier, *, done: bool = False) -> None:
+            async def get(on: zenoh.Querier, *, done: bool = False, held: bool = False) -> float:
+                """One round trip; the time the far end held the query (s) if ``held``."""
                 arrived = anyio.Event()
                 got: list[bytes] = []
+                held_us: list[int] = []
 
                 def on_reply(reply: zenoh.Reply) -> None:
                     assert reply.ok is not None
                     got.append(reply.ok.payload.to_bytes())
+                    if reply.ok.attachment is not None:
+                        held_us.append(int.from_bytes(reply.ok.attachment.to_bytes(), "little"))
                     arrived.set()
 
                 if done:  # a per-query "done" callback as well (run when the query ends)
                     handler = zenoh_callback(partial(loop.call_soon, on_reply), lambda: None)
                 else:
                     handler = loop.forward(on_reply)
-                on.get(handler, payload=QUERY)
+                if held:
+                    on.get(handler, payload=QUERY, attachment=hold)
+                else:
+                    on.get(handler, payload=QUERY)
                 await arrived.wait()
                 assert got == [REPLY]
+                return held_us[0] / 1e6 if held else 0.0
 
             floor = partial(get, querier)
             floor_looped = partial(get, looped_querier)
             floor_done = partial(get, querier, done=True)
+            floor_held = partial(get, held_querier, held=True)
+            floor_held_looped = partial(get, held_looped_querier, held=True)
 
             samples: dict[str, list[float]] = {
                 "local": [],
@@ -202,6 +264,8 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 "floor_blocking": [],
                 "floor_server_loop": [],
                 "floor_done_callback": [],
+                "floor_held": [],
+                "floor_held_server_loop": [],
             }
             async with (
                 Board.open(local_uno.port, baudrate=args.baud) as local,
@@ -213,12 +277,22 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     ("floor", floor),
                 ):
                     await batch(call, 20)  # warm-up
+                # The held floor's queries wait as long as the local call takes.
+                hold_us = round(statistics.median(await batch(local.read_id, 20)) * 1000)
+                hold = zenoh.ZBytes(hold_us.to_bytes(4, "little"))
+                await held_batch(floor_held, 20)
+                await held_batch(floor_held_looped, 20)
                 measures: list[tuple[str, Callable[[], Awaitable[list[float]]]]] = [
                     ("local", partial(batch, local.read_id, args.batch)),
                     ("remote", partial(batch, remote.read_id, args.batch)),
                     ("floor", partial(batch, floor, args.batch)),
                     ("floor_server_loop", partial(batch, floor_looped, args.batch)),
                     ("floor_done_callback", partial(batch, floor_done, args.batch)),
+                    ("floor_held", partial(held_batch, floor_held, args.batch)),
+                    (
+                        "floor_held_server_loop",
+                        partial(held_batch, floor_held_looped, args.batch),
+                    ),
                     (
                         "floor_blocking",
                         partial(anyio.to_thread.run_sync, blocking_batch, querier, args.batch),
@@ -235,6 +309,8 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     rates["remote"].append(await throughput(remote, args.seconds, args.tasks))
             undeclare(querier)
             undeclare(looped_querier)
+            undeclare(held_querier)
+            undeclare(held_looped_querier)
             await anyio.to_thread.run_sync(session.close)
         finally:
             for process in (server, echo):
@@ -257,7 +333,13 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 per_round["remote"], per_round["local"], per_round[floor], strict=True
             )
         )
-        for floor in ("floor", "floor_server_loop", "floor_blocking")
+        for floor in (
+            "floor",
+            "floor_server_loop",
+            "floor_blocking",
+            "floor_held",
+            "floor_held_server_loop",
+        )
     }
     overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
     done_cost = sorted(
@@ -271,6 +353,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
         "zenoh": zenoh.__version__ if hasattr(zenoh, "__version__") else "1.x",
         "baud": args.baud,
+        "floor_held_hold_us": hold_us,
         "client_loop": "uvloop" if args.uvloop else "asyncio",
         "rounds": args.rounds,
         "batch": args.batch,
