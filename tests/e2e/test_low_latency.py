@@ -9,13 +9,13 @@ and that filler never reaches a caller.
 
 from __future__ import annotations
 
-import anyio
 import pytest
 
 from arduinoio_async import D2, D3
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+from tests.fake_boards import read_ids_concurrently
 
 pytestmark = pytest.mark.sim
 
@@ -33,16 +33,7 @@ async def test_read_id_in_low_latency_mode_behind_the_16u2_model(
         assert board.low_latency
         d2 = await board.digital_output(D2)
         d3 = await board.digital_input(D3)
-        replies = []
-
-        async def read_ids(n: int) -> None:
-            for _ in range(n):
-                replies.append(await board.read_id())
-
-        async with anyio.create_task_group() as tg:  # concurrent callers, pipelined
-            for _ in range(8):
-                tg.start_soon(read_ids, 10)
-        assert replies == [0x0102] * 80
+        assert await read_ids_concurrently(board) == [0x0102] * 80  # pipelined callers
         for level in (True, False, True):  # other replies are unaffected by the filler
             await d2.write(level)
             assert (await d3.read()).level is level

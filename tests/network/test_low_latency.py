@@ -20,6 +20,7 @@ from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.network import RemoteBoards
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.transport import TraceRecord
+from tests.fake_boards import read_ids_concurrently
 
 from .conftest import ServeFactory
 
@@ -69,16 +70,7 @@ async def test_low_latency_mode_over_the_network_and_after_a_replug(
         await board.set_low_latency(True)
         assert board.low_latency
         assert await padded_read_ids(board, uno) >= CALLS // 2  # on: replies padded, sent
-        replies: list[int] = []
-
-        async def read_ids(n: int) -> None:
-            for _ in range(n):
-                replies.append(await board.read_id())
-
-        async with anyio.create_task_group() as tg:  # concurrent callers, pipelined
-            for _ in range(8):
-                tg.start_soon(read_ids, 10)
-        assert replies == [7] * 80
+        assert await read_ids_concurrently(board) == [7] * 80  # pipelined callers
         d2, d3 = await board.digital_output(D2), await board.digital_input(D3)
         for level in (True, False, True):  # the loopback fixture wires D2 to D3
             await d2.write(level)
