@@ -51,10 +51,16 @@ WRITE_PIN, REPORT_PIN = 2, 3  # D2 drives the jumpered D3
 CHANNELS = 4
 
 
+#: The 16U2 bridge's tick (Timer0 overflow, clk/256 * 256 at 16 MHz).
+TICK_S = 0.004096
+
+
 def gap() -> float:
-    """0-5 ms between sequential samples, so replies meet the 16U2's 4.096 ms tick at a
-    random phase (the same rule as the project's side)."""
-    return random.uniform(0.0, 0.005)
+    """The pause between sequential samples: uniform over two whole bridge ticks, so each
+    request meets the 16U2's tick at a uniformly random phase whatever the previous reply
+    did (a pause over a span that is no multiple of the tick favours some phases).  The
+    project's side uses this same function."""
+    return random.uniform(0.0, 2 * TICK_S)
 
 
 # ------------------------------------------------------------------ raw pyserial

@@ -22,7 +22,6 @@ import argparse
 import json
 import os
 import platform
-import random
 import statistics
 import sys
 import time
@@ -41,6 +40,7 @@ from arduinoio_async.protocol.pins import A0, A1, A2, A3, D2, D3
 from arduinoio_async.sim import VirtualUno
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from firmata_clients import gap
 from peer_firmware import FIRMATA_BAUD, FirmataUnavailable, firmata_elf
 from peers_table import OPT_IN, goal_table, goals, render_markdown, render_summary, replace_between
 
@@ -131,6 +131,17 @@ async def firmata_booted(uno: VirtualUno) -> None:
 
 
 # ------------------------------------------------------------------ project side
+async def pause() -> None:
+    """The Firmata side's pause between sequential samples (``firmata_clients.gap``).
+
+    time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity (epoll),
+    which would quantise the phase against the bridge's 4.096 ms tick.  Nothing else runs
+    on the loop between sequential samples.
+    """
+    time.sleep(gap())  # noqa: ASYNC251
+    await anyio.lowlevel.checkpoint()
+
+
 AIO = "arduinoio"
 A_SEQUENTIAL = "arduinoio_async: write, then read"
 A_PIPELINED = "arduinoio_async: write + read pipelined"
@@ -159,7 +170,7 @@ async def project_a(
         await d2.write(level)
         await d3.read()
         for _ in range(n):
-            await anyio.sleep(random.uniform(0.0, 0.005))
+            await pause()
             level = not level
             t0 = time.perf_counter()
             if pipelined:
@@ -186,7 +197,7 @@ async def project_a_event(uno: VirtualUno, n: int) -> list[float]:
         await d2.write(level)
         async with board.gpio(D3).watch() as changes:
             for _ in range(n):
-                await anyio.sleep(random.uniform(0.0, 0.005))
+                await pause()
                 level = not level
                 t0 = time.perf_counter()
                 async with anyio.create_task_group() as tg:
@@ -208,7 +219,7 @@ async def project_a_transaction(uno: VirtualUno, n: int, low_latency: bool = Fal
         await board.digital_input(D3)
         level = False
         for _ in range(n):
-            await anyio.sleep(random.uniform(0.0, 0.005))
+            await pause()
             level = not level
             t0 = time.perf_counter()
             async with board.transaction() as tx:
@@ -225,7 +236,7 @@ async def project_b(uno: VirtualUno, n: int, low_latency: bool = False) -> list[
     async with project_board(uno, low_latency) as board:
         await board.read_id()
         for _ in range(n):
-            await anyio.sleep(random.uniform(0.0, 0.005))
+            await pause()
             t0 = time.perf_counter()
             await board.read_id()
             samples.append((time.perf_counter() - t0) * 1e3)
