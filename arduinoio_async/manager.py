@@ -23,7 +23,7 @@ from __future__ import annotations
 import glob
 import logging
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Awaitable, Callable, Iterable, Sequence
 from contextlib import AsyncExitStack
 from dataclasses import dataclass, field
 from functools import partial
@@ -129,15 +129,23 @@ def candidate_ports(
     return list(seen)
 
 
-async def attach_board(boards: dict[int, Board], board_id: int, link: Transport) -> Board:
+async def attach_board(
+    boards: dict[int, Board],
+    board_id: int,
+    link: Transport,
+    on_new: Callable[[Board], Awaitable[object]] | None = None,
+) -> Board:
     """The ``Board`` of ``board_id`` on ``link``: made on first sight, else re-attached.
 
-    Re-attaching keeps the caller's ``Board`` object and restores its pin roles and
-    failsafe on the new link (after a replug, a reset, or -- remotely -- a server restart).
+    Re-attaching keeps the caller's ``Board`` object and restores its pin roles, modes
+    and failsafe on the new link (after a replug, a reset, or -- remotely -- a server
+    restart); a new board is first handed to ``on_new`` (the manager sets its modes).
     """
     board = boards.get(board_id)
     if board is None:
         board = await Board.from_link(link)
+        if on_new is not None:
+            await on_new(board)
         boards[board_id] = board
     else:
         await board.adopt(link)
@@ -162,6 +170,9 @@ class BoardManager:
     env: bool = True
     baudrate: int = p.DEFAULT_BAUD
     timeout: float = DEFAULT_TIMEOUT
+    #: Each board's low-latency mode when first attached: see Board.choose_low_latency
+    #: (None: on behind an Uno's 16U2 bridge at 1,000,000 baud and up).
+    low_latency: bool | None = None
     probe_deadline: float = READY_TIMEOUT
     #: Seconds between background scans for new or returning boards; None scans only
     #: on entry and on explicit ``scan()`` calls (one-shot tools).
@@ -310,6 +321,9 @@ class BoardManager:
             except Exception:  # a listener's bug must not stop the supervisor
                 logger.exception("manager listener %r failed on %r", callback, event)
 
+    async def _choose_modes(self, board: Board) -> None:
+        await board.choose_low_latency(self.low_latency)
+
     async def _rescan_forever(self, interval: float) -> None:
         while True:
             await anyio.sleep(interval)
@@ -369,7 +383,7 @@ class BoardManager:
         link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
         try:
             async with link:
-                board = await attach_board(self._boards, board_id, link)
+                board = await attach_board(self._boards, board_id, link, on_new=self._choose_modes)
                 self._emit(ManagerEvent("connected", board_id, link.name))
                 task_status.started()
                 started = True

@@ -5,14 +5,18 @@ The virtual Uno counterpart with the 16U2 bridge model is ``tests/e2e/test_low_l
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import anyio
 import pytest
 
 from arduinoio_async import D2, D3
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board import board as board_module
 from arduinoio_async.errors import ProtocolError
 from arduinoio_async.testing import FakeBoard
+from arduinoio_async.transport import tick_holding_bridge
 
 
 async def test_many_concurrent_callers_get_their_replies_and_never_filler() -> None:
@@ -82,3 +86,82 @@ async def test_a_board_without_the_feature_bit_refuses_with_a_precise_error() ->
         with pytest.raises(ProtocolError, match="low-latency"):
             await board.set_low_latency(True)
         assert not fake.low_latency and not board.low_latency
+
+
+class _Port:
+    """What pyserial's list_ports reports for one port."""
+
+    def __init__(self, device: str, vid: int | None, pid: int | None) -> None:
+        self.device, self.vid, self.pid = device, vid, pid
+
+
+def test_the_bridge_is_known_by_the_ports_usb_ids(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from serial.tools import list_ports
+
+    ports = [
+        _Port("/dev/ttyACM0", 0x2341, 0x0043),  # Uno R3: ATmega16U2
+        _Port("/dev/ttyUSB0", 0x1A86, 0x7523),  # a clone's CH340
+        _Port("/dev/ttyS0", None, None),
+    ]
+    monkeypatch.setattr(list_ports, "comports", lambda: ports)
+    by_id = tmp_path / "usb-Arduino_Uno-if00"
+    by_id.symlink_to("/dev/ttyACM0")  # as /dev/serial/by-id/ names it
+    assert tick_holding_bridge("/dev/ttyACM0") == "Arduino Uno R3 (ATmega16U2 bridge)"
+    assert tick_holding_bridge(str(by_id)) == "Arduino Uno R3 (ATmega16U2 bridge)"
+    assert tick_holding_bridge("/dev/ttyUSB0") is None
+    assert tick_holding_bridge("/dev/ttyS0") is None
+    assert tick_holding_bridge("/dev/pts/3") is None  # a pseudo-terminal: no USB IDs
+    assert tick_holding_bridge("socket://localhost:5000") is None
+
+
+@pytest.mark.parametrize(
+    ("bridge", "baud", "choice", "expected"),
+    [
+        ("Arduino Uno R3 (ATmega16U2 bridge)", 1_000_000, None, True),
+        ("Arduino Uno R3 (ATmega16U2 bridge)", 2_000_000, None, True),
+        ("Arduino Uno R3 (ATmega16U2 bridge)", 115200, None, False),  # filler > the tick
+        (None, 1_000_000, None, False),  # another bridge, or none
+        (None, 1_000_000, True, True),  # the caller's word counts
+        ("Arduino Uno R3 (ATmega16U2 bridge)", 1_000_000, False, False),
+    ],
+)
+async def test_the_default_turns_the_mode_on_only_behind_a_ticking_bridge_at_speed(
+    monkeypatch: pytest.MonkeyPatch,
+    bridge: str | None,
+    baud: int,
+    choice: bool | None,
+    expected: bool,
+) -> None:
+    monkeypatch.setattr(board_module, "tick_holding_bridge", lambda port: bridge)
+    async with FakeBoard(baud=baud) as fake, Board.connect(fake.host_stream) as board:
+        assert await board.choose_low_latency(choice) is expected
+        assert board.low_latency is expected and fake.low_latency is expected
+        assert await board.read_id() == fake.board_id  # replies arrive, filler or not
+
+
+async def test_the_default_leaves_a_board_without_the_mode_alone(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(board_module, "tick_holding_bridge", lambda port: "an Uno R3")
+    async with FakeBoard() as fake, Board.connect(fake.host_stream) as board:
+        caps = board.capabilities
+        board.capabilities = p.ReadCapabilitiesReply(
+            caps.protocol_version,
+            caps.firmware_major,
+            caps.firmware_minor,
+            caps.features & ~p.Feature.LOW_LATENCY,
+            caps.baud,
+            caps.rx_buffer,
+        )
+        assert await board.choose_low_latency(None) is False  # no ProtocolError
+        assert not fake.low_latency
+
+
+async def test_a_board_left_in_the_mode_by_a_previous_program_is_set_as_chosen() -> None:
+    async with FakeBoard() as fake:
+        fake.low_latency = True  # the board keeps the mode while its port is closed
+        async with Board.connect(fake.host_stream) as board:
+            assert await board.choose_low_latency(False) is False
+            assert not fake.low_latency and not board.low_latency

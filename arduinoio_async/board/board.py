@@ -11,6 +11,7 @@ keepalive heartbeat live in :mod:`arduinoio_async.board.failsafe`.
 
 from __future__ import annotations
 
+import logging
 import random
 from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
@@ -19,6 +20,7 @@ from typing import Any, TypeVar
 import anyio
 import anyio.abc
 import anyio.lowlevel
+import anyio.to_thread
 
 from .. import protocol as p
 from ..errors import (
@@ -48,11 +50,19 @@ from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPi
 from ..protocol.pins import require as require_capable
 from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 from ..transactions import Transaction
-from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_stream
+from ..transport import (
+    DEFAULT_TIMEOUT,
+    TraceHook,
+    Transport,
+    open_serial_stream,
+    tick_holding_bridge,
+)
 from ..transport._ready import wait_ready
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
 from .watches import Watches
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["READY_TIMEOUT", "Board"]
 
@@ -103,12 +113,15 @@ class Board:
         timeout: float = DEFAULT_TIMEOUT,
         ready_timeout: float = READY_TIMEOUT,
         trace: TraceHook | None = None,
+        low_latency: bool | None = None,
     ) -> AsyncIterator[Board]:
         """Open ``port`` (a device path or pyserial URL) and wait until the board answers.
 
         ``timeout`` is the default per-request timeout; ``ready_timeout`` bounds the wait
-        for a board that resets when its port opens.  ``zenoh://0x0007[@endpoint]`` opens
-        a board served on the network (:mod:`arduinoio_async.network`).
+        for a board that resets when its port opens.  ``low_latency``: see
+        :meth:`choose_low_latency` (None, the default, turns it on behind an Uno's 16U2
+        bridge at 1,000,000 baud and up).  ``zenoh://0x0007[@endpoint]`` opens a board
+        served on the network (:mod:`arduinoio_async.network`), whose server chose.
         """
         if port.startswith("zenoh://"):
             from ..network import open_remote_board
@@ -120,6 +133,7 @@ class Board:
         async with cls.connect(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=port
         ) as board:
+            await board.choose_low_latency(low_latency)
             yield board
 
     @classmethod
@@ -293,6 +307,31 @@ class Board:
         if self.low_latency:
             await link.request(p.SetLowLatency(True))
         await self.watches.restore_on(link)  # after the roles: a watch needs its pin's role
+
+    async def choose_low_latency(self, choice: bool | None) -> bool:
+        """Set the low-latency mode as ``choice`` says; None decides by the link.
+
+        None turns it on when it pays: the port is behind a bridge that holds replies for
+        a timer tick (an Uno's ATmega16U2, known by its USB IDs:
+        :data:`~arduinoio_async.transport.TICK_HOLDING_BRIDGES`), the link runs at
+        1,000,000 baud or faster (at 115200 the filler alone outlasts the tick), and the
+        firmware has the mode.  Anything else -- another bridge, a pseudo-terminal, a
+        network URL -- leaves it off.  The choice is always sent to a board that has the
+        mode: the board keeps it while its port is closed, so a previous program may have
+        left it on.  Returns whether it is on.
+        """
+        supported = bool(self.capabilities.features & p.Feature.LOW_LATENCY)
+        if choice is None:
+            choice = (
+                supported
+                and self.capabilities.baud >= p.DEFAULT_BAUD
+                and await anyio.to_thread.run_sync(tick_holding_bridge, self.port) is not None
+            )
+            if choice:
+                logger.info("%r: behind a 16U2 bridge: low-latency mode on", self)
+        if supported or choice:
+            await self.set_low_latency(choice)  # without the mode, True raises ProtocolError
+        return choice
 
     async def set_low_latency(self, enabled: bool = True) -> None:
         """Ask the board to pad each burst of replies with filler bytes (an extension).

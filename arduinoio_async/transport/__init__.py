@@ -18,10 +18,12 @@ from ._link import (
 )
 from ._memory import MemoryByteStream, memory_link
 from ._serial import SerialByteStream, open_serial_stream
+from ._usb import TICK_HOLDING_BRIDGES, tick_holding_bridge
 
 __all__ = [
     "DEFAULT_TIMEOUT",
     "QUIET_TIME",
+    "TICK_HOLDING_BRIDGES",
     "LinkState",
     "LinkStats",
     "MemoryByteStream",
@@ -34,4 +36,5 @@ __all__ = [
     "memory_link",
     "open_serial_stream",
     "run",
+    "tick_holding_bridge",
 ]
