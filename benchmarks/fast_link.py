@@ -1,0 +1,253 @@
+"""Fast links without a bridge: one request's round trip, and pipelined writes per second.
+
+Issue 13's "no bridge" goals: sequential read ID p50 at most 0.15 ms at 2,000,000 baud
+through the library, and the host's share of pipelined write-pin at least 28,000/s.
+
+*Round trips* (``await board.read_id()`` one after another): on one virtual Uno per baud
+rate, three clients take turns in rounds whose order rotates every round, so a busy
+neighbour on the shared machine slows all of them alike: bare pyserial
+(``write(3)`` + ``read(5)``, blocking, the floor any Python client pays), a minimal asyncio
+client (a reader callback resolving one future: the event loop's own floor) and the
+library.  Each round opens its client afresh (the port is exclusive), warms up, then takes
+``--samples`` round trips.  Reported: p10/p50/p90 of all samples, and the per-round
+medians' range as the spread.
+
+*Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop): against a
+responder process that answers at once on a pseudo-terminal (``arduinoio_async.bench.
+responder``: what the library alone can do, syscalls included) and against the virtual
+Uno at each baud rate (where the firmware's cycles per command limit the rate).  Rounds
+interleave the two; reported: median writes/s with the range.
+
+    .venv/bin/python benchmarks/fast_link.py --json benchmarks/results/fast_link.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Awaitable, Callable
+from contextlib import AsyncExitStack
+from pathlib import Path
+from typing import Any
+
+import anyio
+import serial
+
+from arduinoio_async import protocol as p
+from arduinoio_async.board import Board
+from arduinoio_async.protocol.pins import DigitalPin
+from arduinoio_async.sim import VirtualUno
+
+PIN = DigitalPin(4)
+
+
+def _bare_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
+    """Blocking pyserial round trips (run in a worker thread); microseconds."""
+    request = p.ReadId().encode()
+    port = serial.Serial(port_path, baud, timeout=1.0, exclusive=True)
+    try:
+        rtts = []
+        for index in range(warmup + samples):
+            start = time.perf_counter_ns()
+            port.write(request)
+            if len(port.read(5)) != 5:
+                raise RuntimeError(f"{port_path}: no reply to READ ID")
+            if index >= warmup:
+                rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+    finally:
+        port.close()
+
+
+async def _minimal_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
+    """The event loop's floor: os.write, then a reader callback resolves a future."""
+    loop = asyncio.get_running_loop()
+    port = serial.Serial(port_path, baud, timeout=0, exclusive=True)
+    fd = port.fd
+    request = p.ReadId().encode()
+    waiting: list[asyncio.Future[None]] = []
+    received = [0]
+
+    def readable() -> None:
+        received[0] += len(os.read(fd, 256))
+        if received[0] >= 5 and waiting:
+            received[0] -= 5
+            waiting.pop().set_result(None)
+
+    loop.add_reader(fd, readable)
+    try:
+        rtts = []
+        for index in range(warmup + samples):
+            future = loop.create_future()
+            waiting.append(future)
+            start = time.perf_counter_ns()
+            os.write(fd, request)
+            with anyio.fail_after(1.0):
+                await future
+            if index >= warmup:
+                rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+    finally:
+        loop.remove_reader(fd)
+        port.close()
+
+
+async def _library_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
+    async with Board.open(port_path, baudrate=baud) as board:
+        rtts = []
+        for index in range(warmup + samples):
+            start = time.perf_counter_ns()
+            await board.read_id()
+            if index >= warmup:
+                rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+
+
+def _percentiles(values: list[float]) -> dict[str, float]:
+    deciles = statistics.quantiles(values, n=10)
+    return {
+        "p10": round(deciles[0], 1),
+        "p50": round(statistics.median(values), 1),
+        "p90": round(deciles[8], 1),
+    }
+
+
+async def round_trips(baud: int, rounds: int, samples: int, warmup: int) -> dict[str, Any]:
+    variants: dict[str, Callable[[str, int, int, int], Awaitable[list[float]]]] = {
+        "bare_pyserial": lambda *a: anyio.to_thread.run_sync(_bare_round, *a),
+        "minimal_asyncio": _minimal_round,
+        "library": _library_round,
+    }
+    order = list(variants)
+    pooled: dict[str, list[float]] = {name: [] for name in order}
+    medians: dict[str, list[float]] = {name: [] for name in order}
+    async with VirtualUno(board_id=1, baud=baud) as uno:
+        before = await uno.status()
+        for index in range(rounds):
+            shift = index % len(order)
+            for name in order[shift:] + order[:shift]:
+                rtts = await variants[name](uno.port, baud, samples, warmup)
+                pooled[name] += rtts
+                medians[name].append(statistics.median(rtts))
+        after = await uno.status()
+    out: dict[str, Any] = {"baud": baud}
+    for name in order:
+        out[name] = {
+            **_percentiles(pooled[name]),
+            "round_medians_range": [round(min(medians[name]), 1), round(max(medians[name]), 1)],
+            "samples": len(pooled[name]),
+        }
+    out["harness"] = {
+        key: after[key] - before[key]
+        for key in ("rebases", "pty_writes", "runahead_jumps")
+        if isinstance(after.get(key), int)
+    }
+    return out
+
+
+async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> float:
+    async with Board.open(port_path, baudrate=baud, timeout=2.0) as board:
+        gpio = board.gpio(PIN)
+        await gpio.write(False)
+        remaining = calls
+        level = False
+
+        async def worker() -> None:
+            nonlocal remaining, level
+            while remaining > 0:
+                remaining -= 1
+                level = not level
+                await gpio.write(level)
+
+        begin = time.perf_counter()
+        async with anyio.create_task_group() as tg:
+            for _ in range(tasks):
+                tg.start_soon(worker)
+        return calls / (time.perf_counter() - begin)
+
+
+async def pipelined(bauds: list[int], rounds: int, calls: int, tasks: int) -> dict[str, Any]:
+    master, slave = os.openpty()
+    responder_path = os.ttyname(slave)
+    child = subprocess.Popen(
+        [sys.executable, "-m", "arduinoio_async.bench.responder", str(master)],
+        pass_fds=(master,),
+    )
+    os.close(master)
+    rates: dict[str, list[float]] = {"responder": [], **{f"virtual_uno_{b}": [] for b in bauds}}
+    try:
+        async with AsyncExitStack() as stack:
+            unos = {
+                f"virtual_uno_{b}": await stack.enter_async_context(VirtualUno(board_id=1, baud=b))
+                for b in bauds
+            }
+            order = list(rates)
+            for index in range(rounds):
+                shift = index % len(order)
+                for name in order[shift:] + order[:shift]:
+                    if name == "responder":
+                        rate = await _write_rate(responder_path, 2_000_000, calls, tasks)
+                    else:
+                        uno = unos[name]
+                        rate = await _write_rate(uno.port, uno.baud, calls, tasks)
+                    rates[name].append(rate)
+    finally:
+        os.close(slave)
+        child.terminate()
+        child.wait()
+    return {
+        "tasks": tasks,
+        "calls_per_round": calls,
+        **{
+            name: {
+                "writes_per_s_median": round(statistics.median(values)),
+                "range": [round(min(values)), round(max(values))],
+            }
+            for name, values in rates.items()
+        },
+    }
+
+
+async def measure(args: argparse.Namespace) -> dict[str, Any]:
+    result: dict[str, Any] = {
+        "command": " ".join(["benchmarks/fast_link.py", *sys.argv[1:]]),
+        "cpus": os.cpu_count(),
+        "load_average_before": os.getloadavg(),
+        "round_trips_us": [],
+    }
+    for baud in args.bauds:
+        trips = await round_trips(baud, args.rounds, args.samples, args.warmup)
+        result["round_trips_us"].append(trips)
+        print(json.dumps(trips), flush=True)
+    if args.calls:
+        result["pipelined_write_pin"] = await pipelined(
+            args.bauds, args.rounds, args.calls, args.tasks
+        )
+        print(json.dumps(result["pipelined_write_pin"]), flush=True)
+    result["load_average_after"] = os.getloadavg()
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--bauds", type=int, nargs="+", default=[1_000_000, 2_000_000])
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--samples", type=int, default=400)
+    parser.add_argument("--warmup", type=int, default=50)
+    parser.add_argument("--calls", type=int, default=20_000, help="writes per pipelined round")
+    parser.add_argument("--tasks", type=int, default=32)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    result = anyio.run(measure, args)
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
