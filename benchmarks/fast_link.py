@@ -25,14 +25,17 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import collections
 import json
 import os
+import select
 import statistics
 import subprocess
 import sys
 import time
 from collections.abc import Awaitable, Callable
 from contextlib import AsyncExitStack
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -40,11 +43,66 @@ import anyio
 import serial
 
 from arduinoio_async import protocol as p
+from arduinoio_async.bench.responder import reply_table
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
 
 PIN = DigitalPin(4)
+
+
+def serve(fd: int, interval: float) -> None:
+    """A board stand-in on pty master ``fd`` (a child process): the handshake from
+    ``reply_table``, and every request whose reply echoes its fields (GPIO configure and
+    write, SetSession) answered by echoing them.
+
+    ``interval`` 0: answers at once, the replies to all the requests one read brought in
+    one write.  Otherwise like a board whose firmware takes ``interval`` seconds per
+    command: each reply in its own write, ``interval`` after the previous one (or when
+    its request arrives, if later); the wait is a busy loop, as a sleep would wake tens
+    of microseconds late.
+    """
+    table = reply_table()
+    decoder = p.Decoder.from_host()
+    memo: dict[bytes, bytes] = {}
+    due: collections.deque[bytes] = collections.deque()
+    next_at = 0.0
+    os.set_blocking(fd, interval == 0)
+    while True:
+        try:
+            data = os.read(fd, 65536)
+        except BlockingIOError:
+            data = None
+        except OSError:
+            return
+        if data == b"":
+            return
+        if data:
+            for frame in decoder.feed(data):
+                if not isinstance(frame, p.Request):
+                    continue
+                raw = frame.encode()
+                reply = memo.get(raw)
+                if reply is None:
+                    reply = table.get(raw)
+                    if reply is None:
+                        echoed = [getattr(frame, field.name) for field in fields(frame)]
+                        reply = frame.REPLY(*echoed).encode()
+                    memo[raw] = reply
+                due.append(reply)
+        if interval == 0:
+            if due:
+                os.write(fd, b"".join(due))
+                due.clear()
+            continue
+        now = time.perf_counter()
+        if not due:
+            next_at = max(next_at, now)
+            select.select([fd], [], [], 0.05)
+            continue
+        if now >= next_at:
+            os.write(fd, due.popleft())
+            next_at = max(next_at + interval, now - interval)
 
 
 def _bare_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
@@ -151,7 +209,9 @@ async def round_trips(baud: int, rounds: int, samples: int, warmup: int) -> dict
     return out
 
 
-async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> float:
+async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> tuple[float, float]:
+    """``calls`` pipelined writes from ``tasks`` tasks: (writes per second of wall time,
+    microseconds of this thread's CPU time per write)."""
     async with Board.open(port_path, baudrate=baud, timeout=2.0) as board:
         gpio = board.gpio(PIN)
         await gpio.write(False)
@@ -166,17 +226,19 @@ async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> floa
                 await gpio.write(level)
 
         begin = time.perf_counter()
+        cpu = time.thread_time()
         async with anyio.create_task_group() as tg:
             for _ in range(tasks):
                 tg.start_soon(worker)
-        return calls / (time.perf_counter() - begin)
+        cpu = time.thread_time() - cpu
+        return calls / (time.perf_counter() - begin), cpu / calls * 1e6
 
 
 async def pipelined(bauds: list[int], rounds: int, calls: int, tasks: int) -> dict[str, Any]:
     master, slave = os.openpty()
     responder_path = os.ttyname(slave)
     child = subprocess.Popen(
-        [sys.executable, "-m", "arduinoio_async.bench.responder", str(master)],
+        [sys.executable, __file__, "--serve", str(master)],
         pass_fds=(master,),
     )
     os.close(master)
@@ -243,7 +305,12 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=20_000, help="writes per pipelined round")
     parser.add_argument("--tasks", type=int, default=32)
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child
+    parser.add_argument("--serve-interval", type=float, default=0.0, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.serve is not None:
+        serve(args.serve, args.serve_interval)
+        return
     result = anyio.run(measure, args)
     if args.json:
         args.json.write_text(json.dumps(result, indent=1) + "\n")

@@ -156,6 +156,7 @@ class Transport:
         self._task_group: anyio.abc.TaskGroup | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._send_nowait: Callable[[bytes], None] | None = None
+        self._collect_sends: Callable[[], None] | None = None
         self._outbox = bytearray()
         self._outbox_ready = anyio.Event()
         #: Monotonic time of the last request sent (heartbeats skip busy links).
@@ -191,6 +192,7 @@ class Transport:
             if not pushed:
                 self._task_group.start_soon(self._reader, name=f"arduinoio reader {self.name}")
             self._send_nowait = getattr(self.stream, "send_nowait", None)
+            self._collect_sends = getattr(self.stream, "collect_sends", None)
             if self._send_nowait is None:
                 self._task_group.start_soon(self._writer, name=f"arduinoio writer {self.name}")
             self._task_group.start_soon(self._resyncer, name=f"arduinoio resync {self.name}")
@@ -424,7 +426,12 @@ class Transport:
             # stamps ``_lost_at``: bytes received while in sync need no time stamp.
             self._last_rx = self._now()
             self._rx_since_loss = True
-        self._process(session.receive_data(data))
+        out = session.receive_data(data)
+        self._process(out)
+        if out.done and session.in_flight and self._collect_sends is not None:
+            # Pipelining: the callers just woken will send their next requests in the
+            # loop's next iteration; one write for all of them (see SerialByteStream).
+            self._collect_sends()
 
     def relay_failure(self, error: ArduinoIOError) -> None:
         """The oldest request in flight failed beyond the stream (a relaying stream's
