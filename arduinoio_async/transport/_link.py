@@ -428,8 +428,8 @@ class Transport:
             self._rx_since_loss = True
         out = session.receive_data(data)
         self._process(out)
-        if out.done and session.in_flight and self._collect_sends is not None:
-            # Pipelining: the callers just woken will send their next requests in the
+        if len(out.done) > 1 and self._collect_sends is not None:
+            # Pipelining: the callers just woken may each send their next request in the
             # loop's next iteration; one write for all of them (see SerialByteStream).
             self._collect_sends()
 

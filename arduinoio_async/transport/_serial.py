@@ -55,7 +55,7 @@ class SerialByteStream(anyio.abc.ByteStream):
     carry; those tasks run in the loop's next iteration, and with many requests pipelined
     each sends its next request at once: one ``os.write`` each, the most expensive step of
     a pipelined request (a pty write wakes its reader: ~10-20 us).  So the transport, when
-    it has woken callers while more requests are in flight, asks the stream to
+    one chunk of received bytes has woken several callers, asks the stream to
     :meth:`collect_sends`: what is sent until a callback queued behind those wake-ups
     runs is written by that callback at once, in the order it was sent -- in the same
     loop iteration as the sends, so no request waits for another iteration.  Sends at
