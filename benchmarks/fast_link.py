@@ -12,11 +12,15 @@ library.  Each round opens its client afresh (the port is exclusive), warms up, 
 ``--samples`` round trips.  Reported: p10/p50/p90 of all samples, and the per-round
 medians' range as the spread.
 
-*Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop): against a
-responder process that answers at once on a pseudo-terminal (``arduinoio_async.bench.
-responder``: what the library alone can do, syscalls included) and against the virtual
-Uno at each baud rate (where the firmware's cycles per command limit the rate).  Rounds
-interleave the two; reported: median writes/s with the range.
+*Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop) against
+responder processes on pseudo-terminals (:func:`serve`): one that answers at once, many
+replies per write (what the library alone can do, syscalls included), and one paced like
+a firmware doing ``--paced-rate`` commands a second, each reply in its own write (the
+host then wakes for every reply, as with the virtual Uno); and against the virtual Uno
+at each baud rate (where the firmware's cycles per command limit the rate).  Rounds
+interleave all of them; reported: median writes/s with the range, and the library's
+CPU time per write (this thread's ``time.thread_time``: the host's own share, which a
+busy neighbour on the shared machine disturbs far less than the wall-clock rate).
 
     .venv/bin/python benchmarks/fast_link.py --json benchmarks/results/fast_link.json
 """
@@ -33,8 +37,8 @@ import statistics
 import subprocess
 import sys
 import time
-from collections.abc import Awaitable, Callable
-from contextlib import AsyncExitStack
+from collections.abc import Awaitable, Callable, Iterator
+from contextlib import AsyncExitStack, contextmanager
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -86,7 +90,7 @@ def serve(fd: int, interval: float) -> None:
                 if reply is None:
                     reply = table.get(raw)
                     if reply is None:
-                        echoed = [getattr(frame, field.name) for field in fields(frame)]
+                        echoed = [getattr(frame, f.name) for f in fields(frame)]  # type: ignore[arg-type]
                         reply = frame.REPLY(*echoed).encode()
                     memo[raw] = reply
                 due.append(reply)
@@ -234,44 +238,58 @@ async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> tupl
         return calls / (time.perf_counter() - begin), cpu / calls * 1e6
 
 
-async def pipelined(bauds: list[int], rounds: int, calls: int, tasks: int) -> dict[str, Any]:
+@contextmanager
+def _responder(interval: float) -> Iterator[str]:
+    """A :func:`serve` child process on a fresh pseudo-terminal; yields its port."""
     master, slave = os.openpty()
-    responder_path = os.ttyname(slave)
     child = subprocess.Popen(
-        [sys.executable, __file__, "--serve", str(master)],
+        [sys.executable, __file__, "--serve", str(master), "--serve-interval", str(interval)],
         pass_fds=(master,),
     )
     os.close(master)
-    rates: dict[str, list[float]] = {"responder": [], **{f"virtual_uno_{b}": [] for b in bauds}}
     try:
-        async with AsyncExitStack() as stack:
-            unos = {
-                f"virtual_uno_{b}": await stack.enter_async_context(VirtualUno(board_id=1, baud=b))
-                for b in bauds
-            }
-            order = list(rates)
-            for index in range(rounds):
-                shift = index % len(order)
-                for name in order[shift:] + order[:shift]:
-                    if name == "responder":
-                        rate = await _write_rate(responder_path, 2_000_000, calls, tasks)
-                    else:
-                        uno = unos[name]
-                        rate = await _write_rate(uno.port, uno.baud, calls, tasks)
-                    rates[name].append(rate)
+        yield os.ttyname(slave)
     finally:
         os.close(slave)
         child.terminate()
         child.wait()
+
+
+async def pipelined(
+    bauds: list[int], rounds: int, calls: int, tasks: int, paced_rate: float
+) -> dict[str, Any]:
+    paced = f"responder_paced_{paced_rate:.0f}_per_s"
+    ports: dict[str, tuple[str, int]] = {}
+    async with AsyncExitStack() as stack:
+        ports["responder_instant"] = (stack.enter_context(_responder(0.0)), 2_000_000)
+        ports[paced] = (stack.enter_context(_responder(1 / paced_rate)), 2_000_000)
+        for baud in bauds:
+            uno = await stack.enter_async_context(VirtualUno(board_id=1, baud=baud))
+            ports[f"virtual_uno_{baud}"] = (uno.port, baud)
+        rates: dict[str, list[float]] = {name: [] for name in ports}
+        cpu: dict[str, list[float]] = {name: [] for name in ports}
+        order = list(ports)
+        for index in range(rounds):
+            shift = index % len(order)
+            for name in order[shift:] + order[:shift]:
+                rate, cpu_us = await _write_rate(*ports[name], calls, tasks)
+                rates[name].append(rate)
+                cpu[name].append(cpu_us)
     return {
         "tasks": tasks,
         "calls_per_round": calls,
         **{
             name: {
-                "writes_per_s_median": round(statistics.median(values)),
-                "range": [round(min(values)), round(max(values))],
+                "writes_per_s_median": round(statistics.median(rates[name])),
+                "writes_per_s_range": [round(min(rates[name])), round(max(rates[name]))],
+                "library_cpu_us_per_write_median": round(statistics.median(cpu[name]), 2),
+                "library_cpu_us_per_write_range": [
+                    round(min(cpu[name]), 2),
+                    round(max(cpu[name]), 2),
+                ],
+                "writes_per_library_cpu_second": round(1e6 / statistics.median(cpu[name])),
             }
-            for name, values in rates.items()
+            for name in ports
         },
     }
 
@@ -289,7 +307,7 @@ async def measure(args: argparse.Namespace) -> dict[str, Any]:
         print(json.dumps(trips), flush=True)
     if args.calls:
         result["pipelined_write_pin"] = await pipelined(
-            args.bauds, args.rounds, args.calls, args.tasks
+            args.bauds, args.rounds, args.calls, args.tasks, args.paced_rate
         )
         print(json.dumps(result["pipelined_write_pin"]), flush=True)
     result["load_average_after"] = os.getloadavg()
@@ -304,6 +322,9 @@ def main() -> None:
     parser.add_argument("--warmup", type=int, default=50)
     parser.add_argument("--calls", type=int, default=20_000, help="writes per pipelined round")
     parser.add_argument("--tasks", type=int, default=32)
+    parser.add_argument(
+        "--paced-rate", type=float, default=30_000, help="replies/s of the paced responder"
+    )
     parser.add_argument("--json", type=Path)
     parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child
     parser.add_argument("--serve-interval", type=float, default=0.0, help=argparse.SUPPRESS)

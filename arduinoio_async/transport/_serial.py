@@ -129,10 +129,9 @@ class SerialByteStream(anyio.abc.ByteStream):
         collected, self._collected = self._collected, None
         if not collected or self._closed or self._lost is not None:
             return
-        try:
+        # A failed write already told the transport (on_lost): every request fails.
+        with contextlib.suppress(anyio.BrokenResourceError):
             self._send_nowait(bytes(collected))
-        except anyio.BrokenResourceError:
-            pass  # _port_lost told the transport (on_lost): every request fails
 
     def _port_lost(self, exc: BaseException | None) -> None:
         self._lost = exc or anyio.EndOfStream()

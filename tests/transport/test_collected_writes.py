@@ -6,6 +6,8 @@ reached the far end of a pseudo-terminal (the order).
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import os
 import select
 import threading
@@ -18,7 +20,6 @@ import pytest
 from arduinoio_async import protocol as p
 from arduinoio_async.errors import BoardDisconnectedError
 from arduinoio_async.transport import Transport, open_serial_stream
-from arduinoio_async.transport import _serial
 from arduinoio_async.transport._serial import SerialByteStream
 
 pytestmark = pytest.mark.anyio
@@ -39,10 +40,8 @@ def pty() -> Iterator[tuple[int, str]]:
         yield master, os.ttyname(slave)
     finally:
         os.close(slave)
-        try:
+        with contextlib.suppress(OSError):  # a test closed it
             os.close(master)
-        except OSError:
-            pass  # a test closed it
 
 
 @pytest.fixture
@@ -54,7 +53,7 @@ def writes(monkeypatch: pytest.MonkeyPatch) -> list[bytes]:
         made.append(bytes(data))
         return _far_write(fd, data)
 
-    monkeypatch.setattr(_serial.os, "write", counting_write)
+    monkeypatch.setattr(os, "write", counting_write)  # the stream calls os.write
     return made
 
 
@@ -91,8 +90,6 @@ async def test_a_port_lost_under_a_collected_write_is_reported_not_raised(
     assert isinstance(stream, SerialByteStream) and stream.send_nowait is not None
     lost = anyio.Event()
     loop_errors: list[object] = []
-    import asyncio
-
     asyncio.get_running_loop().set_exception_handler(lambda _, ctx: loop_errors.append(ctx))
     try:
         stream.attach(lambda data: None, lambda exc: lost.set())
@@ -108,7 +105,7 @@ async def test_a_port_lost_under_a_collected_write_is_reported_not_raised(
     assert loop_errors == []
 
 
-def _responder(master: int, wave: int, total: int, received: list[p.Frame]) -> None:
+def _responder(master: int, wave: int, total: int, received: list[p.GpioWrite]) -> None:
     """Answers GPIO WRITEs in waves: waits for ``wave`` requests (or the rest), then sends
     all their replies in one write, so the host wakes several callers at once."""
     decoder = p.Decoder.from_host()
@@ -129,7 +126,7 @@ async def test_pipelined_callers_share_writes_and_keep_call_order(
     master, path = pty
     tasks, per_task = 8, 40
     total = tasks * per_task
-    received: list[p.Frame] = []
+    received: list[p.GpioWrite] = []
     called: list[p.GpioWrite] = []
     responder = threading.Thread(
         target=_responder, args=(master, tasks, total, received), daemon=True
