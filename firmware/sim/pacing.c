@@ -364,7 +364,11 @@ void run_paced(void)
 		} else {
 			int64_t lag = (int64_t)wc - (int64_t)avr->cycle;
 			if (lag > max_lag_cycles) max_lag_cycles = lag;
-			if (lag > (int64_t)LAG_REBASE_CYCLES) { rebase(); rebase_count++; }
+			if (lag > (int64_t)LAG_REBASE_CYCLES) {
+				rebase();
+				rebase_count++;
+				wire_time_base_reset(); /* host bytes stamped at the old wall's now */
+			}
 			/* computing, not waiting: look for host bytes every 20 us of wall time */
 			if (t - last_io_ns > 20000ULL) poll_io(0);
 		}

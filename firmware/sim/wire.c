@@ -408,6 +408,17 @@ void host_bytes_in(const uint8_t *buf, size_t n)
 	recompute_next_event();
 }
 
+/* The simulation gave up catching up with the wall clock (rebase): host bytes
+ * stamped at the wall's "now" ahead of the simulation would otherwise wait
+ * for the whole lag again; they take effect at the simulated now. */
+void wire_time_base_reset(void)
+{
+	for (unsigned i = host_rx.tail; i != host_rx.head; i = (i + 1) & (RING - 1))
+		if (host_rx.d[i].t > avr->cycle)
+			host_rx.d[i].t = avr->cycle;
+	recompute_next_event();
+}
+
 int wire_has_output(void)
 {
 	return out_blocked && !ring_empty(&to_pty);
