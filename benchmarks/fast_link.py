@@ -10,7 +10,9 @@ neighbour on the shared machine slows all of them alike: bare pyserial
 client (a reader callback resolving one future: the event loop's own floor) and the
 library.  Each round opens its client afresh (the port is exclusive), warms up, then takes
 ``--samples`` round trips.  Reported: p10/p50/p90 of all samples, and the per-round
-medians' range as the spread.
+medians' range as the spread.  ``--compare-harness PATH`` runs the same clients on a
+second virtual Uno from another harness binary (an older build) in the same rotation,
+so a harness change is measured before/after under the same load.
 
 *Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop) against
 responder processes on pseudo-terminals (:func:`serve`): one that answers at once, many
@@ -180,36 +182,55 @@ def _percentiles(values: list[float]) -> dict[str, float]:
     }
 
 
-async def round_trips(baud: int, rounds: int, samples: int, warmup: int) -> dict[str, Any]:
-    variants: dict[str, Callable[[str, int, int, int], Awaitable[list[float]]]] = {
-        "bare_pyserial": lambda *a: anyio.to_thread.run_sync(_bare_round, *a),
-        "minimal_asyncio": _minimal_round,
-        "library": _library_round,
-    }
-    order = list(variants)
-    pooled: dict[str, list[float]] = {name: [] for name in order}
-    medians: dict[str, list[float]] = {name: [] for name in order}
-    async with VirtualUno(board_id=1, baud=baud) as uno:
-        before = await uno.status()
+_CLIENTS: dict[str, Callable[[str, int, int, int], Awaitable[list[float]]]] = {
+    "bare_pyserial": lambda *a: anyio.to_thread.run_sync(_bare_round, *a),
+    "minimal_asyncio": _minimal_round,
+    "library": _library_round,
+}
+
+
+async def round_trips(
+    baud: int, rounds: int, samples: int, warmup: int, compare: Path | None
+) -> dict[str, Any]:
+    """Every client on this harness (and, with ``compare``, on that harness binary too:
+    a second virtual Uno whose rounds interleave with the first's)."""
+    harnesses: dict[str, Path | None] = {"": None}
+    if compare is not None:
+        harnesses["harness_compared"] = compare
+    pooled: dict[tuple[str, str], list[float]] = {}
+    medians: dict[tuple[str, str], list[float]] = {}
+    status: dict[str, dict[str, Any]] = {}
+    async with AsyncExitStack() as stack:
+        unos = {
+            key: await stack.enter_async_context(VirtualUno(board_id=1, baud=baud, binary=binary))
+            for key, binary in harnesses.items()
+        }
+        before = {key: await uno.status() for key, uno in unos.items()}
+        order = [(key, client) for key in unos for client in _CLIENTS]
         for index in range(rounds):
             shift = index % len(order)
-            for name in order[shift:] + order[:shift]:
-                rtts = await variants[name](uno.port, baud, samples, warmup)
-                pooled[name] += rtts
-                medians[name].append(statistics.median(rtts))
-        after = await uno.status()
+            for key, client in order[shift:] + order[:shift]:
+                rtts = await _CLIENTS[client](unos[key].port, baud, samples, warmup)
+                pooled.setdefault((key, client), []).extend(rtts)
+                medians.setdefault((key, client), []).append(statistics.median(rtts))
+        for key, uno in unos.items():
+            after = await uno.status()
+            status[key] = {
+                name: after[name] - before[key][name]
+                for name in ("rebases", "pty_writes", "runahead_jumps")
+                if isinstance(after.get(name), int)
+            }
     out: dict[str, Any] = {"baud": baud}
-    for name in order:
-        out[name] = {
-            **_percentiles(pooled[name]),
-            "round_medians_range": [round(min(medians[name]), 1), round(max(medians[name]), 1)],
-            "samples": len(pooled[name]),
-        }
-    out["harness"] = {
-        key: after[key] - before[key]
-        for key in ("rebases", "pty_writes", "runahead_jumps")
-        if isinstance(after.get(key), int)
-    }
+    for key in harnesses:
+        part: dict[str, Any] = out if not key else out.setdefault(key, {"binary": str(compare)})
+        for client in _CLIENTS:
+            values = medians[(key, client)]
+            part[client] = {
+                **_percentiles(pooled[(key, client)]),
+                "round_medians_range": [round(min(values), 1), round(max(values), 1)],
+                "samples": len(pooled[(key, client)]),
+            }
+        part["harness"] = status[key]
     return out
 
 
@@ -256,7 +277,7 @@ def _responder(interval: float) -> Iterator[str]:
 
 
 async def pipelined(
-    bauds: list[int], rounds: int, calls: int, tasks: int, paced_rate: float
+    bauds: list[int], rounds: int, calls: int, tasks: int, paced_rate: float, compare: Path | None
 ) -> dict[str, Any]:
     paced = f"responder_paced_{paced_rate:.0f}_per_s"
     ports: dict[str, tuple[str, int]] = {}
@@ -266,6 +287,11 @@ async def pipelined(
         for baud in bauds:
             uno = await stack.enter_async_context(VirtualUno(board_id=1, baud=baud))
             ports[f"virtual_uno_{baud}"] = (uno.port, baud)
+            if compare is not None:
+                uno = await stack.enter_async_context(
+                    VirtualUno(board_id=1, baud=baud, binary=compare)
+                )
+                ports[f"virtual_uno_{baud}_harness_compared"] = (uno.port, baud)
         rates: dict[str, list[float]] = {name: [] for name in ports}
         cpu: dict[str, list[float]] = {name: [] for name in ports}
         order = list(ports)
@@ -302,12 +328,14 @@ async def measure(args: argparse.Namespace) -> dict[str, Any]:
         "round_trips_us": [],
     }
     for baud in args.bauds:
-        trips = await round_trips(baud, args.rounds, args.samples, args.warmup)
+        trips = await round_trips(
+            baud, args.rounds, args.samples, args.warmup, args.compare_harness
+        )
         result["round_trips_us"].append(trips)
         print(json.dumps(trips), flush=True)
     if args.calls:
         result["pipelined_write_pin"] = await pipelined(
-            args.bauds, args.rounds, args.calls, args.tasks, args.paced_rate
+            args.bauds, args.rounds, args.calls, args.tasks, args.paced_rate, args.compare_harness
         )
         print(json.dumps(result["pipelined_write_pin"]), flush=True)
     result["load_average_after"] = os.getloadavg()
@@ -324,6 +352,11 @@ def main() -> None:
     parser.add_argument("--tasks", type=int, default=32)
     parser.add_argument(
         "--paced-rate", type=float, default=30_000, help="replies/s of the paced responder"
+    )
+    parser.add_argument(
+        "--compare-harness",
+        type=Path,
+        help="also run the round trips on this virtual-uno binary, interleaved (before/after)",
     )
     parser.add_argument("--json", type=Path)
     parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child

@@ -179,10 +179,11 @@ static int ppoll_ns(uint64_t timeout_ns)
 }
 
 /* Wait up to timeout_ns for any descriptor; returns >0 if one is ready.
- * Board->host bytes that wait for their due time bound the wait, and the
- * last SPIN_NS before that are spent polling without sleeping: a ppoll()
- * that sleeps wakes ~20 us late on this kind of machine (timer slack is
- * already 1 us), which would be added to every reply. */
+ * Board->host bytes that wait for their due time bound the wait, and before
+ * the end of a reply the host waits for the last SPIN_NS are spent polling
+ * without sleeping: a ppoll() that sleeps wakes ~20 us late on this kind of
+ * machine (timer slack is already 1 us), which would be added to every
+ * reply. */
 static int wait_fds(uint64_t timeout_ns)
 {
 	uint64_t t = now_ns();
@@ -191,12 +192,14 @@ static int wait_fds(uint64_t timeout_ns)
 	if (waiting_for_host_open() && timeout_ns > 5000000ULL)
 		timeout_ns = 5000000ULL; /* look for the host opening the port every 5 ms */
 	uint64_t deadline = 0;
-	uint64_t out = output_wake_cycle();
+	int punctual;
+	uint64_t out = output_wake_cycle(&punctual);
 	if (out != UINT64_MAX && !opt_fast) {
 		uint64_t due = wall_ns_of(out);
-		if (due <= t + timeout_ns) { /* output due within this wait: be punctual */
+		if (due <= t + timeout_ns) { /* output due within this wait */
 			timeout_ns = due > t ? due - t : 0;
-			deadline = t + timeout_ns;
+			if (punctual)
+				deadline = t + timeout_ns;
 		}
 	}
 	trace_event('P', timeout_ns);

@@ -107,43 +107,48 @@ static uint64_t next_boundary(uint64_t t, uint64_t period)
  * syscall and kernel pty work each; a reply split over two writes also wakes
  * the host twice):
  *  - a burst goes out whole once its last byte is due: the burst has ended
- *    when no further byte follows within 1.25 byte times (the next byte due
+ *    when no further byte follows within 2 byte times (the next byte due
  *    in to_pty, on the wire, or the firmware still sending: UDRIE0 set);
  *  - while a burst goes on (a stream, pipelined replies back to back), what
  *    is due goes out once its oldest byte has waited OUT_HOLD_BYTES byte times
  *    (a reply of up to 9 bytes still goes in one write).
  * pacing.c waits for output_wake_cycle() and spins the last few
- * microseconds to it (a wait in ppoll() oversleeps by ~20 us here). */
+ * microseconds to a reply's end (a wait in ppoll() oversleeps by ~20 us here). */
 static void to_host(uint8_t b, uint64_t due)
 {
 	if (!ring_push(&to_pty, b, due))
 		lost_to_host++; /* host not reading and 8 KiB already waiting */
 }
 
-/* The bytes of to_pty due by wall cycle wc, and the due time of the last of them. */
-static unsigned due_count(uint64_t wc, uint64_t *last_due)
+static inline uint64_t to_pty_due(unsigned i) /* i = 0: the oldest byte */
+{
+	return to_pty.d[(to_pty.tail + i) & (RING - 1)].t;
+}
+
+/* The bytes of to_pty due by wall cycle wc. */
+static unsigned due_count(uint64_t wc)
 {
 	unsigned n = 0, len = ring_len(&to_pty);
-	while (n < len && to_pty.d[(to_pty.tail + n) & (RING - 1)].t <= wc) {
-		*last_due = to_pty.d[(to_pty.tail + n) & (RING - 1)].t;
+	while (n < len && to_pty_due(n) <= wc)
 		n++;
-	}
 	return n;
 }
 
-/* Does another byte follow the one due at last_due within 1.25 byte times? */
-static int burst_goes_on(unsigned due, uint64_t last_due)
+/* Is byte i of to_pty the last of its burst: does no byte follow within 2
+ * byte times (waiting, on the wire, or about to be sent: UDRIE0 set while
+ * simulated time has not passed the gap yet)?  A 16U2 frame ends with its
+ * last byte. */
+static int burst_ends_at(unsigned i)
 {
-	uint64_t gap = byte_cycles + byte_cycles / 4;
-	if (due < ring_len(&to_pty))
-		return to_pty.d[(to_pty.tail + due) & (RING - 1)].t <= last_due + (opt_16u2 ? 0 : gap);
+	uint64_t t = to_pty_due(i);
+	uint64_t gap = opt_16u2 ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
+	if (i + 1 < ring_len(&to_pty))
+		return to_pty_due(i + 1) > t + gap;
 	if (opt_16u2)
-		return 0; /* a USB frame's bytes all come at once */
+		return 1;
 	if (!ring_empty(&wire_tx))
-		return ring_peek(&wire_tx)->t <= last_due + gap;
-	if (avr->cycle >= last_due + gap)
-		return 0; /* simulated time is past the gap and nothing came */
-	return (avr->data[UCSR0B_ADDR] & UDRIE0_BIT) != 0;
+		return ring_peek(&wire_tx)->t > t + gap;
+	return avr->cycle >= t + gap || !(avr->data[UCSR0B_ADDR] & UDRIE0_BIT);
 }
 
 /* Write the first n bytes of to_pty (fewer if the pty is full). */
@@ -177,24 +182,39 @@ void output_service(uint64_t wc)
 		return;
 	if (opt_fast)
 		wc = UINT64_MAX; /* unpaced: no wall clock to wait for */
-	uint64_t last_due = 0;
-	unsigned due = due_count(wc, &last_due);
+	unsigned due = due_count(wc);
 	if (!due)
 		return;
-	if (out_blocked || !burst_goes_on(due, last_due) ||
-	    ring_peek(&to_pty)->t + OUT_HOLD_BYTES * byte_cycles <= wc)
+	if (out_blocked || to_pty_due(0) + OUT_HOLD_BYTES * byte_cycles <= wc) {
 		write_out(due);
+		return;
+	}
+	for (unsigned i = due; i-- > 0;)
+		if (burst_ends_at(i)) { /* every burst that ended, whole */
+			write_out(i + 1);
+			return;
+		}
 }
 
-/* The cycle at which output_service will next have something to write
- * (UINT64_MAX: nothing waits); may lie in the past. */
-uint64_t output_wake_cycle(void)
+/* The cycle at which output_service will next write (UINT64_MAX: nothing
+ * waits; it may lie in the past).  *punctual: it is the end of a burst while
+ * the host has nothing more queued for the board, i.e. a reply the host is
+ * likely waiting for (pacing.c then spins rather than sleeps up to it; the
+ * partial writes of long bursts and replies to pipelined requests do not
+ * need that precision and would keep the harness spinning). */
+uint64_t output_wake_cycle(int *punctual)
 {
+	*punctual = 0;
 	if (ring_empty(&to_pty) || out_blocked)
 		return UINT64_MAX;
-	uint64_t last = to_pty.d[(to_pty.head - 1) & (RING - 1)].t;
-	uint64_t held = ring_peek(&to_pty)->t + OUT_HOLD_BYTES * byte_cycles;
-	return last < held ? last : held;
+	uint64_t held = to_pty_due(0) + OUT_HOLD_BYTES * byte_cycles;
+	unsigned len = ring_len(&to_pty);
+	for (unsigned i = 0; i < len && to_pty_due(i) < held; i++)
+		if (burst_ends_at(i)) {
+			*punctual = ring_empty(&host_rx);
+			return to_pty_due(i);
+		}
+	return held;
 }
 
 /* Write everything waiting, due or not (the cable is about to be pulled). */

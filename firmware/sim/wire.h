@@ -44,6 +44,6 @@ int wire_run_events(uint64_t now);
 void wire_events_done(void);
 void flush_out(void);                /* everything, due or not (unplug) */
 void output_service(uint64_t wc);    /* write what is due by wall cycle wc */
-uint64_t output_wake_cycle(void);    /* when output_service next has work, UINT64_MAX: never */
+uint64_t output_wake_cycle(int *punctual); /* when output_service next writes, UINT64_MAX: never */
 
 #endif
