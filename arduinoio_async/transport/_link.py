@@ -16,8 +16,12 @@ Received bytes go to the session as they arrive.  On asyncio, with a stream that
 (the serial stream), that happens in the event loop's fd-readable callback: the reply is
 decoded and matched there and the waiting caller's future resolved, so a round trip costs
 one loop iteration and no task switch.  The common case -- one request in flight, its reply
-alone in a chunk -- takes :meth:`Session.receive_reply`, which allocates nothing.  Other
-streams and backends (trio) use a reader task with anyio's portable primitives.
+alone in a chunk -- takes :meth:`Session.receive_reply`, which allocates nothing.  When one
+chunk completes several requests (pipelining), the stream is asked to collect what the
+woken callers send next into one write, at the end of the same loop iteration in which
+they send it (``SerialByteStream.collect_sends``): still one byte stream in call order, one
+syscall instead of one per request.  Other streams and backends (trio) use a reader task
+with anyio's portable primitives.
 
 *The per-request timeout* covers the whole call: waiting in the queue (behind a window
 full of earlier requests, or a resync), the flight, and transparent retries.  A request
