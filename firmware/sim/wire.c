@@ -160,6 +160,7 @@ static void write_out(unsigned n)
 		bytes_discarded += n;
 		while (n--)
 			ring_pop(&to_pty);
+		out_blocked = 0;
 		return;
 	}
 	uint8_t buf[RING];
