@@ -38,8 +38,8 @@
 #include "wire.h"
 
 #define SLICE_CYCLES 128ULL             /* 8 us of simulated time between pacing checks */
-#define LEAD_MAX_CYCLES (100ULL * 16)   /* busy link: run at most 100 us ahead of the wall */
-#define LEAD_RESUME_CYCLES (50ULL * 16) /* ... then wait until the lead is down to 50 us */
+#define LEAD_MAX_CYCLES (30ULL * 16)    /* busy link: run at most 30 us ahead of the wall */
+#define LEAD_RESUME_CYCLES (15ULL * 16) /* ... then wait until the lead is down to 15 us */
 #define SPIN_NS 60000ULL                /* spin (not sleep) the last 60 us before output is due */
 #ifndef RUNAHEAD_CYCLES
 #define RUNAHEAD_CYCLES (2000ULL * 16)  /* idle link: run ahead in slices of up to 2 ms */

@@ -11,7 +11,7 @@ Each test has an oracle that failed on the harness before the fix:
   bounded slices, and 8 boards under pipelined load answer every command (whether they
   also keep up with the wall clock depends on spare cores: ``benchmarks/harness_pacing.py``);
 * a reply went to the pty as soon as *simulated* time reached it, up to the busy lead
-  (30 us, now 100 us) before the wall clock did; now it waits for its due time, so no
+  (30 us) before the wall clock did; now it waits for its due time, so no
   round trip is shorter than its modelled wire and firmware time.
 
 Blocking pyserial calls run in worker threads (``anyio.to_thread``).
@@ -214,7 +214,7 @@ def _round_trips(port: str, baud: int, count: int) -> list[float]:
 async def test_no_reply_reaches_the_host_before_its_modelled_time(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
-    """However far the simulation runs ahead (100 us on a busy link), a reply goes to the
+    """However far the simulation runs ahead (30 us on a busy link), a reply goes to the
     pty only when the wall clock reaches its simulated arrival: every round trip takes at
     least the wire time of its 8 bytes and the firmware's own time."""
     baud = 2_000_000
