@@ -40,6 +40,9 @@
 #define SLICE_CYCLES 128ULL             /* 8 us of simulated time between pacing checks */
 #define LEAD_MAX_CYCLES (30ULL * 16)    /* busy link: run at most 30 us ahead of the wall */
 #define LEAD_RESUME_CYCLES (15ULL * 16) /* ... then wait until the lead is down to 15 us */
+#define ANSWER_LEAD_CYCLES (100ULL * 16) /* answering the host: up to 100 us ahead */
+#define ANSWER_RESUME_CYCLES (50ULL * 16) /* ... resuming at 50 us */
+#define ANSWER_WINDOW_CYCLES (500ULL * 16) /* "answering": a host byte went in this recently */
 #define SPIN_NS 60000ULL                /* spin (not sleep) the last 60 us before output is due */
 #ifndef RUNAHEAD_CYCLES
 #define RUNAHEAD_CYCLES (2000ULL * 16)  /* idle link: run ahead in slices of up to 2 ms */
@@ -98,6 +101,19 @@ static int link_idle(void)
 	       !holding_reset;
 }
 
+/* How far a busy link may run ahead, and where a wait for the wall clock ends.
+ * While the firmware answers the host (a host byte went into the UART within
+ * the last 500 us) the host waits for that answer and rarely sends more, so
+ * the simulation may run 100 us ahead: a wait that wakes late (~20-60 us here)
+ * still leaves it ahead of the reply's due time.  Otherwise (a stream, events)
+ * 30 us: a host byte arriving meanwhile is stamped at most that late. */
+static uint64_t busy_lead(uint64_t *resume)
+{
+	int answering = avr->cycle - last_host_byte_t < ANSWER_WINDOW_CYCLES;
+	*resume = answering ? ANSWER_RESUME_CYCLES : LEAD_RESUME_CYCLES;
+	return answering ? ANSWER_LEAD_CYCLES : LEAD_MAX_CYCLES;
+}
+
 /* A host stimulus (pty bytes, a control command that changes the circuit)
  * arrives at wall time W while the simulation may be running ahead of W.  It
  * cannot be applied in the simulated past, and applying it in the simulated
@@ -114,7 +130,8 @@ void catch_up_wall(void)
 	/* With nothing on its way either way no byte's due time moves, so any lead
 	 * can go; on a busy link only a lead beyond the busy bound goes (the bytes
 	 * on their way keep their due times relative to each other). */
-	if (avr->cycle > wc + (wire_idle() ? CYC_PER_US : LEAD_MAX_CYCLES)) {
+	uint64_t resume;
+	if (avr->cycle > wc + (wire_idle() ? CYC_PER_US : busy_lead(&resume))) {
 		runahead_jumps++;
 		runahead_jump_cycles += avr->cycle - wc;
 		trace_event('J', avr->cycle - wc);
@@ -238,10 +255,13 @@ static uint64_t sleep_for(uint64_t how_long)
 		 * is down to LEAD_RESUME_CYCLES (a wait that wakes late then still
 		 * leaves the simulation ahead of the bytes due to the host). */
 		int idle = link_idle();
-		uint64_t lead = idle ? RUNAHEAD_CYCLES : LEAD_MAX_CYCLES;
+		uint64_t resume = 0;
+		uint64_t lead = idle ? RUNAHEAD_CYCLES : busy_lead(&resume);
 		if (wc >= target || target - wc <= lead)
 			return target - avr->cycle;
-		uint64_t resume = idle ? 0 : LEAD_RESUME_CYCLES;
+		uint64_t decided = output_decided_at();
+		if (decided > avr->cycle) /* sleep only as far as deciding a burst's end, no wait */
+			return (decided < target ? decided : target) - avr->cycle;
 		uint64_t wait_ns = (target - wc - resume) * 1000ULL / CYC_PER_US;
 		int r = wait_fds(wait_ns);
 		if (quit_flag)
@@ -360,9 +380,10 @@ void run_paced(void)
 		}
 		uint64_t wc = wall_cycles(t);
 		int idle = link_idle();
-		if (avr->cycle > wc + (idle ? RUNAHEAD_CYCLES : LEAD_MAX_CYCLES)) {
-			/* idle: until the lead is 0 (slices of ~2 ms); busy: down to LEAD_RESUME_CYCLES */
-			uint64_t resume = idle ? 0 : LEAD_RESUME_CYCLES;
+		uint64_t resume = 0;
+		uint64_t lead = idle ? RUNAHEAD_CYCLES : busy_lead(&resume);
+		if (avr->cycle > wc + lead && avr->cycle >= output_decided_at()) {
+			/* idle: until the lead is 0 (slices of ~2 ms); busy: down to the resume lead */
 			poll_io((avr->cycle - wc - resume) * 1000ULL / CYC_PER_US);
 		} else {
 			int64_t lag = (int64_t)wc - (int64_t)avr->cycle;

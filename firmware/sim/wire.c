@@ -218,6 +218,19 @@ uint64_t output_wake_cycle(int *punctual)
 	return held;
 }
 
+/* The simulated cycle the simulation must reach to know whether the newest
+ * byte for the host ends its burst (0: known already).  The firmware's UDRE
+ * interrupt often stays on past a reply's last byte, so only simulated time
+ * passing the gap tells; pacing.c lets the simulation run that far ahead, or
+ * the end of every reply would wait for the next wait to end. */
+uint64_t output_decided_at(void)
+{
+	if (ring_empty(&to_pty) || opt_16u2 || !ring_empty(&wire_tx))
+		return 0;
+	uint64_t t = to_pty.d[(to_pty.head - 1) & (RING - 1)].t + 2 * byte_cycles;
+	return avr->cycle < t && (avr->data[UCSR0B_ADDR] & UDRIE0_BIT) ? t : 0;
+}
+
 /* Write everything waiting, due or not (the cable is about to be pulled). */
 void flush_out(void)
 {
