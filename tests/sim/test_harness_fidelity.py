@@ -214,7 +214,7 @@ def _round_trips(port: str, baud: int, count: int) -> list[float]:
 async def test_no_reply_reaches_the_host_before_its_modelled_time(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
-    """However far the simulation runs ahead (30 us on a busy link), a reply goes to the
+    """However far the simulation runs ahead (up to 100 us while answering), a reply goes to the
     pty only when the wall clock reaches its simulated arrival: every round trip takes at
     least the wire time of its 8 bytes and the firmware's own time."""
     baud = 2_000_000
