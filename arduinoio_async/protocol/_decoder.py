@@ -33,7 +33,9 @@ such a frame whole, as :class:`InvalidValues`, instead of one byte of garbage.
 their bytes (messages are immutable, so equal bytes can share one object): a board
 answers the same few replies over and over -- write acknowledgements, IDs, levels -- and
 a remembered frame costs one dict lookup instead of a checksum loop, an unpack and a
-constructor.  The memo holds at most ``MEMO_SIZE`` frames and starts afresh when full.
+constructor.  :meth:`Decoder.feed` shares the memo for each candidate frame of a longer
+chunk (many pipelined replies read at once).  The memo holds only valid frames (no error
+replies), at most ``MEMO_SIZE`` of them, and starts afresh when full.
 """
 
 from __future__ import annotations
@@ -229,16 +231,24 @@ class Decoder:
         return size if size <= layout.max_size else -1
 
     def _decode(self, buffer: bytearray, pos: int, size: int) -> Frame | InvalidValues | None:
+        raw = bytes(buffer[pos : pos + size])
+        memo = self._memo
+        frame: Frame | None = memo.get(raw)
+        if frame is not None:
+            return frame
         check = 0
-        for byte in buffer[pos : pos + size]:
+        for byte in raw:
             check ^= byte
         if check:
             return None
-        raw = bytes(buffer[pos : pos + size])
         try:
             first = raw[0]
-            if first & ERROR_FLAG:
+            if first & ERROR_FLAG:  # rare: not remembered
                 return ErrorReply(first & ~ERROR_FLAG, raw[1], ErrorCode(raw[2]))
-            return self._layouts[(first << 8) | raw[1]].decode(raw)
+            frame = self._layouts[(first << 8) | raw[1]].decode(raw)
         except ValueError:
             return InvalidValues(raw) if self._keep_invalid else None
+        if len(memo) >= self.MEMO_SIZE:
+            memo.clear()
+        memo[raw] = frame
+        return frame

@@ -16,8 +16,12 @@ Received bytes go to the session as they arrive.  On asyncio, with a stream that
 (the serial stream), that happens in the event loop's fd-readable callback: the reply is
 decoded and matched there and the waiting caller's future resolved, so a round trip costs
 one loop iteration and no task switch.  The common case -- one request in flight, its reply
-alone in a chunk -- takes :meth:`Session.receive_reply`, which allocates nothing.  Other
-streams and backends (trio) use a reader task with anyio's portable primitives.
+alone in a chunk -- takes :meth:`Session.receive_reply`, which allocates nothing.  When one
+chunk completes several requests (pipelining), the stream is asked to collect what the
+woken callers send next into one write, at the end of the same loop iteration in which
+they send it (``SerialByteStream.collect_sends``): still one byte stream in call order, one
+syscall instead of one per request.  Other streams and backends (trio) use a reader task
+with anyio's portable primitives.
 
 *The per-request timeout* covers the whole call: waiting in the queue (behind a window
 full of earlier requests, or a resync), the flight, and transparent retries.  A request
@@ -156,6 +160,7 @@ class Transport:
         self._task_group: anyio.abc.TaskGroup | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._send_nowait: Callable[[bytes], None] | None = None
+        self._collect_sends: Callable[[], None] | None = None
         self._outbox = bytearray()
         self._outbox_ready = anyio.Event()
         #: Monotonic time of the last request sent (heartbeats skip busy links).
@@ -191,6 +196,7 @@ class Transport:
             if not pushed:
                 self._task_group.start_soon(self._reader, name=f"arduinoio reader {self.name}")
             self._send_nowait = getattr(self.stream, "send_nowait", None)
+            self._collect_sends = getattr(self.stream, "collect_sends", None)
             if self._send_nowait is None:
                 self._task_group.start_soon(self._writer, name=f"arduinoio writer {self.name}")
             self._task_group.start_soon(self._resyncer, name=f"arduinoio resync {self.name}")
@@ -424,7 +430,12 @@ class Transport:
             # stamps ``_lost_at``: bytes received while in sync need no time stamp.
             self._last_rx = self._now()
             self._rx_since_loss = True
-        self._process(session.receive_data(data))
+        out = session.receive_data(data)
+        self._process(out)
+        if len(out.done) > 1 and self._collect_sends is not None:
+            # Pipelining: the callers just woken may each send their next request in the
+            # loop's next iteration; one write for all of them (see SerialByteStream).
+            self._collect_sends()
 
     def relay_failure(self, error: ArduinoIOError) -> None:
         """The oldest request in flight failed beyond the stream (a relaying stream's

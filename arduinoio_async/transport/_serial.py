@@ -51,6 +51,16 @@ class SerialByteStream(anyio.abc.ByteStream):
     once (queueing the rest behind a writability callback), so a round trip needs no task
     switch.  A lost port surfaces as ``anyio.BrokenResourceError`` (pull) or ``on_lost``
     (push), never as a traceback from the event loop.
+
+    *One write per wave of replies.*  Received bytes wake the callers whose replies they
+    carry; those tasks run in the loop's next iteration, and with many requests pipelined
+    each sends its next request at once: one ``os.write`` each, the most expensive step of
+    a pipelined request (a pty write wakes its reader: ~10-20 us).  So the transport, when
+    one chunk of received bytes has woken several callers, asks the stream to
+    :meth:`collect_sends`: what is sent until a callback queued behind those wake-ups
+    runs is written by that callback at once, in the order it was sent -- in the same
+    loop iteration as the sends, so no request waits for another iteration.  Sends at
+    any other time (a lone request and its reply) are written at once.
     """
 
     #: Present only where writing without suspending is possible (asyncio).
@@ -63,6 +73,9 @@ class SerialByteStream(anyio.abc.ByteStream):
         self._closed = False
         self._lost: BaseException | None = None
         self._pending = bytearray()
+        #: While not None: bytes sent since received bytes were delivered, written
+        #: together by ``_write_collected`` (see the class docstring).
+        self._collected: bytearray | None = None
         self._on_data: Callable[[bytes], None] | None = None
         self._on_lost: Callable[[BaseException | None], None] | None = None
         try:
@@ -106,6 +119,21 @@ class SerialByteStream(anyio.abc.ByteStream):
         if on_data is not None:
             on_data(data)
 
+    def collect_sends(self) -> None:
+        """Collect what is sent from now on until the callbacks the loop has queued so far
+        have run, then write it in one ``os.write`` (see the class docstring)."""
+        if self._collected is None and self._loop is not None and not self._closed:
+            self._collected = bytearray()
+            self._loop.call_soon(self._write_collected)
+
+    def _write_collected(self) -> None:
+        collected, self._collected = self._collected, None
+        if not collected or self._closed or self._lost is not None:
+            return
+        # A failed write already told the transport (on_lost): every request fails.
+        with contextlib.suppress(anyio.BrokenResourceError):
+            self._send_nowait(bytes(collected))
+
     def _port_lost(self, exc: BaseException | None) -> None:
         self._lost = exc or anyio.EndOfStream()
         if self._loop is not None and not self._closed:
@@ -117,6 +145,10 @@ class SerialByteStream(anyio.abc.ByteStream):
             on_lost(exc)
 
     def _send_nowait(self, item: bytes) -> None:
+        collected = self._collected
+        if collected is not None and not self._closed and self._lost is None:
+            collected += item
+            return
         if self._pending or self._closed or self._lost is not None:
             self._check_open()  # raises when closed or lost
             self._pending += item

@@ -30,6 +30,7 @@
 #include "control.h"
 #include "pacing.h"
 #include "pty.h"
+#include "trace.h"
 #include "wire.h"
 
 #define ANNOUNCE_MAX_CYCLES (250000ULL * 16) /* announce anyway if RXEN0 stays off 250 ms */
@@ -337,7 +338,9 @@ int main(int argc, char **argv)
 	after_reset();
 	rebase();
 
+	trace_open();
 	run_paced();
+	trace_close();
 
 	close_control();
 	if (master_fd >= 0) close(master_fd);

@@ -34,10 +34,16 @@
 #include "control.h"
 #include "pacing.h"
 #include "pty.h"
+#include "trace.h"
 #include "wire.h"
 
 #define SLICE_CYCLES 128ULL             /* 8 us of simulated time between pacing checks */
-#define LEAD_MAX_CYCLES (30ULL * 16)    /* let simulation run at most ~30 us ahead of wall */
+#define LEAD_MAX_CYCLES (30ULL * 16)    /* busy link: run at most 30 us ahead of the wall */
+#define LEAD_RESUME_CYCLES (15ULL * 16) /* ... then wait until the lead is down to 15 us */
+#define ANSWER_LEAD_CYCLES (100ULL * 16) /* answering the host: up to 100 us ahead */
+#define ANSWER_RESUME_CYCLES (50ULL * 16) /* ... resuming at 50 us */
+#define ANSWER_WINDOW_CYCLES (500ULL * 16) /* "answering": a host byte went in this recently */
+#define SPIN_NS 60000ULL                /* spin (not sleep) the last 60 us before output is due */
 #ifndef RUNAHEAD_CYCLES
 #define RUNAHEAD_CYCLES (2000ULL * 16)  /* idle link: run ahead in slices of up to 2 ms */
 #endif
@@ -66,6 +72,12 @@ uint64_t wall_cycles(uint64_t ns)
 	return cycle_base + (ns - wall_base_ns) * CYC_PER_US / 1000ULL;
 }
 
+/* The wall time (ns) at which simulated cycle c is due; the past gives wall_base_ns. */
+static uint64_t wall_ns_of(uint64_t c)
+{
+	return c > cycle_base ? wall_base_ns + (c - cycle_base) * 1000ULL / CYC_PER_US : wall_base_ns;
+}
+
 void rebase(void)
 {
 	wall_base_ns = now_ns();
@@ -89,9 +101,17 @@ static int link_idle(void)
 	       !holding_reset;
 }
 
-static uint64_t lead_allowed(void)
+/* How far a busy link may run ahead, and where a wait for the wall clock ends.
+ * While the firmware answers the host (a host byte went into the UART within
+ * the last 500 us) the host waits for that answer and rarely sends more, so
+ * the simulation may run 100 us ahead: a wait that wakes late (~20-60 us here)
+ * still leaves it ahead of the reply's due time.  Otherwise (a stream, events)
+ * 30 us: a host byte arriving meanwhile is stamped at most that late. */
+static uint64_t busy_lead(uint64_t *resume)
 {
-	return link_idle() ? RUNAHEAD_CYCLES : LEAD_MAX_CYCLES;
+	int answering = avr->cycle - last_host_byte_t < ANSWER_WINDOW_CYCLES;
+	*resume = answering ? ANSWER_RESUME_CYCLES : LEAD_RESUME_CYCLES;
+	return answering ? ANSWER_LEAD_CYCLES : LEAD_MAX_CYCLES;
 }
 
 /* A host stimulus (pty bytes, a control command that changes the circuit)
@@ -107,11 +127,29 @@ void catch_up_wall(void)
 	if (!avr || opt_fast)
 		return;
 	uint64_t wc = wall_cycles(now_ns());
-	if (avr->cycle > wc + LEAD_MAX_CYCLES) {
+	/* With nothing on its way either way no byte's due time moves, so any lead
+	 * can go; on a busy link only a lead beyond the busy bound goes (the bytes
+	 * on their way keep their due times relative to each other). */
+	uint64_t resume;
+	if (avr->cycle > wc + (wire_idle() ? CYC_PER_US : busy_lead(&resume))) {
 		runahead_jumps++;
 		runahead_jump_cycles += avr->cycle - wc;
+		trace_event('J', avr->cycle - wc);
 		rebase();
 	}
+}
+
+/* The simulated time at which a host stimulus arriving now takes effect: the
+ * wall's "now" (after catch_up_wall), or the simulation's own now while it
+ * still runs ahead on a busy link.  Never in the simulated past: a simulation
+ * running behind the wall clock meets the stimulus when it gets there. */
+uint64_t stimulus_cycle(void)
+{
+	catch_up_wall();
+	if (!avr || opt_fast)
+		return avr ? avr->cycle : 0;
+	uint64_t wc = wall_cycles(now_ns());
+	return wc > avr->cycle ? wc : avr->cycle;
 }
 
 /* ------------------------------------------------------------------ events */
@@ -150,23 +188,53 @@ static void build_pollfds(void)
 	npfds = control_pollfds(pfds, npfds);
 }
 
-/* Wait up to timeout_ns for any descriptor; returns >0 if one is ready. */
+static int ppoll_ns(uint64_t timeout_ns)
+{
+	struct timespec ts = {.tv_sec = (time_t)(timeout_ns / 1000000000ULL),
+			      .tv_nsec = (long)(timeout_ns % 1000000000ULL)};
+	return ppoll(pfds, (nfds_t)npfds, &ts, NULL);
+}
+
+/* Wait up to timeout_ns for any descriptor; returns >0 if one is ready.
+ * Board->host bytes that wait for their due time bound the wait, and before
+ * the end of a reply the host waits for the last SPIN_NS are spent polling
+ * without sleeping: a ppoll() that sleeps wakes ~20 us late on this kind of
+ * machine (timer slack is already 1 us), which would be added to every
+ * reply. */
 static int wait_fds(uint64_t timeout_ns)
 {
-	flush_out(); /* never wait with board->host bytes held back */
+	uint64_t t = now_ns();
+	output_service(wall_cycles(t));
 	build_pollfds();
 	if (waiting_for_host_open() && timeout_ns > 5000000ULL)
 		timeout_ns = 5000000ULL; /* look for the host opening the port every 5 ms */
-	struct timespec ts = {.tv_sec = (time_t)(timeout_ns / 1000000000ULL),
-			      .tv_nsec = (long)(timeout_ns % 1000000000ULL)};
-	int r = ppoll(pfds, (nfds_t)npfds, &ts, NULL);
+	uint64_t deadline = 0;
+	int punctual;
+	uint64_t out = output_wake_cycle(&punctual);
+	if (out != UINT64_MAX && !opt_fast) {
+		uint64_t due = wall_ns_of(out);
+		if (due <= t + timeout_ns) { /* output due within this wait */
+			timeout_ns = due > t ? due - t : 0;
+			if (punctual)
+				deadline = t + timeout_ns;
+		}
+	}
+	trace_event('P', timeout_ns);
+	int r;
+	if (!deadline) {
+		r = ppoll_ns(timeout_ns);
+	} else {
+		r = timeout_ns > SPIN_NS ? ppoll_ns(timeout_ns - SPIN_NS) : 0;
+		while (r == 0 && now_ns() < deadline)
+			r = ppoll_ns(0);
+	}
+	trace_event('p', (uint64_t)r);
 	return r;
 }
 
 /* Called when the firmware sleeps; returns how many cycles to advance. */
 static uint64_t sleep_for(uint64_t how_long)
 {
-	flush_out(); /* a sleeping firmware sends nothing more for now */
 	uint64_t target = avr->cycle + 1 + how_long;
 	if (next_event < target)
 		target = next_event > avr->cycle ? next_event : avr->cycle + 1;
@@ -182,10 +250,19 @@ static uint64_t sleep_for(uint64_t how_long)
 		/* idle link: sleep through the tick in simulated time only, as long as
 		 * the lead stays within RUNAHEAD_CYCLES; once it would not, wait until
 		 * the wall clock reaches the target (lead back to 0), so waits come in
-		 * slices of ~2 ms instead of one per timer tick */
-		if (wc >= target || (target - wc <= RUNAHEAD_CYCLES && link_idle()))
+		 * slices of ~2 ms instead of one per timer tick.  Busy link: sleep on
+		 * in simulated time within LEAD_MAX_CYCLES, else wait until the lead
+		 * is down to LEAD_RESUME_CYCLES (a wait that wakes late then still
+		 * leaves the simulation ahead of the bytes due to the host). */
+		int idle = link_idle();
+		uint64_t resume = 0;
+		uint64_t lead = idle ? RUNAHEAD_CYCLES : busy_lead(&resume);
+		if (wc >= target || target - wc <= lead)
 			return target - avr->cycle;
-		uint64_t wait_ns = (target - wc) * 1000ULL / CYC_PER_US;
+		uint64_t decided = output_decided_at();
+		if (decided > avr->cycle) /* sleep only as far as deciding a burst's end, no wait */
+			return (decided < target ? decided : target) - avr->cycle;
+		uint64_t wait_ns = (target - wc - resume) * 1000ULL / CYC_PER_US;
 		int r = wait_fds(wait_ns);
 		if (quit_flag)
 			r = 1;
@@ -296,21 +373,28 @@ void run_paced(void)
 			poll_io(0);
 			t = now_ns();
 		}
-		flush_out_if_held(t);
+		output_service(wall_cycles(t));
 		if (opt_fast) {
 			if (t - last_io_ns > 200000ULL) poll_io(0);
 			continue;
 		}
 		uint64_t wc = wall_cycles(t);
-		if (avr->cycle > wc + lead_allowed()) {
-			poll_io((avr->cycle - wc) * 1000ULL / CYC_PER_US);
+		int idle = link_idle();
+		uint64_t resume = 0;
+		uint64_t lead = idle ? RUNAHEAD_CYCLES : busy_lead(&resume);
+		if (avr->cycle > wc + lead && avr->cycle >= output_decided_at()) {
+			/* idle: until the lead is 0 (slices of ~2 ms); busy: down to the resume lead */
+			poll_io((avr->cycle - wc - resume) * 1000ULL / CYC_PER_US);
 		} else {
 			int64_t lag = (int64_t)wc - (int64_t)avr->cycle;
 			if (lag > max_lag_cycles) max_lag_cycles = lag;
-			if (lag > (int64_t)LAG_REBASE_CYCLES) { rebase(); rebase_count++; }
-			/* running ahead on an idle link: look for host bytes every 20 us */
-			uint64_t every = avr->cycle > wc + LEAD_MAX_CYCLES ? 20000ULL : 100000ULL;
-			if (t - last_io_ns > every) poll_io(0);
+			if (lag > (int64_t)LAG_REBASE_CYCLES) {
+				rebase();
+				rebase_count++;
+				wire_time_base_reset(); /* host bytes stamped at the old wall's now */
+			}
+			/* computing, not waiting: look for host bytes every 20 us of wall time */
+			if (t - last_io_ns > 20000ULL) poll_io(0);
 		}
 	}
 }

@@ -16,6 +16,7 @@ uint64_t now_ns(void);
 uint64_t wall_cycles(uint64_t ns);
 void rebase(void);
 void catch_up_wall(void);
+uint64_t stimulus_cycle(void);
 
 /* harness events (not simavr cycle timers: avr_reset() cancels those) */
 extern uint64_t next_event;

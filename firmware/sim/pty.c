@@ -16,6 +16,7 @@
 #include "circuit.h"
 #include "pacing.h"
 #include "pty.h"
+#include "trace.h"
 #include "wire.h"
 
 int master_fd = -1;
@@ -173,6 +174,7 @@ static void read_master(void)
 			if (baud_mismatch((size_t)n))
 				continue;
 			host_rx_stalled = 0;
+			trace_event('R', (uint64_t)n);
 			host_bytes_in(buf, (size_t)n);
 			continue;
 		}
@@ -212,7 +214,7 @@ void service_pty(short revents)
 		if (master_fd >= 0) read_master();
 		slave_open = 0;
 	}
-	if (revents & POLLOUT) flush_out();
+	if (revents & POLLOUT) output_service(wall_cycles(now_ns()));
 }
 
 /* After every wait: has the host opened the port, has the DTR reset ended? */

@@ -16,12 +16,13 @@
 
 #include "pacing.h"
 #include "pty.h"
+#include "trace.h"
 #include "wire.h"
 
 #define TICK_16U2_CYCLES 65536ULL       /* 16U2 Timer0 overflow: clk/256 * 256 = 4.096 ms */
 #define USB_FRAME_CYCLES 16000ULL       /* USB full-speed 1 ms frame */
 #define NEARLY_FULL_16U2 96             /* arduino-usbserial: release when MORE than this wait */
-#define OUT_HOLD_NS 5000ULL             /* max wall time a board->host byte waits for a batched write */
+#define OUT_HOLD_BYTES 8                /* a due board->host byte waits at most 8 byte times for a batched write */
 #define RING 8192
 
 
@@ -50,9 +51,8 @@ static struct ring host_rx;     /* host->board bytes waiting for injection (t = 
 static struct ring wire_tx;     /* board->host bytes on the wire (t = end of stop bit) */
 static struct ring bridge_buf;  /* 16U2: bytes waiting for tick / 96 bytes (t unused) */
 static struct ring usb_out;     /* 16U2: released bytes waiting for USB frame (t = frame) */
-static uint8_t out_buf[RING];   /* bytes ready for the pty master */
-static size_t out_len;
-static uint64_t out_first_ns;   /* wall time the oldest unwritten byte entered out_buf */
+static struct ring to_pty;      /* bytes that reached the host side (t = due: simulated arrival) */
+static int out_blocked;         /* the last write() was short: the pty is full */
 unsigned long pty_writes;
 uint64_t byte_cycles;
 static uint64_t next_inject_ok; /* earliest cycle for next injection (wire spacing) */
@@ -88,7 +88,7 @@ unsigned host_rx_queued(void)
 /* Nothing waits to go either way (see link_idle in pacing.c). */
 int wire_idle(void)
 {
-	return ring_empty(&host_rx) && ring_empty(&wire_tx) && !out_len && ring_empty(&bridge_buf) &&
+	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&to_pty) && ring_empty(&bridge_buf) &&
 	       ring_empty(&usb_out);
 }
 
@@ -98,52 +98,149 @@ static uint64_t next_boundary(uint64_t t, uint64_t period)
 }
 
 /* ------------------------------------------------------------------ to the host */
-/* Board->host bytes collect in out_buf and go to the pty in one write() when
- * the wire falls idle or a 16U2 frame is released (wire_events_done), when the
- * firmware goes to sleep (sleep_for) or the harness is about to wait
- * (wait_fds), or from the main loop once the oldest has waited OUT_HOLD_NS
- * of wall time (simulation running behind).  A byte is handed over no
- * earlier than before (when simulated time reaches its modelled arrival) and
- * at most a few microseconds later; one write() per byte cost ~5 us of
- * syscall and kernel pty work each. */
-static void to_host(uint8_t b)
+/* A board->host byte reaches the host side at a simulated time, its *due*
+ * time: the end of its stop bit, or (16U2) the USB frame that carries it.
+ * It waits in to_pty until the wall clock has reached that time too, so the
+ * host never sees a byte earlier than the modelled link would deliver it,
+ * however far the simulation runs ahead (pacing.c).  Then bytes go to the pty
+ * in as few write()s as cost no latency (one write() per byte cost ~5 us of
+ * syscall and kernel pty work each; a reply split over two writes also wakes
+ * the host twice):
+ *  - a burst goes out whole once its last byte is due: the burst has ended
+ *    when no further byte follows within 2 byte times (the next byte due
+ *    in to_pty, on the wire, or the firmware still sending: UDRIE0 set);
+ *  - while a burst goes on (a stream, pipelined replies back to back), what
+ *    is due goes out once its oldest byte has waited OUT_HOLD_BYTES byte times
+ *    (a reply of up to 9 bytes still goes in one write).
+ * pacing.c waits for output_wake_cycle() and spins the last few
+ * microseconds to a reply's end (a wait in ppoll() oversleeps by ~20 us here). */
+static void to_host(uint8_t b, uint64_t due)
 {
-	if (!out_len)
-		out_first_ns = now_ns();
-	if (out_len < sizeof(out_buf))
-		out_buf[out_len++] = b;
-	else
+	if (!ring_push(&to_pty, b, due))
 		lost_to_host++; /* host not reading and 8 KiB already waiting */
 }
 
-void flush_out(void)
+static inline uint64_t to_pty_due(unsigned i) /* i = 0: the oldest byte */
 {
-	if (!out_len)
-		return;
-	if (master_fd < 0 || !slave_open) {
-		bytes_discarded += out_len;
-		out_len = 0;
-		return;
-	}
-	if (baud_mismatch(out_len)) {
-		out_len = 0;
-		return;
-	}
-	ssize_t n = write(master_fd, out_buf, out_len);
-	pty_writes++;
-	if (n > 0) {
-		bytes_to_host += (unsigned long)n;
-		memmove(out_buf, out_buf + n, out_len - (size_t)n);
-		out_len -= (size_t)n;
-	}
-	if (out_len) /* pty full (host not reading): retry on POLLOUT or after OUT_HOLD_NS */
-		out_first_ns = now_ns();
+	return to_pty.d[(to_pty.tail + i) & (RING - 1)].t;
 }
 
-void flush_out_if_held(uint64_t t)
+/* The bytes of to_pty due by wall cycle wc. */
+static unsigned due_count(uint64_t wc)
 {
-	if (out_len && t - out_first_ns >= OUT_HOLD_NS)
-		flush_out();
+	unsigned n = 0, len = ring_len(&to_pty);
+	while (n < len && to_pty_due(n) <= wc)
+		n++;
+	return n;
+}
+
+/* Is byte i of to_pty the last of its burst: does no byte follow within 2
+ * byte times (waiting, on the wire, or about to be sent: UDRIE0 set while
+ * simulated time has not passed the gap yet)?  A 16U2 frame ends with its
+ * last byte. */
+static int burst_ends_at(unsigned i)
+{
+	uint64_t t = to_pty_due(i);
+	uint64_t gap = opt_16u2 ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
+	if (i + 1 < ring_len(&to_pty))
+		return to_pty_due(i + 1) > t + gap;
+	if (opt_16u2)
+		return 1;
+	if (!ring_empty(&wire_tx))
+		return ring_peek(&wire_tx)->t > t + gap;
+	return avr->cycle >= t + gap || !(avr->data[UCSR0B_ADDR] & UDRIE0_BIT);
+}
+
+/* Write the first n bytes of to_pty (fewer if the pty is full). */
+static void write_out(unsigned n)
+{
+	if (!n)
+		return;
+	if (master_fd < 0 || !slave_open) {
+		bytes_discarded += n;
+		while (n--)
+			ring_pop(&to_pty);
+		out_blocked = 0;
+		return;
+	}
+	if (baud_mismatch(n)) { /* counted there: garbled on a real link */
+		while (n--)
+			ring_pop(&to_pty);
+		out_blocked = 0;
+		return;
+	}
+	uint8_t buf[RING];
+	for (unsigned i = 0; i < n; i++)
+		buf[i] = to_pty.d[(to_pty.tail + i) & (RING - 1)].b;
+	ssize_t w = write(master_fd, buf, n);
+	pty_writes++;
+	trace_event('W', (uint64_t)w);
+	out_blocked = w < (ssize_t)n; /* pty full (host not reading): retry on POLLOUT */
+	if (w > 0) {
+		bytes_to_host += (unsigned long)w;
+		to_pty.tail = (to_pty.tail + (unsigned)w) & (RING - 1);
+	}
+}
+
+/* Hand the host what is due by wall cycle wc, by the rules above. */
+void output_service(uint64_t wc)
+{
+	if (ring_empty(&to_pty))
+		return;
+	if (opt_fast)
+		wc = UINT64_MAX; /* unpaced: no wall clock to wait for */
+	unsigned due = due_count(wc);
+	if (!due)
+		return;
+	if (out_blocked || to_pty_due(0) + OUT_HOLD_BYTES * byte_cycles <= wc) {
+		write_out(due);
+		return;
+	}
+	for (unsigned i = due; i-- > 0;)
+		if (burst_ends_at(i)) { /* every burst that ended, whole */
+			write_out(i + 1);
+			return;
+		}
+}
+
+/* The cycle at which output_service will next write (UINT64_MAX: nothing
+ * waits; it may lie in the past).  *punctual: it is the end of a burst while
+ * the host has nothing more queued for the board, i.e. a reply the host is
+ * likely waiting for (pacing.c then spins rather than sleeps up to it; the
+ * partial writes of long bursts and replies to pipelined requests do not
+ * need that precision and would keep the harness spinning). */
+uint64_t output_wake_cycle(int *punctual)
+{
+	*punctual = 0;
+	if (ring_empty(&to_pty) || out_blocked)
+		return UINT64_MAX;
+	uint64_t held = to_pty_due(0) + OUT_HOLD_BYTES * byte_cycles;
+	unsigned len = ring_len(&to_pty);
+	for (unsigned i = 0; i < len && to_pty_due(i) < held; i++)
+		if (burst_ends_at(i)) {
+			*punctual = ring_empty(&host_rx);
+			return to_pty_due(i);
+		}
+	return held;
+}
+
+/* The simulated cycle the simulation must reach to know whether the newest
+ * byte for the host ends its burst (0: known already).  The firmware's UDRE
+ * interrupt often stays on past a reply's last byte, so only simulated time
+ * passing the gap tells; pacing.c lets the simulation run that far ahead, or
+ * the end of every reply would wait for the next wait to end. */
+uint64_t output_decided_at(void)
+{
+	if (ring_empty(&to_pty) || opt_16u2 || !ring_empty(&wire_tx))
+		return 0;
+	uint64_t t = to_pty.d[(to_pty.head - 1) & (RING - 1)].t + 2 * byte_cycles;
+	return avr->cycle < t && (avr->data[UCSR0B_ADDR] & UDRIE0_BIT) ? t : 0;
+}
+
+/* Write everything waiting, due or not (the cable is about to be pulled). */
+void flush_out(void)
+{
+	write_out(ring_len(&to_pty));
 }
 
 static void release_16u2(uint64_t now)
@@ -176,7 +273,8 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 	}
 	for (int i = 0; i < n; i++) {
 		if (!opt_16u2) {
-			to_host(bytes[i]);
+			trace_event('T', bytes[i]);
+			to_host(bytes[i], now);
 		} else {
 			if (!ring_push(&bridge_buf, bytes[i], now))
 				lost_to_host++;
@@ -220,6 +318,7 @@ int wire_run_events(uint64_t now)
 			ring_pop(&host_rx);
 			avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT), b);
 			bytes_from_host++;
+			trace_event('I', b);
 			last_host_byte_t = now;
 			next_inject_ok = now + byte_cycles;
 			progress = 1;
@@ -227,8 +326,9 @@ int wire_run_events(uint64_t now)
 	}
 	if (!ring_empty(&wire_tx) && ring_peek(&wire_tx)->t <= now) {
 		uint8_t b = ring_peek(&wire_tx)->b;
+		uint64_t t = ring_peek(&wire_tx)->t;
 		ring_pop(&wire_tx);
-		byte_off_wire(b, now);
+		byte_off_wire(b, t);
 		progress = 1;
 	}
 	if (tick_at && tick_at <= now) {
@@ -237,21 +337,19 @@ int wire_run_events(uint64_t now)
 		progress = 1;
 	}
 	while (!ring_empty(&usb_out) && ring_peek(&usb_out)->t <= now) {
-		to_host(ring_peek(&usb_out)->b);
+		to_host(ring_peek(&usb_out)->b, ring_peek(&usb_out)->t);
 		ring_pop(&usb_out);
 		progress = 1;
 	}
 	return progress;
 }
 
-/* The end of a burst goes out at once (nothing more on the wire and the
- * firmware's UDRE interrupt off, i.e. it has nothing more queued), as does
- * a 16U2 release (a whole USB frame's worth at once): batching must not
- * delay the last byte of a reply. */
+/* After the events: bytes that just reached the host side may already be due
+ * (simulation behind the wall clock, or a burst that just ended). */
 void wire_events_done(void)
 {
-	if (out_len && (opt_16u2 || (ring_empty(&wire_tx) && !(avr->data[UCSR0B_ADDR] & UDRIE0_BIT))))
-		flush_out();
+	if (!ring_empty(&to_pty))
+		output_service(wall_cycles(now_ns()));
 }
 
 /* ------------------------------------------------------------------ UART hooks */
@@ -288,6 +386,7 @@ static void wrap_udr_read(void)
 static void uart_out_hook(avr_irq_t *irq, uint32_t value, void *param)
 {
 	uint64_t now = avr->cycle;
+	trace_event('O', value);
 	if (fw_pending) {
 		fw_last = now - fw_start;
 		fw_samples[fw_next] = fw_last;
@@ -340,8 +439,7 @@ void wire_after_reset(void)
  * the next USB frame), never stamped in the simulation's future. */
 void host_bytes_in(const uint8_t *buf, size_t n)
 {
-	catch_up_wall(); /* a host stimulus: never stamped in the simulation's future */
-	uint64_t t = avr->cycle;
+	uint64_t t = stimulus_cycle(); /* the wall's now, or the simulation's on a busy link */
 	if (opt_16u2)
 		t = next_boundary(t, USB_FRAME_CYCLES);
 	for (size_t i = 0; i < n; i++)
@@ -350,15 +448,27 @@ void host_bytes_in(const uint8_t *buf, size_t n)
 	recompute_next_event();
 }
 
+/* The simulation gave up catching up with the wall clock (rebase): host bytes
+ * stamped at the wall's "now" ahead of the simulation would otherwise wait
+ * for the whole lag again; they take effect at the simulated now. */
+void wire_time_base_reset(void)
+{
+	for (unsigned i = host_rx.tail; i != host_rx.head; i = (i + 1) & (RING - 1))
+		if (host_rx.d[i].t > avr->cycle)
+			host_rx.d[i].t = avr->cycle;
+	recompute_next_event();
+}
+
 int wire_has_output(void)
 {
-	return out_len != 0;
+	return out_blocked && !ring_empty(&to_pty);
 }
 
 /* The cable is pulled: what was still on its way to the host is gone. */
 void wire_unplug(void)
 {
-	out_len = 0;
+	ring_clear(&to_pty);
+	out_blocked = 0;
 	ring_clear(&bridge_buf);
 	ring_clear(&usb_out);
 	tick_at = 0;

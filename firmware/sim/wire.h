@@ -38,10 +38,13 @@ void wire_unplug(void);
 
 /* for pacing.c */
 int wire_idle(void);
+void wire_time_base_reset(void);
 void wire_schedule_events(void);
 int wire_run_events(uint64_t now);
 void wire_events_done(void);
-void flush_out(void);
-void flush_out_if_held(uint64_t t);
+void flush_out(void);                /* everything, due or not (unplug) */
+uint64_t output_decided_at(void);    /* cycle that tells whether the newest byte ends a burst */
+void output_service(uint64_t wc);    /* write what is due by wall cycle wc */
+uint64_t output_wake_cycle(int *punctual); /* when output_service next writes, UINT64_MAX: never */
 
 #endif

@@ -12,14 +12,19 @@ Each test has an oracle that failed on the harness before the fix:
   also keep up with the wall clock depends on spare cores: ``benchmarks/harness_pacing.py``);
 * a host that opened the port at another baud rate than the firmware's was answered as if
   the rates matched; now, as on a real Uno, its bytes are lost both ways.
+* a reply went to the pty as soon as *simulated* time reached it, up to the busy lead
+  (30 us) before the wall clock did; now it waits for its due time, so no
+  round trip is shorter than its modelled wire and firmware time.
 
 Blocking pyserial calls run in worker threads (``anyio.to_thread``).
 """
 
 from __future__ import annotations
 
+import statistics
 import sys
 import threading
+import time
 from pathlib import Path
 
 import anyio
@@ -210,3 +215,74 @@ async def test_a_host_at_another_baud_rate_gets_no_answer(
     assert (await uno.status())["baud_mismatch_bytes"] > 0
     async with Board.open(uno.port, baudrate=proto.PAPER_BAUD) as board:
         assert await board.read_id() == 4
+
+
+def _round_trips(port: str, baud: int, count: int) -> list[float]:
+    """Sequential READ ID round trips with bare pyserial, in microseconds."""
+    link = serial.Serial(port, baud, timeout=1.0)
+    try:
+        request = proto.ReadId().encode()
+        rtts = []
+        for _ in range(count):
+            start = time.perf_counter_ns()
+            link.write(request)
+            if len(link.read(5)) != 5:
+                raise AssertionError("no reply to READ ID")
+            rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+    finally:
+        link.close()
+
+
+async def test_no_reply_reaches_the_host_before_its_modelled_time(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """However far the simulation runs ahead (up to 100 us while answering), a reply goes to the
+    pty only when the wall clock reaches its simulated arrival: every round trip takes at
+    least the wire time of its 8 bytes and the firmware's own time."""
+    baud = 2_000_000
+    uno = await virtual_uno_factory(baud=baud, board_id=5)
+    await uno.firmware_cycles(clear=True)
+    rtts = await anyio.to_thread.run_sync(_round_trips, uno.port, baud, 300)
+    firmware = await uno.firmware_cycles()
+    # request: bytes 2 and 3 start 10 and 20 bit times after the first, the last is
+    # read 10+ bit times later; reply: the first byte leaves 10 bit times after the
+    # firmware writes it, the other four follow 10 (simavr: 11) bit times apart
+    wire_us = (20 + 10 + 10 + 40) * 1e6 / baud
+    floor_us = wire_us + min(firmware.samples) / 16
+    print(
+        f"\nround trip at 2 Mbaud: min {min(rtts):.1f} us, p50 {statistics.median(rtts):.1f} us; "
+        f"modelled floor {floor_us:.1f} us (firmware {min(firmware.samples) / 16:.1f} us)"
+    )
+    assert len(firmware.samples) >= 100
+    assert min(rtts) >= floor_us
+
+
+async def test_trace_records_where_a_round_trip_goes(
+    virtual_uno_factory: VirtualUnoFactory, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """``VIRTUAL_UNO_TRACE=FILE``: at exit the harness writes its pty reads and writes
+    (CLOCK_MONOTONIC, as the host's ``time.monotonic_ns``), in order, between the host's
+    write of a request and the end of its read of the reply."""
+    trace = tmp_path / "trace.txt"
+    monkeypatch.setenv("VIRTUAL_UNO_TRACE", str(trace))
+    uno = await virtual_uno_factory(baud=1_000_000, board_id=6)
+
+    def round_trip() -> tuple[int, int]:
+        link = serial.Serial(uno.port, 1_000_000, timeout=1.0)
+        try:
+            start = time.monotonic_ns()
+            link.write(proto.ReadId().encode())
+            assert len(link.read(5)) == 5
+            return start, time.monotonic_ns()
+        finally:
+            link.close()
+
+    start, end = await anyio.to_thread.run_sync(round_trip)
+    await uno.stop()
+    records = [line.split() for line in trace.read_text().splitlines()]
+    reads = [(int(r[1]), int(r[4])) for r in records if r[0] == "R"]
+    writes = [(int(r[1]), int(r[4])) for r in records if r[0] == "W"]
+    assert [n for t, n in reads if start <= t <= end] == [3]
+    assert sum(n for t, n in writes if start <= t <= end) == 5
+    assert all(r[0] in "RWIOTPpJ" and len(r) == 5 for r in records)

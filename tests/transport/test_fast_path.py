@@ -116,3 +116,21 @@ async def test_a_short_timeout_behind_a_long_one_expires_on_time() -> None:
                 with pytest.raises(BoardTimeoutError):
                     await link.request(p.AnalogRead(1), timeout=0.05)
                 tg.cancel_scope.cancel()
+
+
+def test_feed_shares_the_memo_and_keeps_it_to_valid_frames() -> None:
+    """Pipelined replies read in one chunk are remembered too; garbage and error replies
+    never are, and a remembered frame gives what decoding it afresh gives."""
+    decoder = p.Decoder.from_board()
+    replies = [p.GpioWriteReply(2 + i % 4, bool(i % 2)) for i in range(8)]
+    chunk = b"".join(r.encode() for r in replies)
+    first = decoder.feed(chunk)
+    assert first == replies
+    again = decoder.feed(chunk)
+    assert again == replies and all(a is b for a, b in zip(again, first, strict=True))
+    bad = bytearray(replies[0].encode())
+    bad[-1] ^= 0xFF
+    error = p.ErrorReply(1, 2, p.ErrorCode(3)).encode()
+    decoder.feed(bytes(bad) + error)
+    assert bytes(bad) not in decoder._memo and error not in decoder._memo
+    assert set(decoder._memo) == {r.encode() for r in replies}

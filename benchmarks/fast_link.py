@@ -1,0 +1,374 @@
+"""Fast links without a bridge: one request's round trip, and pipelined writes per second.
+
+Issue 13's "no bridge" goals: sequential read ID p50 at most 0.15 ms at 2,000,000 baud
+through the library, and the host's share of pipelined write-pin at least 28,000/s.
+
+*Round trips* (``await board.read_id()`` one after another): on one virtual Uno per baud
+rate, three clients take turns in rounds whose order rotates every round, so a busy
+neighbour on the shared machine slows all of them alike: bare pyserial
+(``write(3)`` + ``read(5)``, blocking, the floor any Python client pays), a minimal asyncio
+client (a reader callback resolving one future: the event loop's own floor) and the
+library.  Each round opens its client afresh (the port is exclusive), warms up, then takes
+``--samples`` round trips.  Reported: p10/p50/p90 of all samples, and the per-round
+medians' range as the spread.  ``--compare-harness PATH`` runs the same clients on a
+second virtual Uno from another harness binary (an older build) in the same rotation,
+so a harness change is measured before/after under the same load.
+
+*Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop) against
+responder processes on pseudo-terminals (:func:`serve`): one that answers at once, many
+replies per write (what the library alone can do, syscalls included), and one paced like
+a firmware doing ``--paced-rate`` commands a second, each reply in its own write (the
+host then wakes for every reply, as with the virtual Uno); and against the virtual Uno
+at each baud rate (where the firmware's cycles per command limit the rate).  Rounds
+interleave all of them; reported: median writes/s with the range, and the library's
+CPU time per write (this thread's ``time.thread_time``: the host's own share, which a
+busy neighbour on the shared machine disturbs far less than the wall-clock rate).
+
+    .venv/bin/python benchmarks/fast_link.py --json benchmarks/results/fast_link.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import collections
+import json
+import os
+import select
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Awaitable, Callable, Iterator
+from contextlib import AsyncExitStack, contextmanager
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+import anyio
+import serial
+
+from arduinoio_async import protocol as p
+from arduinoio_async.bench.responder import reply_table
+from arduinoio_async.board import Board
+from arduinoio_async.protocol.pins import DigitalPin
+from arduinoio_async.sim import VirtualUno
+
+PIN = DigitalPin(4)
+
+
+def serve(fd: int, interval: float) -> None:
+    """A board stand-in on pty master ``fd`` (a child process): the handshake from
+    ``reply_table``, and every request whose reply echoes its fields (GPIO configure and
+    write, SetSession) answered by echoing them.
+
+    ``interval`` 0: answers at once, the replies to all the requests one read brought in
+    one write.  Otherwise like a board whose firmware takes ``interval`` seconds per
+    command: each reply in its own write, ``interval`` after the previous one (or when
+    its request arrives, if later); the wait is a busy loop, as a sleep would wake tens
+    of microseconds late.
+    """
+    table = reply_table()
+    decoder = p.Decoder.from_host()
+    memo: dict[bytes, bytes] = {}
+    due: collections.deque[bytes] = collections.deque()
+    next_at = 0.0
+    os.set_blocking(fd, interval == 0)
+    while True:
+        try:
+            data = os.read(fd, 65536)
+        except BlockingIOError:
+            data = None
+        except OSError:
+            return
+        if data == b"":
+            return
+        if data:
+            for frame in decoder.feed(data):
+                if not isinstance(frame, p.Request):
+                    continue
+                raw = frame.encode()
+                reply = memo.get(raw)
+                if reply is None:
+                    reply = table.get(raw)
+                    if reply is None:
+                        echoed = [getattr(frame, f.name) for f in fields(frame)]  # type: ignore[arg-type]
+                        reply = frame.REPLY(*echoed).encode()
+                    memo[raw] = reply
+                due.append(reply)
+        if interval == 0:
+            if due:
+                os.write(fd, b"".join(due))
+                due.clear()
+            continue
+        now = time.perf_counter()
+        if not due:
+            next_at = max(next_at, now)
+            select.select([fd], [], [], 0.05)
+            continue
+        if now >= next_at:
+            os.write(fd, due.popleft())
+            next_at = max(next_at + interval, now - interval)
+
+
+def _bare_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
+    """Blocking pyserial round trips (run in a worker thread); microseconds."""
+    request = p.ReadId().encode()
+    port = serial.Serial(port_path, baud, timeout=1.0, exclusive=True)
+    try:
+        rtts = []
+        for index in range(warmup + samples):
+            start = time.perf_counter_ns()
+            port.write(request)
+            if len(port.read(5)) != 5:
+                raise RuntimeError(f"{port_path}: no reply to READ ID")
+            if index >= warmup:
+                rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+    finally:
+        port.close()
+
+
+async def _minimal_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
+    """The event loop's floor: os.write, then a reader callback resolves a future."""
+    loop = asyncio.get_running_loop()
+    port = serial.Serial(port_path, baud, timeout=0, exclusive=True)
+    fd = port.fd
+    request = p.ReadId().encode()
+    waiting: list[asyncio.Future[None]] = []
+    received = [0]
+
+    def readable() -> None:
+        received[0] += len(os.read(fd, 256))
+        if received[0] >= 5 and waiting:
+            received[0] -= 5
+            waiting.pop().set_result(None)
+
+    loop.add_reader(fd, readable)
+    try:
+        rtts = []
+        with anyio.fail_after(10 + (warmup + samples) / 1000):  # one scope: no cost per trip
+            for index in range(warmup + samples):
+                future = loop.create_future()
+                waiting.append(future)
+                start = time.perf_counter_ns()
+                os.write(fd, request)
+                await future
+                if index >= warmup:
+                    rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+    finally:
+        loop.remove_reader(fd)
+        port.close()
+
+
+async def _library_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
+    async with Board.open(port_path, baudrate=baud) as board:
+        rtts = []
+        for index in range(warmup + samples):
+            start = time.perf_counter_ns()
+            await board.read_id()
+            if index >= warmup:
+                rtts.append((time.perf_counter_ns() - start) / 1e3)
+        return rtts
+
+
+def _percentiles(values: list[float]) -> dict[str, float]:
+    deciles = statistics.quantiles(values, n=10)
+    return {
+        "p10": round(deciles[0], 1),
+        "p50": round(statistics.median(values), 1),
+        "p90": round(deciles[8], 1),
+    }
+
+
+_CLIENTS: dict[str, Callable[[str, int, int, int], Awaitable[list[float]]]] = {
+    "bare_pyserial": lambda *a: anyio.to_thread.run_sync(_bare_round, *a),
+    "minimal_asyncio": _minimal_round,
+    "library": _library_round,
+}
+
+
+async def round_trips(
+    baud: int, rounds: int, samples: int, warmup: int, compare: Path | None
+) -> dict[str, Any]:
+    """Every client on this harness (and, with ``compare``, on that harness binary too:
+    a second virtual Uno whose rounds interleave with the first's)."""
+    harnesses: dict[str, Path | None] = {"": None}
+    if compare is not None:
+        harnesses["harness_compared"] = compare
+    pooled: dict[tuple[str, str], list[float]] = {}
+    medians: dict[tuple[str, str], list[float]] = {}
+    status: dict[str, dict[str, Any]] = {}
+    async with AsyncExitStack() as stack:
+        unos = {
+            key: await stack.enter_async_context(VirtualUno(board_id=1, baud=baud, binary=binary))
+            for key, binary in harnesses.items()
+        }
+        before = {key: await uno.status() for key, uno in unos.items()}
+        order = [(key, client) for key in unos for client in _CLIENTS]
+        for index in range(rounds):
+            shift = index % len(order)
+            for key, client in order[shift:] + order[:shift]:
+                rtts = await _CLIENTS[client](unos[key].port, baud, samples, warmup)
+                pooled.setdefault((key, client), []).extend(rtts)
+                medians.setdefault((key, client), []).append(statistics.median(rtts))
+        for key, uno in unos.items():
+            after = await uno.status()
+            status[key] = {
+                name: after[name] - before[key][name]
+                for name in ("rebases", "pty_writes", "runahead_jumps")
+                if isinstance(after.get(name), int)
+            }
+    out: dict[str, Any] = {"baud": baud}
+    for key in harnesses:
+        part: dict[str, Any] = out if not key else out.setdefault(key, {"binary": str(compare)})
+        for client in _CLIENTS:
+            values = medians[(key, client)]
+            part[client] = {
+                **_percentiles(pooled[(key, client)]),
+                "round_medians_range": [round(min(values), 1), round(max(values), 1)],
+                "samples": len(pooled[(key, client)]),
+            }
+        part["harness"] = status[key]
+    return out
+
+
+async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> tuple[float, float]:
+    """``calls`` pipelined writes from ``tasks`` tasks: (writes per second of wall time,
+    microseconds of this thread's CPU time per write)."""
+    async with Board.open(port_path, baudrate=baud, timeout=2.0) as board:
+        gpio = board.gpio(PIN)
+        await gpio.write(False)
+        remaining = calls
+        level = False
+
+        async def worker() -> None:
+            nonlocal remaining, level
+            while remaining > 0:
+                remaining -= 1
+                level = not level
+                await gpio.write(level)
+
+        begin = time.perf_counter()
+        cpu = time.thread_time()
+        async with anyio.create_task_group() as tg:
+            for _ in range(tasks):
+                tg.start_soon(worker)
+        cpu = time.thread_time() - cpu
+        return calls / (time.perf_counter() - begin), cpu / calls * 1e6
+
+
+@contextmanager
+def _responder(interval: float) -> Iterator[str]:
+    """A :func:`serve` child process on a fresh pseudo-terminal; yields its port."""
+    master, slave = os.openpty()
+    child = subprocess.Popen(
+        [sys.executable, __file__, "--serve", str(master), "--serve-interval", str(interval)],
+        pass_fds=(master,),
+    )
+    os.close(master)
+    try:
+        yield os.ttyname(slave)
+    finally:
+        os.close(slave)
+        child.terminate()
+        child.wait()
+
+
+async def pipelined(
+    bauds: list[int], rounds: int, calls: int, tasks: int, paced_rate: float, compare: Path | None
+) -> dict[str, Any]:
+    paced = f"responder_paced_{paced_rate:.0f}_per_s"
+    ports: dict[str, tuple[str, int]] = {}
+    async with AsyncExitStack() as stack:
+        ports["responder_instant"] = (stack.enter_context(_responder(0.0)), 2_000_000)
+        ports[paced] = (stack.enter_context(_responder(1 / paced_rate)), 2_000_000)
+        for baud in bauds:
+            uno = await stack.enter_async_context(VirtualUno(board_id=1, baud=baud))
+            ports[f"virtual_uno_{baud}"] = (uno.port, baud)
+            if compare is not None:
+                uno = await stack.enter_async_context(
+                    VirtualUno(board_id=1, baud=baud, binary=compare)
+                )
+                ports[f"virtual_uno_{baud}_harness_compared"] = (uno.port, baud)
+        rates: dict[str, list[float]] = {name: [] for name in ports}
+        cpu: dict[str, list[float]] = {name: [] for name in ports}
+        order = list(ports)
+        for index in range(rounds):
+            shift = index % len(order)
+            for name in order[shift:] + order[:shift]:
+                rate, cpu_us = await _write_rate(*ports[name], calls, tasks)
+                rates[name].append(rate)
+                cpu[name].append(cpu_us)
+    return {
+        "tasks": tasks,
+        "calls_per_round": calls,
+        **{
+            name: {
+                "writes_per_s_median": round(statistics.median(rates[name])),
+                "writes_per_s_range": [round(min(rates[name])), round(max(rates[name]))],
+                "library_cpu_us_per_write_median": round(statistics.median(cpu[name]), 2),
+                "library_cpu_us_per_write_range": [
+                    round(min(cpu[name]), 2),
+                    round(max(cpu[name]), 2),
+                ],
+                "writes_per_library_cpu_second": round(1e6 / statistics.median(cpu[name])),
+            }
+            for name in ports
+        },
+    }
+
+
+async def measure(args: argparse.Namespace) -> dict[str, Any]:
+    result: dict[str, Any] = {
+        "command": " ".join(["benchmarks/fast_link.py", *sys.argv[1:]]),
+        "cpus": os.cpu_count(),
+        "load_average_before": os.getloadavg(),
+        "round_trips_us": [],
+    }
+    for baud in args.bauds:
+        trips = await round_trips(
+            baud, args.rounds, args.samples, args.warmup, args.compare_harness
+        )
+        result["round_trips_us"].append(trips)
+        print(json.dumps(trips), flush=True)
+    if args.calls:
+        result["pipelined_write_pin"] = await pipelined(
+            args.bauds, args.rounds, args.calls, args.tasks, args.paced_rate, args.compare_harness
+        )
+        print(json.dumps(result["pipelined_write_pin"]), flush=True)
+    result["load_average_after"] = os.getloadavg()
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--bauds", type=int, nargs="+", default=[1_000_000, 2_000_000])
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--samples", type=int, default=400)
+    parser.add_argument("--warmup", type=int, default=50)
+    parser.add_argument("--calls", type=int, default=20_000, help="writes per pipelined round")
+    parser.add_argument("--tasks", type=int, default=32)
+    parser.add_argument(
+        "--paced-rate", type=float, default=30_000, help="replies/s of the paced responder"
+    )
+    parser.add_argument(
+        "--compare-harness",
+        type=Path,
+        help="also run the round trips on this virtual-uno binary, interleaved (before/after)",
+    )
+    parser.add_argument("--json", type=Path)
+    parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child
+    parser.add_argument("--serve-interval", type=float, default=0.0, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.serve is not None:
+        serve(args.serve, args.serve_interval)
+        return
+    result = anyio.run(measure, args)
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
