@@ -67,10 +67,14 @@ __asm__(".section .text.clock_slow_call,\"ax\",@progbits\n"
 
 /* Hand-written, ~40 cycles a tick (the compiled one took ~75): interrupts
  * are enabled from the first instruction, so a software PWM edge never waits
- * for it; no other TIMER2_COMPA can come within 100 us.  Only the main loop
- * reads the counts, and it cannot run in the middle of this, so the
- * byte-wise carries need no interrupt lock.  r1 is cleared only for the C
- * call (an interrupted MUL may leave it nonzero). */
+ * for it; no other TIMER2_COMPA can come within 100 us.  Interrupt handlers
+ * read the tick count too (hal_micros stamps change events and counter
+ * reports), so the count must never be seen half carried: the low byte's
+ * overflow (once in 256 ticks, every 25.6 ms) stores it and carries into the
+ * upper bytes with interrupts off, about 20 cycles; every other tick stores
+ * one byte, which is atomic.  millis and ms_div are read by the main loop
+ * only.  r1 is cleared only for the C call (an interrupted MUL may leave it
+ * nonzero). */
 ISR(TIMER2_COMPA_vect, ISR_NAKED)
 {
     __asm__ volatile(
@@ -80,19 +84,25 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "push r24\n\t"
         "lds r24, %[t0]\n\t"
         "subi r24, 0xFF\n\t"
+        "breq 6f\n\t"
         "sts %[t0], r24\n\t"
-        "brne 1f\n\t"
+        "rjmp 1f\n\t"
+        "6:\n\t"
+        "cli\n\t"
+        "sts %[t0], r24\n\t"
         "lds r24, %[t0]+1\n\t"
         "subi r24, 0xFF\n\t"
         "sts %[t0]+1, r24\n\t"
-        "brne 1f\n\t"
+        "brne 7f\n\t"
         "lds r24, %[t0]+2\n\t"
         "subi r24, 0xFF\n\t"
         "sts %[t0]+2, r24\n\t"
-        "brne 1f\n\t"
+        "brne 7f\n\t"
         "lds r24, %[t0]+3\n\t"
         "subi r24, 0xFF\n\t"
         "sts %[t0]+3, r24\n\t"
+        "7:\n\t"
+        "sei\n\t"
         "1:\n\t"
         "lds r24, %[div]\n\t"
         "subi r24, 0xFF\n\t"
