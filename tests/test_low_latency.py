@@ -10,7 +10,7 @@ from pathlib import Path
 import anyio
 import pytest
 
-from arduinoio_async import D2, D3
+from arduinoio_async import A0, D2, D3
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.board import board as board_module
@@ -165,3 +165,16 @@ async def test_a_board_left_in_the_mode_by_a_previous_program_is_set_as_chosen()
         async with Board.connect(fake.host_stream) as board:
             assert await board.choose_low_latency(False) is False
             assert not fake.low_latency and not board.low_latency
+
+
+async def test_no_filler_while_a_stream_runs_as_on_the_firmware() -> None:
+    async with FakeBoard() as fake, Board.connect(fake.host_stream) as board:
+        await board.set_low_latency(True)
+        async with board.stream(analog=[A0], period_ms=5):
+            before = fake.filler_sent
+            assert await board.read_id() == fake.board_id
+            assert fake.filler_sent == before  # the stream's frames flush the bridge
+        after_stop = fake.filler_sent
+        assert await board.read_id() == fake.board_id
+        assert fake.filler_sent > after_stop
+        assert board.link.stats.garbage_bytes == 0

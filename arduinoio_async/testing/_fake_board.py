@@ -353,8 +353,9 @@ class FakeBoard(PeripheralModels):
         return p.SetLowLatencyReply(request.enabled)
 
     def _padded(self, reply: bytes) -> bytes:
-        """``reply`` followed by the filler the firmware sends in low-latency mode."""
-        if not self.low_latency or len(reply) >= p.LOW_LATENCY_PAD:
+        """``reply`` followed by the filler the firmware sends in low-latency mode (none
+        while a stream runs)."""
+        if not self.low_latency or self.stream.running or len(reply) >= p.LOW_LATENCY_PAD:
             return reply
         filler = p.LOW_LATENCY_PAD - len(reply)
         self.filler_sent += filler

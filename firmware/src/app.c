@@ -187,7 +187,10 @@ uint8_t app_step(void)
     if (event == PARSER_NONE) {
         if (burst_len) {
             /* the FIFO ran dry: the burst is over */
-            if (misc_low_latency)
+            /* no filler while a stream runs: it would take wire time the stream's
+             * admission counted on (samples were dropped), and a stream's own
+             * frames reach the 97 bytes that flush the bridge */
+            if (misc_low_latency && !stream_running())
                 hal_tx_pad(burst_len < AIO_LOW_LATENCY_PAD ? (uint8_t)(AIO_LOW_LATENCY_PAD - burst_len) : 0u);
             burst_len = 0;
         }

@@ -182,8 +182,19 @@ static void test_low_latency(void)
     CHECK(B(1, AIO_DT_MISC_SET_LOW_LATENCY, 0), B(1, AIO_DT_MISC_SET_LOW_LATENCY, 0));
     CHECK(B(1, 2), B(1, 2, 0xFF, 0xFF));
     EXPECT(fake_tx_pads == 6);
-    /* a reboot turns it off */
+    /* no filler while a stream runs (its frames reach the pad by themselves and the
+     * filler's wire time is the stream's), again once it stops */
     CHECK(B(1, AIO_DT_MISC_SET_LOW_LATENCY, 1), B(1, AIO_DT_MISC_SET_LOW_LATENCY, 1));
+    EXPECT(fake_tx_pads == 7);
+    CHECK(B(7, 1, 0x0F, 0, 0x09, 0x60), B(7, 1, 0x0F, 0, 0x09, 0x60)); /* 4 ch 2400 us */
+    CHECK(B(1, 2), B(1, 2, 0xFF, 0xFF));
+    EXPECT(fake_tx_pads == 7);
+    send_frame(B(7, 2));
+    run();
+    take();
+    EXPECT(outn == 5u && out[0] == 7u && out[1] == 2u);
+    EXPECT(fake_tx_pads == 8 && fake_tx_pad == AIO_LOW_LATENCY_PAD - 5u);
+    /* a reboot turns it off */
     board();
     CHECK(B(1, 2), B(1, 2, 0xFF, 0xFF));
     EXPECT(fake_tx_pads == 0);
