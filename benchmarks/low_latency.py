@@ -1,10 +1,11 @@
 """Low-latency mode behind the 16U2 bridge model (issue 13, item 3): read ID latency.
 
-Sequential READ_ID round trips (one in flight) on the project firmware behind the
-virtual Uno's 16U2 model (``--usb-bridge 16u2``: board-to-host bytes wait for the 4.096 ms
-tick unless more than 96 wait), with low-latency mode off and on.  The modes alternate
-in blocks of ``--block`` requests on the same board and link, and every round starts a
-fresh board per baud rate, so a busy moment of the shared machine hits both modes.
+Sequential READ_ID round trips (one in flight, each after a random pause) on the project
+firmware behind the virtual Uno's 16U2 model (``--usb-bridge 16u2``: board-to-host bytes
+wait for the 4.096 ms tick unless more than 96 wait), with low-latency mode off and on.
+The modes alternate in blocks of ``--block`` requests on the same board and link, and
+every round starts a fresh board per baud rate, so a busy moment of the shared machine
+hits both modes.
 Goal (issue 13): 2 Mbaud, low-latency mode, mean at most 1.8 ms.
 
     .venv/bin/python benchmarks/low_latency.py --json benchmarks/results/low_latency.json
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import random
 import statistics
 import sys
 import time
@@ -21,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import anyio
+import anyio.lowlevel
 
 from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
@@ -45,9 +48,20 @@ def figures(samples: list[float]) -> dict[str, Any]:
     }
 
 
+#: The 16U2's tick (Timer0 overflow at clk/256): the pause before each request is uniform
+#: over two of them (and so over whole 1 ms USB frames), so a request meets the tick and
+#: the frames at a random phase, as a robot's command does.  Back to back, a sequential
+#: loop locks into the USB frames: two frames a round trip, whatever the mode.
+TICK_S = 0.004096
+
+
 async def read_ids(board: Board, n: int) -> list[float]:
     out = []
     for _ in range(n):
+        # time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity,
+        # which would quantise the phase; nothing else runs on the loop meanwhile.
+        time.sleep(random.uniform(0.0, 2 * TICK_S))  # noqa: ASYNC251
+        await anyio.lowlevel.checkpoint()
         start = time.perf_counter()
         await board.read_id()
         out.append((time.perf_counter() - start) * 1000)
