@@ -25,6 +25,8 @@ from typing import Any
 import anyio
 import anyio.lowlevel
 
+from arduinoio_async.bench.model import LinkModel
+from arduinoio_async.bench.runner import blocking_pause
 from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
 
@@ -52,16 +54,13 @@ def figures(samples: list[float]) -> dict[str, Any]:
 #: over two of them (and so over whole 1 ms USB frames), so a request meets the tick and
 #: the frames at a random phase, as a robot's command does.  Back to back, a sequential
 #: loop locks into the USB frames: two frames a round trip, whatever the mode.
-TICK_S = 0.004096
+TICK_S = LinkModel().tick_ms / 1000
 
 
 async def read_ids(board: Board, n: int) -> list[float]:
     out = []
     for _ in range(n):
-        # time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity,
-        # which would quantise the phase; nothing else runs on the loop meanwhile.
-        time.sleep(random.uniform(0.0, 2 * TICK_S))  # noqa: ASYNC251
-        await anyio.lowlevel.checkpoint()
+        await blocking_pause(random.uniform(0.0, 2 * TICK_S))
         start = time.perf_counter()
         await board.read_id()
         out.append((time.perf_counter() - start) * 1000)

@@ -5,6 +5,7 @@ The virtual Uno counterpart with the 16U2 bridge model is ``tests/e2e/test_low_l
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import anyio
@@ -17,6 +18,13 @@ from arduinoio_async.board import board as board_module
 from arduinoio_async.errors import ProtocolError
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport import tick_holding_bridge
+
+
+def without_the_mode(board: Board) -> None:
+    """Make ``board`` look like a firmware without the LOW_LATENCY feature bit."""
+    caps = board.capabilities
+    features = caps.features & ~p.Feature.LOW_LATENCY
+    board.capabilities = dataclasses.replace(caps, features=features)
 
 
 async def test_many_concurrent_callers_get_their_replies_and_never_filler() -> None:
@@ -74,15 +82,7 @@ async def test_the_mode_is_replayed_after_a_reset() -> None:
 
 async def test_a_board_without_the_feature_bit_refuses_with_a_precise_error() -> None:
     async with FakeBoard() as fake, Board.connect(fake.host_stream) as board:
-        caps = board.capabilities
-        board.capabilities = p.ReadCapabilitiesReply(
-            caps.protocol_version,
-            caps.firmware_major,
-            caps.firmware_minor,
-            caps.features & ~p.Feature.LOW_LATENCY,
-            caps.baud,
-            caps.rx_buffer,
-        )
+        without_the_mode(board)
         with pytest.raises(ProtocolError, match="low-latency"):
             await board.set_low_latency(True)
         assert not fake.low_latency and not board.low_latency
@@ -146,15 +146,7 @@ async def test_the_default_leaves_a_board_without_the_mode_alone(
 ) -> None:
     monkeypatch.setattr(board_module, "tick_holding_bridge", lambda port: "an Uno R3")
     async with FakeBoard() as fake, Board.connect(fake.host_stream) as board:
-        caps = board.capabilities
-        board.capabilities = p.ReadCapabilitiesReply(
-            caps.protocol_version,
-            caps.firmware_major,
-            caps.firmware_minor,
-            caps.features & ~p.Feature.LOW_LATENCY,
-            caps.baud,
-            caps.rx_buffer,
-        )
+        without_the_mode(board)
         assert await board.choose_low_latency(None) is False  # no ProtocolError
         assert not fake.low_latency
 

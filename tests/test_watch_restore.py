@@ -280,17 +280,43 @@ async def test_a_stream_keeps_sampling_after_the_restore_and_the_restart_is_no_g
 
 async def test_the_board_runs_one_stream_shared_by_blocks_with_the_same_layout() -> None:
     async with connected() as (board, fake):
+        fake.analog[0] = 321
         async with (
             board.stream(analog=[A0], period_ms=2) as first,
             board.stream(analog=[A0], period_ms=2) as second,
         ):
             with anyio.fail_after(2):
-                a, b = await anext(first), await anext(second)
-            assert a.sequence == b.sequence or abs(a.sequence - b.sequence) < 50
+                shared = await anext(second)
+                # the first block subscribed earlier: it has every sample the second has
+                mine = await anext(first)
+                while mine.sequence != shared.sequence:
+                    mine = await anext(first)
+            assert mine.analog[A0] == shared.analog[A0] == 321
             with pytest.raises(UsageError, match="already streams analog A0 every 2000 us"):
                 async with board.stream(analog=[A0, A1], period_ms=2):
                     pass
-            assert fake.stream.request == p.StreamStart(
-                0b1, p.StreamFlags.NONE, 2000
-            )  # not replaced
-        assert not fake.stream.running
+            assert fake.stream.request == p.StreamStart(0b1, p.StreamFlags.NONE, 2000)
+            assert fake.stream.running  # the refused block stopped nothing
+        assert not fake.stream.running  # the last block to end stopped it
+
+
+async def test_many_tasks_start_and_end_the_same_stream_at_once() -> None:
+    async with connected() as (board, fake):
+        got: list[int] = []
+
+        async def reader(cancel_early: bool) -> None:
+            with anyio.CancelScope() as scope:
+                async with board.stream(analog=[A0], period_ms=2) as samples:
+                    if cancel_early:
+                        scope.cancel()
+                        await anyio.lowlevel.checkpoint()
+                    for _ in range(3):
+                        got.append((await anext(samples)).sequence)
+
+        with anyio.fail_after(5):
+            async with anyio.create_task_group() as tg:
+                for i in range(10):
+                    tg.start_soon(reader, i % 3 == 0)  # some blocks cancelled at once
+        assert len(got) == 3 * 6  # every block that was not cancelled got its samples
+        assert not fake.stream.running  # the last one out stopped it
+        assert len(board.watches) == 0

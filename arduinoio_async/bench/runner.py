@@ -40,6 +40,7 @@ __all__ = [
     "CommandResult",
     "ScenarioResult",
     "Target",
+    "blocking_pause",
     "host_overhead",
     "run_scenario",
 ]
@@ -145,6 +146,17 @@ def link_model(baud: int, bridge: bool, *, simulated: bool) -> LinkModel:
     )
 
 
+async def blocking_pause(seconds: float) -> None:
+    """Pause between sequential requests so the next one meets the bridge at a random phase.
+
+    time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity (epoll),
+    which would quantise the phase against the 16U2's 4.096 ms tick and its 1 ms USB
+    frames.  Only for benchmarks whose loop runs nothing else between requests.
+    """
+    time.sleep(seconds)  # noqa: ASYNC251
+    await anyio.lowlevel.checkpoint()
+
+
 @asynccontextmanager
 async def _open(
     target: Target, scenario: dict[str, Any]
@@ -176,11 +188,7 @@ async def _sequential(
     samples: list[float] = []
     for index in range(warmup + n):
         if gap_ms:
-            # time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity
-            # (epoll), which would quantise the phase against the bridge's 4.096 ms tick.
-            # Nothing else runs on the loop between sequential requests.
-            time.sleep(rnd.uniform(0, gap_ms) / 1e3)  # noqa: ASYNC251
-            await anyio.lowlevel.checkpoint()
+            await blocking_pause(rnd.uniform(0, gap_ms) / 1e3)
         start = time.perf_counter_ns()
         await call()
         if index >= warmup:

@@ -11,10 +11,10 @@ then only events change it.
 The subscriptions follow the board (:class:`~._sources.SubscribingSource`):
 
 * a new set of inputs (a role changed on the page or in a program that embeds the
-  monitor), a board that was reset (its session tag changed: the manager or the page
-  restored its roles, but a reset ends every subscription on the board) or a new link
-  (replug, a remote board that came back): every input is subscribed again and its level
-  read again.
+  monitor), a board that was reset (its session tag changed: the library's restore
+  subscribes the watches again, but the edges between the reset and the restore are
+  unknown, so each level must be read afresh) or a new link (replug, a remote board that
+  came back): every input is subscribed again and its level read again.
 * the source's end (the monitor stops) unsubscribes every pin; a user's own watch of the
   same pin keeps its subscription (``watch_changes`` counts the watchers).
 

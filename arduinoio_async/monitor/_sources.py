@@ -186,9 +186,11 @@ class SupervisedSource:
 class SubscribingSource(SupervisedSource):
     """A source that subscribes pins of some roles to board-initiated reports.
 
-    A reset of the board ends every subscription on it, and so does a new configuration
-    of the pin: the subscription is made again when the board's boot (its session tag),
-    its link or the pins (``pins``: each with a :data:`PinKey`) change.  That check looks
+    A new configuration of a pin ends its subscription, and after a reset of the board
+    the library's restore brings the subscriptions back but not what happened between
+    the reset and the restore: the subscription is made again (and its starting state
+    read again) when the board's boot (its session tag), its link or the pins (``pins``:
+    each with a :data:`PinKey`) change.  That check looks
     at the board object's own records every :data:`SUPERVISE_INTERVAL`, with no traffic
     to the board; a closed link is noticed at once.
     """

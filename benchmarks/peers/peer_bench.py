@@ -35,6 +35,7 @@ import anyio
 import anyio.lowlevel
 
 from arduinoio_async import protocol as p
+from arduinoio_async.bench.runner import blocking_pause
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import A0, A1, A2, A3, D2, D3
 from arduinoio_async.sim import VirtualUno
@@ -139,14 +140,8 @@ async def firmata_booted(uno: VirtualUno) -> None:
 
 # ------------------------------------------------------------------ project side
 async def pause() -> None:
-    """The Firmata side's pause between sequential samples (``firmata_clients.gap``).
-
-    time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity (epoll),
-    which would quantise the phase against the bridge's 4.096 ms tick.  Nothing else runs
-    on the loop between sequential samples.
-    """
-    time.sleep(gap())  # noqa: ASYNC251
-    await anyio.lowlevel.checkpoint()
+    """The Firmata side's pause between sequential samples (``firmata_clients.gap``)."""
+    await blocking_pause(gap())
 
 
 AIO = "arduinoio"
