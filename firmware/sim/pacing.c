@@ -78,9 +78,23 @@ static uint64_t wall_ns_of(uint64_t c)
 	return c > cycle_base ? wall_base_ns + (c - cycle_base) * 1000ULL / CYC_PER_US : wall_base_ns;
 }
 
+/* The bridge's clocks (the host controller's 1 ms USB frames, the 16U2's
+ * Timer0) run on their own crystals: their ticks are fixed in wall time, not in
+ * the ATmega328P's cycles.  A new time base moves the simulated cycles against
+ * the wall by the lead (or lag) it drops, so the bridge clocks' phase, counted
+ * in cycles, moves by as much (wire.c: bridge_boundary).  Without it a host
+ * arriving after an idle spell met the USB frame at the phase at which the
+ * simulation's run-ahead had stopped (10-310 us into a frame after 2 ms
+ * slices), not at a random one: 0.81 ms to the next frame on average instead
+ * of 0.5. */
+int64_t bridge_clock_offset;
+
 void rebase(void)
 {
-	wall_base_ns = now_ns();
+	uint64_t now = now_ns();
+	if (avr && !opt_fast && wall_base_ns)
+		bridge_clock_offset += (int64_t)avr->cycle - (int64_t)wall_cycles(now);
+	wall_base_ns = now;
 	cycle_base = avr ? avr->cycle : 0;
 }
 

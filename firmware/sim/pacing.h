@@ -15,6 +15,7 @@ extern uint64_t runahead_jump_cycles;
 uint64_t now_ns(void);
 uint64_t wall_cycles(uint64_t ns);
 void rebase(void);
+extern int64_t bridge_clock_offset; /* cycles: the bridge clocks' phase against the simulation's */
 void catch_up_wall(void);
 uint64_t stimulus_cycle(void);
 

@@ -92,9 +92,15 @@ int wire_idle(void)
 	       ring_empty(&usb_out);
 }
 
-static uint64_t next_boundary(uint64_t t, uint64_t period)
+/* The first tick after t (strictly) of a bridge clock with this period: the
+ * USB frames and the 16U2's Timer0 keep wall time across time base moves
+ * (pacing.c: bridge_clock_offset). */
+static uint64_t bridge_boundary(uint64_t t, uint64_t period)
 {
-	return (t / period + 1) * period;
+	int64_t phase = ((int64_t)t - bridge_clock_offset) % (int64_t)period;
+	if (phase < 0)
+		phase += (int64_t)period;
+	return t - (uint64_t)phase + period;
 }
 
 /* ------------------------------------------------------------------ to the host */
@@ -245,7 +251,7 @@ void flush_out(void)
 
 static void release_16u2(uint64_t now)
 {
-	uint64_t frame = next_boundary(now, USB_FRAME_CYCLES);
+	uint64_t frame = bridge_boundary(now, USB_FRAME_CYCLES);
 	while (!ring_empty(&bridge_buf)) {
 		if (!ring_push(&usb_out, ring_peek(&bridge_buf)->b, frame))
 			lost_to_host++;
@@ -284,7 +290,7 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 				bridge_full_releases++;
 				release_16u2(now);
 			} else if (!tick_at) {
-				tick_at = next_boundary(now, TICK_16U2_CYCLES);
+				tick_at = bridge_boundary(now, TICK_16U2_CYCLES);
 			}
 		}
 	}
@@ -441,7 +447,7 @@ void host_bytes_in(const uint8_t *buf, size_t n)
 {
 	uint64_t t = stimulus_cycle(); /* the wall's now, or the simulation's on a busy link */
 	if (opt_16u2)
-		t = next_boundary(t, USB_FRAME_CYCLES);
+		t = bridge_boundary(t, USB_FRAME_CYCLES);
 	for (size_t i = 0; i < n; i++)
 		if (!ring_push(&host_rx, buf[i], t))
 			lost_to_board++;

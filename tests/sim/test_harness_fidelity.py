@@ -14,13 +14,18 @@ Each test has an oracle that failed on the harness before the fix:
   the rates matched; now, as on a real Uno, its bytes are lost both ways.
 * a reply went to the pty as soon as *simulated* time reached it, up to the busy lead
   (30 us) before the wall clock did; now it waits for its due time, so no
-  round trip is shorter than its modelled wire and firmware time.
+  round trip is shorter than its modelled wire and firmware time;
+* the 16U2 model's USB frames (and Timer0 tick) were counted in simulated cycles, which
+  jump against the wall when a host byte ends an idle run-ahead, so a request after an
+  idle spell met the frame 0.6-1 ms early every time; now the bridge clocks keep wall
+  time and the request meets the frame at a random phase.
 
 Blocking pyserial calls run in worker threads (``anyio.to_thread``).
 """
 
 from __future__ import annotations
 
+import random
 import statistics
 import sys
 import threading
@@ -286,3 +291,50 @@ async def test_trace_records_where_a_round_trip_goes(
     assert [n for t, n in reads if start <= t <= end] == [3]
     assert sum(n for t, n in writes if start <= t <= end) == 5
     assert all(r[0] in "RWIOTPpJ" and len(r) == 5 for r in records)
+
+
+async def test_16u2_usb_frames_keep_wall_time_across_idle_spells(
+    virtual_uno_factory: VirtualUnoFactory, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """A request written after an idle spell meets the 1 ms USB frame at a random phase.
+
+    The host controller's frames run on its own clock, so the wait from a host write to the
+    next frame is uniform over 0-1 ms.  The harness used to count frames in simulated
+    cycles, and the simulation's time base moves whenever a host byte ends an idle
+    run-ahead: the request then met the frame at the phase where the 2 ms run-ahead slice
+    had stopped, 0.6-1 ms before the frame every time.  The random pauses are the stimulus
+    here (arrival times), not a wait for anything; the oracle is the harness's own trace,
+    in simulated cycles: pty read (``R``) to the request's first byte in the UART (``I``).
+    """
+    trace = tmp_path / "trace.txt"
+    monkeypatch.setenv("VIRTUAL_UNO_TRACE", str(trace))
+    uno = await virtual_uno_factory(baud=1_000_000, board_id=6, usb_bridge="16u2")
+    requests = 40
+
+    def round_trips() -> None:
+        link = serial.Serial(uno.port, 1_000_000, timeout=1.0)
+        pace = random.Random(13)
+        try:
+            for _ in range(requests):
+                time.sleep(pace.uniform(0.0025, 0.0065))
+                link.write(proto.ReadId().encode())
+                assert len(link.read(5)) == 5
+        finally:
+            link.close()
+
+    await anyio.to_thread.run_sync(round_trips)
+    await uno.stop()
+    records = [line.split() for line in trace.read_text().splitlines()]
+    waits_us: list[float] = []
+    read_cycle = None
+    for kind, _, cycle, _, _ in records:
+        if kind == "R" and read_cycle is None:
+            read_cycle = int(cycle)
+        elif kind == "I" and read_cycle is not None:
+            waits_us.append((int(cycle) - read_cycle) / 16)
+            read_cycle = None
+    print(f"\nframe waits: {sorted(round(w) for w in waits_us)} us")
+    assert len(waits_us) == requests
+    assert all(0 < w <= 1000 for w in waits_us)
+    # uniform over 0-1 ms: fewer than 8 of 40 in the first half has probability ~3e-5
+    assert sum(w < 500 for w in waits_us) >= 8
