@@ -14,6 +14,12 @@ medians' range as the spread.  ``--compare-harness PATH`` runs the same clients 
 second virtual Uno from another harness binary (an older build) in the same rotation,
 so a harness change is measured before/after under the same load.
 
+``--cpu-idle both`` runs every client (round trips and pipelined) once with the CPUs'
+default idle states and once held out of deep idle states (PM QoS, see
+:mod:`arduinoio_async.bench.cpu_idle`; needs root), in the same rotation: a halted CPU
+of this VM takes ~70 us to wake, several times per round trip, and the figures report
+which condition they were measured under.
+
 *Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop) against
 responder processes on pseudo-terminals (:func:`serve`): one that answers at once, many
 replies per write (what the library alone can do, syscalls included), and one paced like
@@ -24,7 +30,8 @@ interleave all of them; reported: median writes/s with the range, and the librar
 CPU time per write (this thread's ``time.thread_time``: the host's own share, which a
 busy neighbour on the shared machine disturbs far less than the wall-clock rate).
 
-    .venv/bin/python benchmarks/fast_link.py --json benchmarks/results/fast_link.json
+    .venv/bin/python benchmarks/fast_link.py --cpu-idle both \
+        --json benchmarks/results/fast_link.json
 """
 
 from __future__ import annotations
@@ -49,6 +56,7 @@ import anyio
 import serial
 
 from arduinoio_async import protocol as p
+from arduinoio_async.bench.cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
 from arduinoio_async.bench.responder import reply_table
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import DigitalPin
@@ -190,15 +198,22 @@ _CLIENTS: dict[str, Callable[[str, int, int, int], Awaitable[list[float]]]] = {
 
 
 async def round_trips(
-    baud: int, rounds: int, samples: int, warmup: int, compare: Path | None
+    baud: int,
+    rounds: int,
+    samples: int,
+    warmup: int,
+    compare: Path | None,
+    idle: ShallowCpuIdle,
+    conditions: list[str],
 ) -> dict[str, Any]:
     """Every client on this harness (and, with ``compare``, on that harness binary too:
-    a second virtual Uno whose rounds interleave with the first's)."""
+    a second virtual Uno whose rounds interleave with the first's), under each CPU idle
+    condition."""
     harnesses: dict[str, Path | None] = {"": None}
     if compare is not None:
         harnesses["harness_compared"] = compare
-    pooled: dict[tuple[str, str], list[float]] = {}
-    medians: dict[tuple[str, str], list[float]] = {}
+    pooled: dict[tuple[str, str, str], list[float]] = {}
+    medians: dict[tuple[str, str, str], list[float]] = {}
     status: dict[str, dict[str, Any]] = {}
     async with AsyncExitStack() as stack:
         unos = {
@@ -206,13 +221,15 @@ async def round_trips(
             for key, binary in harnesses.items()
         }
         before = {key: await uno.status() for key, uno in unos.items()}
-        order = [(key, client) for key in unos for client in _CLIENTS]
+        order = [(key, client, cond) for key in unos for client in _CLIENTS for cond in conditions]
         for index in range(rounds):
             shift = index % len(order)
-            for key, client in order[shift:] + order[:shift]:
+            for key, client, cond in order[shift:] + order[:shift]:
+                idle.set(cond)
                 rtts = await _CLIENTS[client](unos[key].port, baud, samples, warmup)
-                pooled.setdefault((key, client), []).extend(rtts)
-                medians.setdefault((key, client), []).append(statistics.median(rtts))
+                pooled.setdefault((key, client, cond), []).extend(rtts)
+                medians.setdefault((key, client, cond), []).append(statistics.median(rtts))
+        idle.release()
         for key, uno in unos.items():
             after = await uno.status()
             status[key] = {
@@ -220,17 +237,19 @@ async def round_trips(
                 for name in ("rebases", "pty_writes", "runahead_jumps")
                 if isinstance(after.get(name), int)
             }
-    out: dict[str, Any] = {"baud": baud}
-    for key in harnesses:
-        part: dict[str, Any] = out if not key else out.setdefault(key, {"binary": str(compare)})
-        for client in _CLIENTS:
-            values = medians[(key, client)]
-            part[client] = {
-                **_percentiles(pooled[(key, client)]),
-                "round_medians_range": [round(min(values), 1), round(max(values), 1)],
-                "samples": len(pooled[(key, client)]),
-            }
-        part["harness"] = status[key]
+    out: dict[str, Any] = {"baud": baud, "cpu_idle": {}}
+    for cond in conditions:
+        under = out["cpu_idle"].setdefault(cond, {})
+        for key in harnesses:
+            part = under if not key else under.setdefault(key, {"binary": str(compare)})
+            for client in _CLIENTS:
+                values = medians[(key, client, cond)]
+                part[client] = {
+                    **_percentiles(pooled[(key, client, cond)]),
+                    "round_medians_range": [round(min(values), 1), round(max(values), 1)],
+                    "samples": len(pooled[(key, client, cond)]),
+                }
+            part["harness"] = status[key]  # both conditions: they share the boards
     return out
 
 
@@ -277,7 +296,14 @@ def _responder(interval: float) -> Iterator[str]:
 
 
 async def pipelined(
-    bauds: list[int], rounds: int, calls: int, tasks: int, paced_rate: float, compare: Path | None
+    bauds: list[int],
+    rounds: int,
+    calls: int,
+    tasks: int,
+    paced_rate: float,
+    compare: Path | None,
+    idle: ShallowCpuIdle,
+    conditions: list[str],
 ) -> dict[str, Any]:
     paced = f"responder_paced_{paced_rate:.0f}_per_s"
     ports: dict[str, tuple[str, int]] = {}
@@ -292,35 +318,47 @@ async def pipelined(
                     VirtualUno(board_id=1, baud=baud, binary=compare)
                 )
                 ports[f"virtual_uno_{baud}_harness_compared"] = (uno.port, baud)
-        rates: dict[str, list[float]] = {name: [] for name in ports}
-        cpu: dict[str, list[float]] = {name: [] for name in ports}
-        order = list(ports)
+        runs = [f"{name}@{cond}" for name in ports for cond in conditions]
+        rates: dict[str, list[float]] = {run: [] for run in runs}
+        cpu: dict[str, list[float]] = {run: [] for run in runs}
         for index in range(rounds):
-            shift = index % len(order)
-            for name in order[shift:] + order[:shift]:
+            shift = index % len(runs)
+            for run in runs[shift:] + runs[:shift]:
+                name, cond = run.split("@")
+                idle.set(cond)
                 rate, cpu_us = await _write_rate(*ports[name], calls, tasks)
-                rates[name].append(rate)
-                cpu[name].append(cpu_us)
+                rates[run].append(rate)
+                cpu[run].append(cpu_us)
+        idle.release()
     return {
         "tasks": tasks,
         "calls_per_round": calls,
-        **{
-            name: {
-                "writes_per_s_median": round(statistics.median(rates[name])),
-                "writes_per_s_range": [round(min(rates[name])), round(max(rates[name]))],
-                "library_cpu_us_per_write_median": round(statistics.median(cpu[name]), 2),
-                "library_cpu_us_per_write_range": [
-                    round(min(cpu[name]), 2),
-                    round(max(cpu[name]), 2),
-                ],
-                "writes_per_library_cpu_second": round(1e6 / statistics.median(cpu[name])),
+        "cpu_idle": {
+            cond: {
+                name: _rate_figures(rates[f"{name}@{cond}"], cpu[f"{name}@{cond}"])
+                for name in ports
             }
-            for name in ports
+            for cond in conditions
         },
     }
 
 
+def _rate_figures(rates: list[float], cpu: list[float]) -> dict[str, Any]:
+    return {
+        "writes_per_s_median": round(statistics.median(rates)),
+        "writes_per_s_range": [round(min(rates)), round(max(rates))],
+        "library_cpu_us_per_write_median": round(statistics.median(cpu), 2),
+        "library_cpu_us_per_write_range": [round(min(cpu), 2), round(max(cpu), 2)],
+        "writes_per_library_cpu_second": round(1e6 / statistics.median(cpu)),
+    }
+
+
 async def measure(args: argparse.Namespace) -> dict[str, Any]:
+    conditions = [DEFAULT, SHALLOW] if args.cpu_idle == "both" else [args.cpu_idle]
+    idle = ShallowCpuIdle()
+    if SHALLOW in conditions and not idle.hold():
+        raise SystemExit(f"--cpu-idle {args.cpu_idle}: {idle.unavailable}")
+    idle.release()
     result: dict[str, Any] = {
         "command": " ".join(["benchmarks/fast_link.py", *sys.argv[1:]]),
         "cpus": os.cpu_count(),
@@ -329,13 +367,20 @@ async def measure(args: argparse.Namespace) -> dict[str, Any]:
     }
     for baud in args.bauds:
         trips = await round_trips(
-            baud, args.rounds, args.samples, args.warmup, args.compare_harness
+            baud, args.rounds, args.samples, args.warmup, args.compare_harness, idle, conditions
         )
         result["round_trips_us"].append(trips)
         print(json.dumps(trips), flush=True)
     if args.calls:
         result["pipelined_write_pin"] = await pipelined(
-            args.bauds, args.rounds, args.calls, args.tasks, args.paced_rate, args.compare_harness
+            args.bauds,
+            args.rounds,
+            args.calls,
+            args.tasks,
+            args.paced_rate,
+            args.compare_harness,
+            idle,
+            conditions,
         )
         print(json.dumps(result["pipelined_write_pin"]), flush=True)
     result["load_average_after"] = os.getloadavg()
@@ -357,6 +402,12 @@ def main() -> None:
         "--compare-harness",
         type=Path,
         help="also run the round trips on this virtual-uno binary, interleaved (before/after)",
+    )
+    parser.add_argument(
+        "--cpu-idle",
+        choices=[DEFAULT, SHALLOW, "both"],
+        default=DEFAULT,
+        help="CPU idle states: as configured, held shallow (PM QoS, root), or both interleaved",
     )
     parser.add_argument("--json", type=Path)
     parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child

@@ -5,10 +5,13 @@ firmware behind the virtual Uno's 16U2 model (``--usb-bridge 16u2``: board-to-ho
 wait for the 4.096 ms tick unless more than 96 wait), with low-latency mode off and on.
 The modes alternate in blocks of ``--block`` requests on the same board and link, and
 every round starts a fresh board per baud rate, so a busy moment of the shared machine
-hits both modes.
+hits both modes.  ``--cpu-idle both`` adds the CPU idle states as a second dimension
+(the CPUs' default idle states, or held out of deep ones: :mod:`arduinoio_async.bench.cpu_idle`),
+interleaved the same way.
 Goal (issue 13): 2 Mbaud, low-latency mode, mean at most 1.8 ms.
 
-    .venv/bin/python benchmarks/low_latency.py --json benchmarks/results/low_latency.json
+    .venv/bin/python benchmarks/low_latency.py --cpu-idle both \
+        --json benchmarks/results/low_latency.json
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from typing import Any
 import anyio
 import anyio.lowlevel
 
+from arduinoio_async.bench.cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
 from arduinoio_async.bench.model import LinkModel
 from arduinoio_async.bench.runner import blocking_pause
 from arduinoio_async.board import Board
@@ -68,8 +72,14 @@ async def read_ids(board: Board, n: int) -> list[float]:
 
 
 async def main(args: argparse.Namespace) -> int:
-    samples: dict[tuple[int, str], list[float]] = {}
-    round_means: dict[tuple[int, str], list[float]] = {}
+    conditions = [DEFAULT, SHALLOW] if args.cpu_idle == "both" else [args.cpu_idle]
+    idle = ShallowCpuIdle()
+    if SHALLOW in conditions and not idle.hold():
+        raise SystemExit(f"--cpu-idle {args.cpu_idle}: {idle.unavailable}")
+    idle.release()
+    runs = [(mode, cond) for cond in conditions for mode in ("off", "on")]
+    samples: dict[tuple[int, str, str], list[float]] = {}
+    round_means: dict[tuple[int, str, str], list[float]] = {}
     garbage = 0
     for r in range(args.rounds):
         for baud in args.bauds:
@@ -78,33 +88,40 @@ async def main(args: argparse.Namespace) -> int:
                 Board.open(uno.port, baudrate=baud) as board,
             ):
                 await read_ids(board, 10)  # warm up: memo, page cache
-                got: dict[str, list[float]] = {"off": [], "on": []}
+                got: dict[tuple[str, str], list[float]] = {run: [] for run in runs}
                 for block in range(args.n // args.block):
-                    for mode in ("off", "on") if block % 2 == 0 else ("on", "off"):
+                    shift = block % len(runs)
+                    for mode, cond in runs[shift:] + runs[:shift]:
                         await board.set_low_latency(mode == "on")
-                        got[mode] += await read_ids(board, args.block)
+                        idle.set(cond)
+                        got[mode, cond] += await read_ids(board, args.block)
+                        idle.release()
                 garbage += board.link.stats.garbage_bytes
-            for mode, values in got.items():
-                samples.setdefault((baud, mode), []).extend(values)
-                round_means.setdefault((baud, mode), []).append(statistics.fmean(values))
+            for (mode, cond), values in got.items():
+                samples.setdefault((baud, mode, cond), []).extend(values)
+                round_means.setdefault((baud, mode, cond), []).append(statistics.fmean(values))
         print(f"round {r + 1} of {args.rounds} done", flush=True)
     rows = [
         {
             "baud": baud,
             "bridge": "16u2",
             "low_latency": mode,
+            "cpu_idle": cond,
             **figures(values),
-            "round_means_ms": [round(m, 3) for m in round_means[(baud, mode)]],
+            "round_means_ms": [round(m, 3) for m in round_means[(baud, mode, cond)]],
         }
-        for (baud, mode), values in sorted(samples.items())
+        for (baud, mode, cond), values in sorted(samples.items(), reverse=True)
     ]
-    print("| baud | low latency | n | mean ms | p50 ms | p90 ms | p99 ms | round means ms |")
-    print("|---|---|---|---|---|---|---|---|")
+    print(
+        "| baud | low latency | CPU idle | n | mean ms | p50 ms | p90 ms | p99 ms | round means |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
     for row in rows:
         means = " ".join(f"{m:.2f}" for m in row["round_means_ms"])
         print(
-            f"| {row['baud']:,} | {row['low_latency']} | {row['n']} | {row['mean_ms']:.2f} | "
-            f"{row['p50_ms']:.2f} | {row['p90_ms']:.2f} | {row['p99_ms']:.2f} | {means} |"
+            f"| {row['baud']:,} | {row['low_latency']} | {row['cpu_idle']} | {row['n']} | "
+            f"{row['mean_ms']:.2f} | {row['p50_ms']:.2f} | {row['p90_ms']:.2f} | "
+            f"{row['p99_ms']:.2f} | {means} |"
         )
     print(f"garbage bytes seen by the host: {garbage} (filler must never count)")
     if args.json:
@@ -121,6 +138,12 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--block", type=int, default=50, help="requests per mode block")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--bauds", type=int, nargs="+", default=[2_000_000, 1_000_000])
+    parser.add_argument(
+        "--cpu-idle",
+        choices=[DEFAULT, SHALLOW, "both"],
+        default=DEFAULT,
+        help="CPU idle states: as configured, held shallow (PM QoS, root), or both interleaved",
+    )
     return parser.parse_args()
 
 

@@ -13,6 +13,7 @@ from ..errors import ArduinoIOError
 from ..protocol import DEFAULT_BAUD
 from ..sim import SimulatorNotAvailable
 from .commands import COMMANDS
+from .cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
 from .report import print_scenario, write_json, write_plot
 from .runner import SCENARIO_GROUPS, ScenarioResult, Target, host_overhead, run_scenario
 
@@ -37,6 +38,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--fastest", action="store_true", help="2,000,000 baud, no bridge")
     parser.add_argument("--host", action="store_true", help="library CPU per command")
     parser.add_argument("--all", action="store_true", help="every scenario (the default)")
+    parser.add_argument(
+        "--cpu-idle",
+        choices=[DEFAULT, SHALLOW],
+        default=DEFAULT,
+        help="shallow: hold the CPUs out of deep idle states while measuring (PM QoS; root)",
+    )
     parser.add_argument("--json", type=Path, help="write every figure to this file")
     parser.add_argument("--plot", type=Path, help="latency distribution plot (PNG)")
     return parser
@@ -83,6 +90,12 @@ async def _run(args: argparse.Namespace, console: Console) -> list[ScenarioResul
 def main(argv: list[str] | None = None, *, console: Console | None = None) -> int:
     console = console or Console()
     args = build_parser().parse_args(argv)
+    idle = ShallowCpuIdle()
+    if args.cpu_idle == SHALLOW and not idle.hold():
+        Console(stderr=True).print(
+            f"[red]error:[/] --cpu-idle shallow: {idle.unavailable}", highlight=False
+        )
+        return 1
     try:
         results = anyio.run(_run, args, console)
     except SimulatorNotAvailable as exc:
@@ -91,10 +104,14 @@ def main(argv: list[str] | None = None, *, console: Console | None = None) -> in
     except ArduinoIOError as exc:
         Console(stderr=True).print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return 1
+    finally:
+        idle.release()
+    if args.cpu_idle == SHALLOW:
+        console.print("CPU idle states held shallow while measuring (PM QoS 0 us)")
     for scenario in results:
         print_scenario(console, scenario)
     if args.json:
-        write_json(args.json, results, list(argv or []))
+        write_json(args.json, results, list(argv or []), args.cpu_idle)
         console.print(f"wrote {args.json}")
     if args.plot:
         write_plot(args.plot, results)

@@ -90,7 +90,9 @@ def print_scenario(console: Console, scenario: ScenarioResult) -> None:
                 )
 
 
-def to_json(scenarios: list[ScenarioResult], argv: list[str]) -> dict[str, Any]:
+def to_json(
+    scenarios: list[ScenarioResult], argv: list[str], cpu_idle: str = "default"
+) -> dict[str, Any]:
     def scenario_dict(s: ScenarioResult) -> dict[str, Any]:
         data = asdict(s)
         for command in data["commands"]:
@@ -109,16 +111,19 @@ def to_json(scenarios: list[ScenarioResult], argv: list[str]) -> dict[str, Any]:
             "platform": platform.platform(),
             "processor": platform.processor() or platform.machine(),
             "cpus": os.cpu_count(),
+            "cpu_idle": cpu_idle,
         },
         "scenarios": [scenario_dict(s) for s in scenarios],
     }
 
 
-def write_json(path: Path, scenarios: list[ScenarioResult], argv: list[str]) -> None:
+def write_json(
+    path: Path, scenarios: list[ScenarioResult], argv: list[str], cpu_idle: str = "default"
+) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     # One line per command's samples instead of one per number: the file stays readable
     # in a diff and a fraction of the size.
-    data = to_json(scenarios, argv)
+    data = to_json(scenarios, argv, cpu_idle)
     arrays: list[str] = []
     for scenario in data["scenarios"]:
         for command in scenario["commands"]:
