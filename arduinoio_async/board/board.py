@@ -6,7 +6,8 @@ local error names the pins that can do it and costs no round trip).  The roles i
 recorded in its public :class:`~arduinoio_async.board.roles.PinRoles` table
 (:attr:`Board.roles`), so that after a reset or replug the manager can replay them on the
 fresh board and hand back the same ``Board`` and the same handles.  The failsafe and the
-keepalive heartbeat live in :mod:`arduinoio_async.board.failsafe`.
+keepalive heartbeat live in :mod:`arduinoio_async.board.failsafe`; waiting for a boot of the
+board and telling boots apart in :mod:`arduinoio_async.board.boot`.
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ import anyio.to_thread
 from .. import protocol as p
 from ..errors import (
     BoardDisconnectedError,
-    BoardTimeoutError,
     FailsafeTrippedError,
     LinkError,
     PinRoleError,
@@ -57,7 +57,7 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
-from ..transport._ready import wait_ready
+from .boot import READY_TIMEOUT, read_id_retrying, start_link, wait_new_boot
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
 from .watches import Watches
@@ -65,10 +65,6 @@ from .watches import Watches
 logger = logging.getLogger(__name__)
 
 __all__ = ["READY_TIMEOUT", "Board"]
-
-#: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
-#: opens and answers 1.6-2 s later.
-READY_TIMEOUT = 5.0
 
 R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
@@ -169,28 +165,9 @@ class Board:
         await board._handshake(link)
         return board
 
-    @staticmethod
-    async def start_link(
-        stream: anyio.abc.ByteStream,
-        *,
-        timeout: float = DEFAULT_TIMEOUT,
-        ready_timeout: float = READY_TIMEOUT,
-        trace: TraceHook | None = None,
-        name: str = "",
-    ) -> Transport:
-        """Wait for the board on ``stream`` and wrap it in a (not yet started) transport."""
-        name = name or getattr(stream, "port", "") or "board"
-        try:
-            await wait_ready(stream, deadline=anyio.current_time() + ready_timeout, name=name)
-        except (anyio.BrokenResourceError, anyio.ClosedResourceError, anyio.EndOfStream) as exc:
-            with anyio.CancelScope(shield=True):
-                await stream.aclose()
-            raise BoardDisconnectedError(f"{name}: port lost while waiting for the board") from exc
-        except BaseException:
-            with anyio.CancelScope(shield=True):
-                await stream.aclose()
-            raise
-        return Transport(stream, timeout=timeout, trace=trace, name=name)
+    #: Wait for the board on a byte stream and wrap it in a (not yet started) transport
+    #: (:func:`~arduinoio_async.board.boot.start_link`).
+    start_link = staticmethod(start_link)
 
     async def _handshake(self, link: Transport) -> None:
         """Check the protocol version and tag this boot of the board (to detect resets)."""
@@ -434,21 +411,11 @@ class Board:
         except LinkError as exc:
             if isinstance(exc, BoardDisconnectedError):
                 raise
-            found = await self._read_id_retrying(link, deadline)
+            found = await read_id_retrying(link, deadline)
             if found != board_id:
                 raise
         self.board_id = board_id
         link.expected_id = board_id
-
-    async def _read_id_retrying(self, link: Transport, deadline: float) -> int:
-        with anyio.fail_after(deadline):
-            while True:
-                try:
-                    return (await link.request(p.ReadId())).board_id
-                except BoardDisconnectedError:
-                    raise
-                except LinkError:
-                    await anyio.lowlevel.checkpoint()
 
     async def temperature(self) -> float:
         """Chip temperature in degrees C (datasheet-typical calibration)."""
@@ -472,24 +439,7 @@ class Board:
     async def wait_rebooted(self, *, deadline: float = READY_TIMEOUT) -> None:
         """Poll until the board answers with a fresh boot's session 0, then tag it again."""
         link = self.link
-        try:
-            with anyio.fail_after(deadline):
-                while True:
-                    try:
-                        status = await link.request(p.ReadStatus(), timeout=0.1)
-                    except BoardDisconnectedError:
-                        raise  # a closed link never answers: no busy loop
-                    except LinkError:
-                        await anyio.lowlevel.checkpoint()
-                        continue
-                    if status.session != self.session:
-                        break
-        except TimeoutError as exc:
-            if isinstance(exc, BoardTimeoutError):
-                raise
-            raise BoardTimeoutError(
-                f"{self!r} did not come back from its reboot within {deadline:g} s"
-            ) from None
+        await wait_new_boot(link, self.session, deadline=deadline, who=repr(self))
         await self._handshake(link)
 
     # ---- streaming (extension) ---------------------------------------------------------------
