@@ -42,6 +42,11 @@ local) / median floor`` of the round's batches -- and reported as the median ove
 with its quartiles; each round starts with the next kind, so no kind always runs right
 after another.
 
+``--cpu-idle shallow`` holds the CPUs out of deep idle states for the whole run (a PM QoS
+request, :mod:`arduinoio_async.bench.cpu_idle`; every process on the machine gets it):
+the remote path has more thread hand-offs than the floor, and on this VM a halted CPU
+takes ~70 us to wake, so it shows how much of the ratio is the idle states'.
+
     .venv/bin/python benchmarks/network_bench.py --json benchmarks/results/network.json
 """
 
@@ -67,6 +72,7 @@ import zenoh
 from anyio.streams.buffered import BufferedByteReceiveStream
 
 from arduinoio_async import protocol as p
+from arduinoio_async.bench.cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
 from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.network import open_remote_board, zenoh_config
@@ -353,6 +359,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
         "zenoh": zenoh.__version__ if hasattr(zenoh, "__version__") else "1.x",
         "baud": args.baud,
+        "cpu_idle": args.cpu_idle,
         "floor_held_hold_us": hold_us,
         "client_loop": "uvloop" if args.uvloop else "asyncio",
         "rounds": args.rounds,
@@ -404,12 +411,24 @@ def main() -> None:
         action="store_true",
         help="run this process and the floor's queryable on uvloop too (default: asyncio)",
     )
+    parser.add_argument(
+        "--cpu-idle",
+        choices=[DEFAULT, SHALLOW],
+        default=DEFAULT,
+        help="shallow: hold the CPUs out of deep idle states for the run (PM QoS; root)",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     if args.echo:
         run(run_echo, args.echo, uvloop=args.uvloop)
         return
-    result = run(bench, args, uvloop=args.uvloop)
+    idle = ShallowCpuIdle()
+    if args.cpu_idle == SHALLOW and not idle.hold():
+        raise SystemExit(f"--cpu-idle shallow: {idle.unavailable}")
+    try:
+        result = run(bench, args, uvloop=args.uvloop)
+    finally:
+        idle.release()
     shown = {k: v for k, v in result.items() if k != "samples_ms"}
     print(json.dumps(shown, indent=2))
     if args.json:
