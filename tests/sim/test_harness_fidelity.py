@@ -285,7 +285,7 @@ async def test_trace_records_where_a_round_trip_goes(
 
     start, end = await anyio.to_thread.run_sync(round_trip)
     await uno.stop()
-    records = [line.split() for line in trace.read_text().splitlines()]
+    records = [line.split() for line in (await anyio.Path(trace).read_text()).splitlines()]
     reads = [(int(r[1]), int(r[4])) for r in records if r[0] == "R"]
     writes = [(int(r[1]), int(r[4])) for r in records if r[0] == "W"]
     assert [n for t, n in reads if start <= t <= end] == [3]
@@ -324,7 +324,7 @@ async def test_16u2_usb_frames_keep_wall_time_across_idle_spells(
 
     await anyio.to_thread.run_sync(round_trips)
     await uno.stop()
-    records = [line.split() for line in trace.read_text().splitlines()]
+    records = [line.split() for line in (await anyio.Path(trace).read_text()).splitlines()]
     waits_us: list[float] = []
     read_cycle = None
     for kind, _, cycle, _, _ in records:
