@@ -56,7 +56,8 @@ import anyio
 import serial
 
 from arduinoio_async import protocol as p
-from arduinoio_async.bench.cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
+from arduinoio_async.bench import cpu_idle
+from arduinoio_async.bench.cpu_idle import ShallowCpuIdle
 from arduinoio_async.bench.responder import reply_table
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import DigitalPin
@@ -318,26 +319,22 @@ async def pipelined(
                     VirtualUno(board_id=1, baud=baud, binary=compare)
                 )
                 ports[f"virtual_uno_{baud}_harness_compared"] = (uno.port, baud)
-        runs = [f"{name}@{cond}" for name in ports for cond in conditions]
-        rates: dict[str, list[float]] = {run: [] for run in runs}
-        cpu: dict[str, list[float]] = {run: [] for run in runs}
+        runs = [(name, cond) for name in ports for cond in conditions]
+        rates: dict[tuple[str, str], list[float]] = {run: [] for run in runs}
+        cpu: dict[tuple[str, str], list[float]] = {run: [] for run in runs}
         for index in range(rounds):
             shift = index % len(runs)
-            for run in runs[shift:] + runs[:shift]:
-                name, cond = run.split("@")
+            for name, cond in runs[shift:] + runs[:shift]:
                 idle.set(cond)
                 rate, cpu_us = await _write_rate(*ports[name], calls, tasks)
-                rates[run].append(rate)
-                cpu[run].append(cpu_us)
+                rates[name, cond].append(rate)
+                cpu[name, cond].append(cpu_us)
         idle.release()
     return {
         "tasks": tasks,
         "calls_per_round": calls,
         "cpu_idle": {
-            cond: {
-                name: _rate_figures(rates[f"{name}@{cond}"], cpu[f"{name}@{cond}"])
-                for name in ports
-            }
+            cond: {name: _rate_figures(rates[name, cond], cpu[name, cond]) for name in ports}
             for cond in conditions
         },
     }
@@ -353,12 +350,9 @@ def _rate_figures(rates: list[float], cpu: list[float]) -> dict[str, Any]:
     }
 
 
-async def measure(args: argparse.Namespace) -> dict[str, Any]:
-    conditions = [DEFAULT, SHALLOW] if args.cpu_idle == "both" else [args.cpu_idle]
-    idle = ShallowCpuIdle()
-    if SHALLOW in conditions and not idle.hold():
-        raise SystemExit(f"--cpu-idle {args.cpu_idle}: {idle.unavailable}")
-    idle.release()
+async def measure(
+    args: argparse.Namespace, idle: ShallowCpuIdle, conditions: list[str]
+) -> dict[str, Any]:
     result: dict[str, Any] = {
         "command": " ".join(["benchmarks/fast_link.py", *sys.argv[1:]]),
         "cpus": os.cpu_count(),
@@ -403,12 +397,7 @@ def main() -> None:
         type=Path,
         help="also run the round trips on this virtual-uno binary, interleaved (before/after)",
     )
-    parser.add_argument(
-        "--cpu-idle",
-        choices=[DEFAULT, SHALLOW, "both"],
-        default=DEFAULT,
-        help="CPU idle states: as configured, held shallow (PM QoS, root), or both interleaved",
-    )
+    cpu_idle.add_option(parser, interleave=True)
     parser.add_argument("--json", type=Path)
     parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child
     parser.add_argument("--serve-interval", type=float, default=0.0, help=argparse.SUPPRESS)
@@ -416,7 +405,8 @@ def main() -> None:
     if args.serve is not None:
         serve(args.serve, args.serve_interval)
         return
-    result = anyio.run(measure, args)
+    idle, conditions = cpu_idle.conditions(parser, args.cpu_idle)
+    result = anyio.run(measure, args, idle, conditions)
     if args.json:
         args.json.write_text(json.dumps(result, indent=1) + "\n")
 

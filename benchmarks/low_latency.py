@@ -28,7 +28,8 @@ from typing import Any
 import anyio
 import anyio.lowlevel
 
-from arduinoio_async.bench.cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
+from arduinoio_async.bench import cpu_idle
+from arduinoio_async.bench.cpu_idle import ShallowCpuIdle
 from arduinoio_async.bench.model import LinkModel
 from arduinoio_async.bench.runner import blocking_pause
 from arduinoio_async.board import Board
@@ -71,12 +72,7 @@ async def read_ids(board: Board, n: int) -> list[float]:
     return out
 
 
-async def main(args: argparse.Namespace) -> int:
-    conditions = [DEFAULT, SHALLOW] if args.cpu_idle == "both" else [args.cpu_idle]
-    idle = ShallowCpuIdle()
-    if SHALLOW in conditions and not idle.hold():
-        raise SystemExit(f"--cpu-idle {args.cpu_idle}: {idle.unavailable}")
-    idle.release()
+async def main(args: argparse.Namespace, idle: ShallowCpuIdle, conditions: list[str]) -> int:
     runs = [(mode, cond) for cond in conditions for mode in ("off", "on")]
     samples: dict[tuple[int, str, str], list[float]] = {}
     round_means: dict[tuple[int, str, str], list[float]] = {}
@@ -131,21 +127,17 @@ async def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def parse_args() -> argparse.Namespace:
+def parse_args() -> tuple[argparse.Namespace, ShallowCpuIdle, list[str]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--json", type=Path)
     parser.add_argument("--n", type=int, default=400, help="requests per mode and round")
     parser.add_argument("--block", type=int, default=50, help="requests per mode block")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--bauds", type=int, nargs="+", default=[2_000_000, 1_000_000])
-    parser.add_argument(
-        "--cpu-idle",
-        choices=[DEFAULT, SHALLOW, "both"],
-        default=DEFAULT,
-        help="CPU idle states: as configured, held shallow (PM QoS, root), or both interleaved",
-    )
-    return parser.parse_args()
+    cpu_idle.add_option(parser, interleave=True)
+    args = parser.parse_args()
+    return args, *cpu_idle.conditions(parser, args.cpu_idle)
 
 
 if __name__ == "__main__":
-    raise SystemExit(anyio.run(main, parse_args()))
+    raise SystemExit(anyio.run(main, *parse_args()))

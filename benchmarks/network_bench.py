@@ -72,7 +72,7 @@ import zenoh
 from anyio.streams.buffered import BufferedByteReceiveStream
 
 from arduinoio_async import protocol as p
-from arduinoio_async.bench.cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
+from arduinoio_async.bench import cpu_idle
 from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.network import open_remote_board, zenoh_config
@@ -411,20 +411,14 @@ def main() -> None:
         action="store_true",
         help="run this process and the floor's queryable on uvloop too (default: asyncio)",
     )
-    parser.add_argument(
-        "--cpu-idle",
-        choices=[DEFAULT, SHALLOW],
-        default=DEFAULT,
-        help="shallow: hold the CPUs out of deep idle states for the run (PM QoS; root)",
-    )
+    cpu_idle.add_option(parser)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     if args.echo:
         run(run_echo, args.echo, uvloop=args.uvloop)
         return
-    idle = ShallowCpuIdle()
-    if args.cpu_idle == SHALLOW and not idle.hold():
-        raise SystemExit(f"--cpu-idle shallow: {idle.unavailable}")
+    idle, (condition,) = cpu_idle.conditions(parser, args.cpu_idle)
+    idle.set(condition)
     try:
         result = run(bench, args, uvloop=args.uvloop)
     finally:

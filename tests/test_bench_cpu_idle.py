@@ -7,6 +7,7 @@ the file is open, and a system that refuses it is reported, never silently ignor
 
 from __future__ import annotations
 
+import argparse
 import os
 import struct
 from pathlib import Path
@@ -59,7 +60,29 @@ def test_bench_refuses_to_run_shallow_when_it_cannot_hold(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Asked for shallow idle states it cannot get, ``arduinoio bench`` stops before
-    measuring instead of recording default-idle figures as shallow ones."""
+    measuring (a usage error) instead of recording default-idle figures as shallow ones."""
     monkeypatch.setattr(cpu_idle, "CPU_DMA_LATENCY", tmp_path / "missing")
-    assert cli.main(["--cpu-idle", "shallow", "--fastest"]) == 1
+    with pytest.raises(SystemExit) as stopped:
+        cli.main(["--cpu-idle", "shallow", "--fastest"])
+    assert stopped.value.code == 2
     assert "--cpu-idle shallow" in capsys.readouterr().err
+
+
+def test_the_option_offers_both_only_where_runs_interleave() -> None:
+    single, interleaved = argparse.ArgumentParser(), argparse.ArgumentParser()
+    cpu_idle.add_option(single)
+    cpu_idle.add_option(interleaved, interleave=True)
+    assert interleaved.parse_args(["--cpu-idle", "both"]).cpu_idle == "both"
+    assert single.parse_args([]).cpu_idle == DEFAULT
+    with pytest.raises(SystemExit):
+        single.parse_args(["--cpu-idle", "both"])
+
+
+def test_conditions_of_a_choice(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    device = tmp_path / "cpu_dma_latency"
+    device.write_bytes(b"")
+    monkeypatch.setattr(cpu_idle, "CPU_DMA_LATENCY", device)
+    parser = argparse.ArgumentParser()
+    idle, both = cpu_idle.conditions(parser, "both")
+    assert both == [DEFAULT, SHALLOW] and not idle.held  # checked, then let go
+    assert cpu_idle.conditions(parser, "default")[1] == [DEFAULT]

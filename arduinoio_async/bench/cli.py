@@ -12,8 +12,9 @@ from rich.progress import Progress
 from ..errors import ArduinoIOError
 from ..protocol import DEFAULT_BAUD
 from ..sim import SimulatorNotAvailable
+from . import cpu_idle
 from .commands import COMMANDS
-from .cpu_idle import DEFAULT, SHALLOW, ShallowCpuIdle
+from .cpu_idle import SHALLOW
 from .report import print_scenario, write_json, write_plot
 from .runner import SCENARIO_GROUPS, ScenarioResult, Target, host_overhead, run_scenario
 
@@ -38,12 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--fastest", action="store_true", help="2,000,000 baud, no bridge")
     parser.add_argument("--host", action="store_true", help="library CPU per command")
     parser.add_argument("--all", action="store_true", help="every scenario (the default)")
-    parser.add_argument(
-        "--cpu-idle",
-        choices=[DEFAULT, SHALLOW],
-        default=DEFAULT,
-        help="shallow: hold the CPUs out of deep idle states while measuring (PM QoS; root)",
-    )
+    cpu_idle.add_option(parser)
     parser.add_argument("--json", type=Path, help="write every figure to this file")
     parser.add_argument("--plot", type=Path, help="latency distribution plot (PNG)")
     return parser
@@ -89,13 +85,10 @@ async def _run(args: argparse.Namespace, console: Console) -> list[ScenarioResul
 
 def main(argv: list[str] | None = None, *, console: Console | None = None) -> int:
     console = console or Console()
-    args = build_parser().parse_args(argv)
-    idle = ShallowCpuIdle()
-    if args.cpu_idle == SHALLOW and not idle.hold():
-        Console(stderr=True).print(
-            f"[red]error:[/] --cpu-idle shallow: {idle.unavailable}", highlight=False
-        )
-        return 1
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    idle, (condition,) = cpu_idle.conditions(parser, args.cpu_idle)
+    idle.set(condition)
     try:
         results = anyio.run(_run, args, console)
     except SimulatorNotAvailable as exc:

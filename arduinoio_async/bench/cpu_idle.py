@@ -22,6 +22,7 @@ hold/release), so the idle states' share is measured rather than guessed.
 
 from __future__ import annotations
 
+import argparse
 import logging
 import os
 import struct
@@ -33,9 +34,10 @@ logger = logging.getLogger(__name__)
 #: The PM QoS interface for the CPU's wake-up latency (Documentation/power/pm_qos_interface).
 CPU_DMA_LATENCY = Path("/dev/cpu_dma_latency")
 
-#: Condition names as benchmarks record them.
+#: Condition names as benchmarks record them; ``both`` (an option value) interleaves them.
 DEFAULT = "default"
 SHALLOW = "shallow"
+BOTH = "both"
 
 
 class ShallowCpuIdle:
@@ -100,3 +102,27 @@ class ShallowCpuIdle:
             return SHALLOW
         self.release()
         return DEFAULT
+
+
+def add_option(parser: argparse.ArgumentParser, *, interleave: bool = False) -> None:
+    """The benchmarks' ``--cpu-idle`` option (``both`` only where runs interleave)."""
+    parser.add_argument(
+        "--cpu-idle",
+        choices=[DEFAULT, SHALLOW, BOTH] if interleave else [DEFAULT, SHALLOW],
+        default=DEFAULT,
+        help="CPU idle states while measuring: as configured, held shallow (PM QoS; root)"
+        + (", or both interleaved" if interleave else ""),
+    )
+
+
+def conditions(parser: argparse.ArgumentParser, choice: str) -> tuple[ShallowCpuIdle, list[str]]:
+    """The conditions a ``--cpu-idle`` choice measures under, and the hold that switches
+    between them (released).  Shallow states this system does not grant end the program
+    as a usage error (``parser.error``) before anything is measured, so default-idle
+    figures are never recorded as shallow ones."""
+    wanted = [DEFAULT, SHALLOW] if choice == BOTH else [choice]
+    idle = ShallowCpuIdle()
+    if SHALLOW in wanted and not idle.hold():
+        parser.error(f"--cpu-idle {choice}: {idle.unavailable}")
+    idle.release()
+    return idle, wanted
