@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
+from typing import Protocol
 
 import anyio
 
 from arduinoio_async.board import Board
+from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.testing import FakeBoard
 
 
@@ -23,6 +25,24 @@ async def read_ids_concurrently(board: Board, tasks: int = 8, each: int = 10) ->
         for _ in range(tasks):
             tg.start_soon(read_ids)
     return replies
+
+
+class Subscribable(Protocol):
+    """A BoardManager or RemoteBoards: both tell subscribers about their boards."""
+
+    def subscribe(self, callback: Callable[[ManagerEvent], None]) -> Callable[[], None]: ...
+
+
+def reset_event(manager: Subscribable) -> anyio.Event:
+    """An event set once ``manager`` reports that one of its boards reset."""
+    seen = anyio.Event()
+
+    def on_event(event: ManagerEvent) -> None:
+        if event.kind == "reset":
+            seen.set()
+
+    manager.subscribe(on_event)
+    return seen
 
 
 @asynccontextmanager

@@ -22,9 +22,11 @@ from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.changes import AnalogChanges, ChangeStream, CountReports
 from arduinoio_async.errors import WatchLostError
-from arduinoio_async.manager import BoardManager, ManagerEvent
+from arduinoio_async.manager import BoardManager
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 from arduinoio_async.sim.virtual_uno import VirtualUno
+
+from ..fake_boards import reset_event
 
 pytestmark = pytest.mark.sim
 
@@ -99,13 +101,7 @@ async def test_watches_keep_delivering_after_a_power_on_reset_the_manager_restor
     uno = await virtual_uno_factory(board_id=21)
     async with BoardManager(ports=[uno.port], rescan_interval=0.05) as boards:
         board = await boards.get(21)
-        reset_seen = anyio.Event()
-
-        def on_event(event: ManagerEvent) -> None:
-            if event.kind == "reset":
-                reset_seen.set()
-
-        boards.subscribe(on_event)
+        reset_seen = reset_event(boards)
 
         async def power_on_reset(uno: VirtualUno, board: Board) -> None:
             await uno.reset()

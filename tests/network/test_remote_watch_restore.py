@@ -7,9 +7,9 @@ import anyio
 import pytest
 
 from arduinoio_async import D3
-from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.network import RemoteBoards
 
+from ..fake_boards import reset_event
 from .conftest import ServeFactory
 
 pytestmark = pytest.mark.sim
@@ -24,13 +24,7 @@ async def test_a_remote_change_watch_keeps_delivering_after_the_board_resets(
     ):
         uno = served.unos[7]
         board = await remote.get(7)
-        reset_seen = anyio.Event()
-
-        def on_event(event: ManagerEvent) -> None:
-            if event.kind == "reset":
-                reset_seen.set()
-
-        remote.subscribe(on_event)
+        reset_seen = reset_event(remote)
         async with board.gpio(D3).watch() as changes:
             with anyio.fail_after(5):  # each level once the board saw the one before
                 await uno.drive("D3", 1)
