@@ -1,61 +1,19 @@
 """``arduinoio serve``: the boards of a local BoardManager, served on a Zenoh session.
 
-Theory of operation
--------------------
-Each board the manager has connected gets a queryable for requests, a publisher for its
-board-initiated frames and a liveliness token (see :mod:`._keys`); they go when the
-manager loses the board and come back when it reconnects.  A query is handed from
-Zenoh's thread to the event loop and numbered in arrival order.  If nothing holds it
-back (no earlier query still waiting, the board not being starved) it is answered right
-there, in that callback: on asyncio the transport's ``request`` coroutine is stepped
-without a task (see :class:`_Resumer`), so the request reaches the link at once, and the
-reply goes back to Zenoh from the callback that completes the request's future -- one
-thread-to-loop hop per query and no task switch.  Otherwise (a starving board, trio)
-it goes on to the next free one of a pool of worker tasks, which takes its query's turn
-(see ``_take_turn``) and puts the request on the board's one transport without
-suspending in between.  Either way requests reach the link in the order the queries
-arrived, on any scheduler, and several clients' requests are pipelined on it like one
-client's.
-
-What the server changes on the way (everything else passes through untouched):
-
-* **Sessions are virtual.**  Every client's ``Board`` tags the board's session at
-  connect and polls it to notice resets.  A client's ``SetSession`` is answered by the
-  server and recorded with the *boot* it was set in (the server's own tag of the real
-  board, which changes whenever the manager meets a fresh boot); a client's
-  ``ReadStatus`` shows the client its own tag while that boot lasts and 0 -- a fresh
-  board -- once the board has reset or been replugged since.  So clients never take each
-  other's tags for a reset, and a real reset still reaches every client, which then
-  restores its own pin roles.
-* **The failsafe follows its owner.**  The client whose ``FailsafeArm`` went through
-  owns the failsafe.  When its liveliness token vanishes (the process died, the session
-  closed, the lease ran out) or it has sent nothing for the failsafe's timeout, the
-  server stops every byte to that board -- other clients' requests wait, and the
-  manager's heartbeat is held off -- until the board trips (or the timeout has passed
-  with a margin).  A dead controller's outputs therefore go safe within its timeout, as
-  they would if it had been on the USB cable itself.
-
-* **Board IDs are fixed.**  ``WriteId`` is refused with a ``UsageError`` (relayed to the
-  caller with its class): everything on the network -- the keys, the server's manager,
-  every client's ``Board`` -- names the board by its ID, and a new ID would leave them
-  all pointing at a board that no longer answers to it.
-
-Pin roles are the board's: a vanished client's roles stay configured (outputs hold their
-levels unless its failsafe makes them safe); its sample stream, which nobody reads any
-more, is stopped.  Configuring a pin in the role it already has
-is accepted by the board, so a restarted controller sets its pins up again as usual; a
-different role needs the pin released first, as on any board.
+The server follows its manager: each board the manager connects is served
+(:class:`~._served_board.ServedBoard`, whose docstring is the theory of operation: how a
+query reaches the board, virtual sessions, the failsafe's owner) until the manager loses
+it; the manager's connection events are published for remote managers, and the
+liveliness of every client is watched so that a vanished client's failsafe and stream are
+dealt with.
 """
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import json
 import logging
 import math
-from collections.abc import Callable, Coroutine
-from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any
 
 import anyio
@@ -63,28 +21,11 @@ import anyio.abc
 import zenoh
 from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
 
-from .. import protocol as p
 from ..board import Board
-from ..errors import (
-    ArduinoIOError,
-    BoardDisconnectedError,
-    BoardError,
-    LinkResyncError,
-    ProtocolError,
-    UsageError,
-)
 from ..manager import BoardManager, ManagerEvent
-from ..transport import Transport
-from ._keys import (
-    ALL_CLIENTS,
-    announcement_key,
-    connection_key,
-    encode_fault,
-    events_key,
-    request_key,
-    undeclare,
-)
+from ._keys import ALL_CLIENTS, connection_key, undeclare
 from ._loop import LoopHandle
+from ._served_board import ServedBoard
 
 __all__ = ["BoardServer"]
 
@@ -92,425 +33,6 @@ log = logging.getLogger(__name__)
 
 #: A function and its arguments, to start in the server's task group.
 _Spawn = tuple[Callable[..., Any], tuple[Any, ...]]
-
-#: After the failsafe owner is gone the board is starved this much beyond its timeout at
-#: most (a trip report normally ends the starvation sooner).
-STARVE_MARGIN = 0.2
-#: How often a starving board's heartbeat is held off and its owner's silence is checked.
-STARVE_TICK = 0.02
-#: Why a remote ``write_id`` is refused (it reaches the client as a UsageError).
-WRITE_ID_REFUSED = (
-    "board 0x{board:04X}: write_id(0x{new:04X}) is refused over the network: the server, "
-    "its clients and the board's keys name the board by its ID, which would change under "
-    "them; set the ID on the computer the board is plugged into (arduinoio set-id)"
-)
-NOT_ONE_REQUEST = "a query carries one request frame"
-#: Queries of one board in progress at once (the transport keeps at most 64 in flight).
-WORKERS = 64
-#: Request frames remembered with their decoded request (see ``_ServedBoard._parse``);
-#: past this many distinct frames the memory starts over.
-KNOWN_FRAMES = 256
-#: Requests whose handling depends on the client that sent them: only for these (and
-#: for every request while a client owns the failsafe) the query's attachment is read.
-_PER_CLIENT: frozenset[type[p.Request[Any]]] = frozenset(
-    {p.SetSession, p.ReadStatus, p.FailsafeArm, p.StreamStart}
-)
-
-
-class _Resumer:
-    """Runs ``Transport.request(...)`` from loop callbacks, without a task (asyncio only).
-
-    On asyncio the request suspends only on the asyncio future its reply resolves (or,
-    refused at once, on a bare checkpoint): so the coroutine is stepped here -- at once,
-    which puts the request on the wire in the caller's callback, and again from the
-    future's done-callback, which hands the outcome to ``done`` -- as a task would step it,
-    minus the task's creation and its extra scheduling.  Nothing here can be cancelled:
-    the transport's own deadline ends every request.
-    """
-
-    __slots__ = ("_coro", "_done")
-
-    def __init__(
-        self,
-        coro: Coroutine[Any, Any, p.Reply],
-        done: Callable[[p.Reply | None, BaseException | None], None],
-    ) -> None:
-        self._coro = coro
-        self._done = done
-        self._step()
-
-    def _step(self, _: object = None) -> None:
-        try:
-            waiting = self._coro.send(None)
-        except StopIteration as finished:
-            self._done(finished.value, None)
-        except (Exception, asyncio.CancelledError) as exc:
-            self._done(None, exc)
-        else:
-            if waiting is None:  # a bare checkpoint
-                asyncio.get_running_loop().call_soon(self._step)
-            elif isinstance(waiting, asyncio.Future):
-                waiting._asyncio_future_blocking = False
-                waiting.add_done_callback(self._step)
-            else:  # not an asyncio awaitable: the transport changed; fail loudly
-                self._coro.close()
-                self._done(None, RuntimeError(f"request suspended on {waiting!r}"))
-
-
-@dataclass
-class _Tag:
-    """A client's virtual session tag and the boot of the board it was set in."""
-
-    tag: int
-    boot: int | None  # None: set after a reboot the server has not re-tagged yet
-
-
-class _ServedBoard:
-    """One board on the network: queryable, event publisher, liveliness token."""
-
-    def __init__(self, server: BoardServer, board: Board) -> None:
-        self.server = server
-        self.board = board
-        # The transport is captured now: during a restore the manager detaches the Board
-        # from it, but the link itself goes on carrying the clients' requests.
-        self.link: Transport = board.link
-        self.board_id = board.board_id
-        # Parsed once: a key given as a string is parsed and checked on every reply.
-        self.key = zenoh.KeyExpr(request_key(self.board_id))
-        self.closed = False
-        self.tags: dict[str, _Tag] = {}
-        self.stale = False  # the board rebooted and the manager has not re-tagged it yet
-        self.owner: str | None = None  # the client whose failsafe is armed
-        self.owner_timeout = 0.0
-        self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
-        self.streamer: str | None = None  # the client whose stream runs (one per board)
-        self.last_heard: dict[str, float] = {}
-        self.gate: anyio.Event | None = None  # while the board is being starved
-        self.tripped = anyio.Event()
-        self._decoder = p.Decoder.from_host()
-        send, receive = anyio.create_memory_object_stream[tuple[int, zenoh.Query]](math.inf)
-        self._arrivals = 0  # queries admitted so far: each gets the next number
-        self._turn = 0  # number of the last query that went on to the link
-        self._turn_waiters = 0
-        self._turn_changed = anyio.Event()
-        self._admitted = send
-        try:  # the fast path steps the transport's coroutine itself: asyncio only
-            self._now: Callable[[], float] = asyncio.get_running_loop().time
-            self._direct = True
-        except RuntimeError:
-            self._now = anyio.current_time
-            self._direct = False
-        self._clients: dict[bytes, str] = {}  # attachments seen, decoded once
-        self._requests: dict[bytes, p.Request[Any]] = {}  # frames seen, decoded once
-        server.start_soon(self._run_workers, receive)
-        session = server.session
-        loop = server.loop
-        self._unsubscribe = self.link.subscribe(self._on_event)
-        self.publisher = session.declare_publisher(events_key(self.board_id))
-        self.queryable = session.declare_queryable(
-            self.key,
-            loop.forward(self._admit),
-            complete=True,
-        )
-        self.token = session.liveliness().declare_token(
-            announcement_key(self.board_id, str(session.zid()))
-        )
-
-    def close(self) -> None:
-        if self.closed:
-            return
-        self.closed = True
-        self._admitted.close()  # the workers answer what was admitted, then end
-        self._unsubscribe()
-        for entity in (self.token, self.queryable, self.publisher):
-            undeclare(entity)
-        if self.gate is not None:
-            self.gate.set()
-
-    # ---- board-initiated frames --------------------------------------------------------
-
-    def _on_event(self, event: p.Event) -> None:
-        if isinstance(event, p.FailsafeTripped):
-            self.tripped.set()
-        try:
-            self.publisher.put(event.encode())
-        except zenoh.ZError as exc:
-            log.debug("board 0x%04X: event not published: %s", self.board_id, exc)
-
-    # ---- requests --------------------------------------------------------------------
-
-    def _admit(self, query: zenoh.Query) -> None:
-        """In the loop, in arrival order: number the query; answer it at once if nothing
-        holds it back, else hand it to a free worker."""
-        self._arrivals += 1
-        number = self._arrivals
-        if self._direct and self.gate is None and self._turn + 1 == number:
-            client, request = self._parse(query)
-            # An arming creates anyio objects, which need a task: it takes the worker path.
-            if not isinstance(request, p.FailsafeArm):
-                self._pass_turn(number)
-                self._answer_now(query, client, request)
-                return
-        try:
-            self._admitted.send_nowait((number, query))
-        except (anyio.ClosedResourceError, anyio.BrokenResourceError):
-            self._reply(query, None, None, self._gone())
-
-    async def _run_workers(
-        self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]
-    ) -> None:
-        async with admitted, anyio.create_task_group() as workers:
-            for _ in range(WORKERS):
-                workers.start_soon(self._work, admitted)
-
-    async def _work(self, admitted: MemoryObjectReceiveStream[tuple[int, zenoh.Query]]) -> None:
-        """Answer queries one after another; WORKERS of these pipeline on the link."""
-        async for number, query in admitted:
-            await self._answer(query, number)
-
-    async def _take_turn(self, number: int) -> None:
-        """Return once every query that arrived earlier has had its turn.
-
-        Workers may resume in any order (a worker that just finished can overtake one
-        that was woken for an earlier query); the turns restore arrival order.  The caller
-        must reach the link without suspending after this returns.
-        """
-        while self._turn + 1 != number:
-            self._turn_waiters += 1
-            try:
-                await self._turn_changed.wait()
-            finally:
-                self._turn_waiters -= 1
-        self._pass_turn(number)
-
-    def _pass_turn(self, number: int) -> None:
-        self._turn = number
-        if self._turn_waiters:
-            changed, self._turn_changed = self._turn_changed, anyio.Event()
-            changed.set()
-
-    def _parse(self, query: zenoh.Query) -> tuple[str, p.Request[Any] | None]:
-        """The query's client and its request (None: the payload is not one request).
-
-        The client is read from the attachment only when it matters (``""`` otherwise);
-        a frame seen before is not decoded again (requests are immutable).  Both save
-        work on every round trip, where the loop has just woken up and runs cold.
-        """
-        payload = query.payload
-        frame = payload.to_bytes() if payload is not None else b""
-        request = self._requests.get(frame)
-        if request is None:
-            frames = self._decoder.feed(frame)
-            self._decoder.reset()
-            if len(frames) != 1 or not isinstance(frames[0], p.Request):
-                return "", None
-            request = frames[0]
-            if len(self._requests) >= KNOWN_FRAMES:
-                self._requests.clear()
-            self._requests[frame] = request
-        if self.owner is None and type(request) not in _PER_CLIENT:
-            return "", request
-        attachment = query.attachment
-        if attachment is None:
-            return "", request
-        raw = attachment.to_bytes()
-        client = self._clients.get(raw) or self._clients.setdefault(
-            raw, raw.decode(errors="replace")
-        )
-        return client, request
-
-    def _gone(self) -> BoardDisconnectedError:
-        return BoardDisconnectedError(f"board 0x{self.board_id:04X} is not connected")
-
-    def _answer_now(self, query: zenoh.Query, client: str, request: p.Request[Any] | None) -> None:
-        """The fast path, in the loop callback that admitted the query (asyncio only).
-
-        No worker task is woken: the request goes on the link here, in arrival order by
-        construction, and the reply is sent from the callback that completes it (see
-        :class:`_Resumer`).  Requests the server answers itself complete at once.
-        """
-        if request is None:
-            self._reply(query, None, None, ProtocolError(NOT_ONE_REQUEST))
-            return
-        if client:
-            self.last_heard[client] = self._now()
-        try:
-            if self.closed:
-                raise self._gone()
-            local = self._answer_locally(client, request)
-        except ArduinoIOError as exc:
-            self._reply(query, request, None, exc)
-            return
-        if local is not None:
-            self._reply(query, request, local, None)
-            return
-
-        def done(reply: p.Reply | None, error: BaseException | None) -> None:
-            frame = None
-            if reply is not None:
-                try:
-                    frame = self._after_link(client, request, reply)
-                except ArduinoIOError as exc:
-                    error = exc
-            self._reply(query, request, frame, error)
-
-        _Resumer(self.link.request(request), done)
-
-    async def _answer(self, query: zenoh.Query, number: int) -> None:
-        """The worker path: for queries that must wait (their turn, a starving board)."""
-        frame: bytes | None = None
-        error: ArduinoIOError | None = None
-        try:
-            client, request = self._parse(query)
-            if self.gate is not None:  # every query waits while the board is being starved
-                await self.gate.wait()
-            await self._take_turn(number)
-            if request is None:
-                error = ProtocolError(NOT_ONE_REQUEST)
-            else:
-                if client:
-                    self.last_heard[client] = self._now()
-                try:
-                    if self.closed:
-                        raise self._gone()
-                    frame = self._answer_locally(client, request)
-                    if frame is None:
-                        reply = await self.link.request(request)
-                        frame = self._after_link(client, request, reply)
-                except ArduinoIOError as exc:
-                    error = exc
-        except BaseException:
-            # Cancelled (the server is stopping): the client's stream breaks on this.
-            self._reply(query, None, None, self._gone())
-            raise
-        self._reply(query, request, frame, error)
-
-    def _reply(
-        self,
-        query: zenoh.Query,
-        request: p.Request[Any] | None,
-        frame: bytes | None,
-        error: BaseException | None,
-    ) -> None:
-        """Answer ``query`` with the reply frame, the board's error reply or a fault."""
-        with query, contextlib.suppress(zenoh.ZError):  # ZError: the session is closing
-            if frame is not None:
-                query.reply(self.key, frame)
-            elif isinstance(error, BoardError) and request is not None:
-                layout = request.LAYOUT
-                code = p.ErrorCode(error.code)  # type: ignore[arg-type]
-                query.reply(
-                    self.key, p.ErrorReply(layout.class_tag, layout.descriptor, code).encode()
-                )
-            elif isinstance(error, ArduinoIOError):
-                query.reply_err(encode_fault(error))
-            else:
-                log.error("board 0x%04X: %r failed: %r", self.board_id, request, error)
-                query.reply_err(encode_fault(LinkResyncError(f"server failure: {error!r}")))
-
-    def _answer_locally(self, client: str, request: p.Request[Any]) -> bytes | None:
-        """The reply of a request the server answers itself, or None: it goes to the link."""
-        if isinstance(request, p.WriteId):
-            raise UsageError(WRITE_ID_REFUSED.format(board=self.board_id, new=request.board_id))
-        if isinstance(request, p.SetSession):
-            self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
-            return p.SetSessionReply(request.session).encode()
-        return None
-
-    def _after_link(self, client: str, request: p.Request[Any], reply: p.Reply) -> bytes:
-        """The board's reply as ``client`` gets it; the server's records follow the request."""
-        if isinstance(reply, p.ReadStatusReply):
-            return self._virtual_status(client, reply).encode()
-        if isinstance(request, p.FailsafeArm):
-            self.owner, self.owner_timeout = client, request.timeout_ms / 1000
-            self.tripped = anyio.Event()
-            self.board.failsafe_tripped = False
-            self.arms += 1
-            self.server.start_soon(self._watch_owner, client, self.arms)
-        elif isinstance(request, p.FailsafeDisarm):
-            self.owner = None
-            self.board.failsafe_tripped = False
-        elif isinstance(request, p.StreamStart):
-            self.streamer = client
-        elif isinstance(request, p.StreamStop):
-            self.streamer = None
-        frame: bytes = reply.encode()
-        return frame
-
-    def _virtual_status(self, client: str, raw: p.ReadStatusReply) -> p.ReadStatusReply:
-        """The status as ``client`` must see it: its own tag, or 0 after a reboot."""
-        self.stale = raw.session != self.board.session
-        record = self.tags.get(client)
-        if record is None:
-            return raw
-        if self.stale:
-            session = record.tag if record.boot is None else 0
-        elif record.boot is None or record.boot == self.board.session:
-            record.boot = self.board.session
-            session = record.tag
-        else:
-            session = 0
-        return p.ReadStatusReply(raw.flags, session)
-
-    # ---- the failsafe's owner ----------------------------------------------------------
-
-    def client_gone(self, client: str) -> None:
-        self.tags.pop(client, None)
-        self.last_heard.pop(client, None)
-        if client == self.owner and not self.tripped.is_set():
-            self._starve(f"client {client} vanished")
-        if client == self.streamer:
-            self.streamer = None
-            self.server.start_soon(self._stop_stream_of, client)
-
-    async def _stop_stream_of(self, client: str) -> None:
-        """Nobody reads a vanished client's stream: stop it (after any starving)."""
-        if self.gate is not None:
-            await self.gate.wait()
-        try:
-            await self.link.request(p.StreamStop())
-        except ArduinoIOError as exc:
-            log.info("board 0x%04X: stream of %s not stopped: %s", self.board_id, client, exc)
-        else:
-            log.info(
-                "board 0x%04X: stopped the stream of vanished client %s", self.board_id, client
-            )
-
-    async def _watch_owner(self, client: str, arm: int) -> None:
-        """While ``client`` owns this arming, starve the board once it falls silent."""
-        while (
-            self.arms == arm
-            and self.owner == client
-            and not self.closed
-            and not self.tripped.is_set()
-        ):
-            silent_for = anyio.current_time() - self.last_heard.get(client, 0.0)
-            if silent_for > self.owner_timeout and self.gate is None:
-                self._starve(f"client {client} silent for {silent_for * 1000:.0f} ms")
-                return
-            await anyio.sleep(max(STARVE_TICK, self.owner_timeout - silent_for))
-
-    def _starve(self, reason: str) -> None:
-        if self.gate is not None or self.closed:
-            return
-        log.warning("board 0x%04X: %s; letting its failsafe trip", self.board_id, reason)
-        self.gate = anyio.Event()
-        self.server.start_soon(self._starve_until_tripped, self.gate)
-
-    async def _starve_until_tripped(self, gate: anyio.Event) -> None:
-        give_up = anyio.current_time() + self.owner_timeout + STARVE_MARGIN
-        try:
-            while not self.tripped.is_set() and anyio.current_time() < give_up:
-                # The manager's heartbeat skips a link that sent recently: keep it quiet.
-                self.link.last_send = anyio.current_time()
-                with anyio.move_on_after(STARVE_TICK):
-                    await self.tripped.wait()
-            if not self.tripped.is_set():
-                log.warning("board 0x%04X: no failsafe trip reported", self.board_id)
-        finally:
-            self.owner = None
-            self.gate = None
-            gate.set()
 
 
 class BoardServer:
@@ -522,7 +44,7 @@ class BoardServer:
     def __init__(self, manager: BoardManager, session: zenoh.Session) -> None:
         self.manager = manager
         self.session = session
-        self.served: dict[int, _ServedBoard] = {}
+        self.served: dict[int, ServedBoard] = {}
         self._task_group: anyio.abc.TaskGroup | None = None
         self._spawn: MemoryObjectSendStream[_Spawn] | None = None
         self._loop: LoopHandle | None = None
@@ -585,7 +107,7 @@ class BoardServer:
         if old is not None:
             old.close()
         if board.connected:
-            self.served[board.board_id] = _ServedBoard(self, board)
+            self.served[board.board_id] = ServedBoard(self, board)
             log.info("serving board 0x%04X from %s", board.board_id, board.port)
 
     def _on_manager_event(self, event: ManagerEvent) -> None:

@@ -45,6 +45,16 @@ order, then dropped, so cancellation never desynchronises the link.  Losing the 
 every pending and every later request with :class:`BoardDisconnectedError` at once.
 Subscribers (stream consumers, failsafe listeners) run in the receive path; an exception
 in one is logged and never reaches the link.
+
+*Requests from other threads.*  A server receives requests on its network library's
+threads; handing each to the loop before it can go on the wire costs a thread wake-up per
+round trip.  :meth:`Transport.request_from_thread` puts a request into the session and
+on the wire from the calling thread instead, and :meth:`Transport.adopt` gives the loop
+its outcome.  One lock -- the serial stream's, held by every loop callback that changes
+what goes on the wire -- makes the session's order the wire's order whichever thread
+sends: the loop holds it from ``session.send`` until the bytes are written or queued,
+and while it handles received bytes, expires requests or resyncs.  The other thread
+never waits for it: if the loop holds it, the request goes through the loop after all.
 """
 
 from __future__ import annotations
@@ -52,6 +62,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
+import threading
 import time
 from collections.abc import Callable, Coroutine
 from contextlib import AsyncExitStack, suppress
@@ -103,6 +114,9 @@ MAX_DRAIN = 0.25
 MAX_PROBE_BACKOFF = 1.0
 
 R = TypeVar("R", bound=p.Reply)
+
+#: What a stream's write raises when the port is gone.
+_WRITE_ERRORS = (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError)
 
 
 class LinkState(Enum):
@@ -161,6 +175,10 @@ class Transport:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._send_nowait: Callable[[bytes], None] | None = None
         self._collect_sends: Callable[[], None] | None = None
+        #: Orders the session and the wire between the loop and other threads (see
+        #: ``request_from_thread``): the stream's own lock where it has one.
+        self._lock: Any = getattr(stream, "lock", None) or threading.RLock()
+        self._send_from_thread: Callable[[bytes], bool] | None = None
         self._outbox = bytearray()
         self._outbox_ready = anyio.Event()
         #: Monotonic time of the last request sent (heartbeats skip busy links).
@@ -197,6 +215,8 @@ class Transport:
                 self._task_group.start_soon(self._reader, name=f"arduinoio reader {self.name}")
             self._send_nowait = getattr(self.stream, "send_nowait", None)
             self._collect_sends = getattr(self.stream, "collect_sends", None)
+            if pushed and self._loop is not None:
+                self._send_from_thread = getattr(self.stream, "send_from_thread", None)
             if self._send_nowait is None:
                 self._task_group.start_soon(self._writer, name=f"arduinoio writer {self.name}")
             self._task_group.start_soon(self._resyncer, name=f"arduinoio resync {self.name}")
@@ -320,17 +340,18 @@ class Transport:
         else:
             # asyncio: the hot path, kept flat (one clock read, no extra coroutine or call).
             now = self._now()
-            exchange, data = self._session.send(request)
-            if data:
-                self.last_send = now
-                send_nowait = self._send_nowait
-                if send_nowait is None:
-                    self._write(data)
-                else:
-                    try:
-                        send_nowait(data)
-                    except (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError) as exc:
-                        self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
+            with self._lock:
+                exchange, data = self._session.send(request)
+                if data:
+                    self.last_send = now
+                    send_nowait = self._send_nowait
+                    if send_nowait is None:
+                        self._write(data)
+                    else:
+                        try:
+                            send_nowait(data)
+                        except _WRITE_ERRORS as exc:
+                            self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
             if exchange.done:
                 await anyio.lowlevel.checkpoint()
             else:
@@ -342,9 +363,10 @@ class Transport:
                 try:
                     await future
                 except BaseException:
-                    if not exchange.done:
-                        exchange.deadline = math.inf  # abandoned: its reply is dropped
-                        self._session.cancel(exchange)
+                    with self._lock:
+                        if not exchange.done:
+                            exchange.deadline = math.inf  # abandoned: its reply is dropped
+                            self._session.cancel(exchange)
                     raise
         if exchange.error is not None:
             raise exchange.error
@@ -354,10 +376,13 @@ class Transport:
         """The link's one deadline alarm: expire what is due, re-arm for the next."""
         session = self._session
         now = self._now()
-        for exchange in session.pending():
-            if exchange.deadline <= now:
-                self._process(session.expire(exchange))
-        next_deadline = min((exchange.deadline for exchange in session.pending()), default=math.inf)
+        with self._lock:
+            for exchange in session.pending():
+                if exchange.deadline <= now:
+                    self._process(session.expire(exchange))
+            next_deadline = min(
+                (exchange.deadline for exchange in session.pending()), default=math.inf
+            )
         alarm = self._alarm
         if alarm is not None and next_deadline < alarm.armed_at:
             alarm.arm(next_deadline)
@@ -374,6 +399,58 @@ class Transport:
         if not exchange.done:
             self._process(self._session.expire(exchange))
 
+    def request_from_thread(
+        self, request: p.Request[Any], *, timeout: float | None = None
+    ) -> Exchange | None:
+        """Put ``request`` on the link from a thread that is not the event loop's.
+
+        For a server whose requests arrive on a network library's threads: sending them
+        from there saves a hop into the loop on each round trip.  Returns the request's
+        exchange -- pass it to :meth:`adopt`, in the loop, to learn its outcome -- or
+        None, having done nothing, when the request must go through the loop instead:
+        not asyncio with a stream that pushes (the serial stream), the link resyncing
+        or closed, or the loop busy with the link this very moment (never waited for).
+        The link's lock puts requests from both sides into the session and on the wire
+        in one order.  ``timeout`` as for :meth:`request`, from now.
+        """
+        send = self._send_from_thread
+        if send is None or not self._lock.acquire(blocking=False):
+            return None
+        try:
+            if self._session.state is not SessionState.READY:
+                return None
+            now = self._now()
+            exchange, data = self._session.send(request)
+            exchange.deadline = now + (self.timeout if timeout is None else timeout)
+            if data:
+                self.last_send = now
+                if not send(data):  # closed under us: the loop closes the link, as it would
+                    loop = self._loop
+                    assert loop is not None
+                    with suppress(RuntimeError):  # the loop is gone: nobody waits
+                        loop.call_soon_threadsafe(
+                            self._close, BoardDisconnectedError(f"{self.name}: port closed")
+                        )
+            return exchange
+        finally:
+            self._lock.release()
+
+    def adopt(self, exchange: Exchange) -> asyncio.Future[None]:
+        """In the loop: a future done once ``exchange`` (from :meth:`request_from_thread`)
+        is; its outcome is then ``exchange.reply`` or ``exchange.error``.  The exchange's
+        deadline is watched from here on, as a request's own is."""
+        loop = self._loop
+        assert loop is not None  # request_from_thread only sends on asyncio
+        future: asyncio.Future[None] = loop.create_future()
+        if exchange.done:
+            future.set_result(None)
+            return future
+        exchange.waiter = future
+        alarm = self._alarm
+        if alarm is not None and exchange.deadline < alarm.armed_at:
+            alarm.arm(exchange.deadline)
+        return future
+
     # ---- bytes in and out --------------------------------------------------------------
 
     def _write(self, data: bytes) -> None:
@@ -384,7 +461,7 @@ class Transport:
             return
         try:
             send_nowait(data)
-        except (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError) as exc:
+        except _WRITE_ERRORS as exc:
             self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
 
     async def _writer(self) -> None:
@@ -397,7 +474,7 @@ class Transport:
                 self._outbox.clear()
                 try:
                     await self.stream.send(data)
-                except (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError) as exc:
+                except _WRITE_ERRORS as exc:
                     self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
                     return
 
@@ -412,6 +489,8 @@ class Transport:
 
     def _on_data(self, data: bytes) -> None:
         """Received bytes (in the fd-readable callback or the reader task)."""
+        # No lock of its own: only the serial stream's sends come from other threads,
+        # and its read callback, which calls this, holds the link's lock.
         session = self._session
         exchange = session.receive_reply(data)
         if exchange is not None:  # the common case, kept flat: wake its caller
@@ -440,7 +519,8 @@ class Transport:
     def relay_failure(self, error: ArduinoIOError) -> None:
         """The oldest request in flight failed beyond the stream (a relaying stream's
         far end settled it, see ``Session.relay_failure``); call in received order."""
-        self._process(self._session.relay_failure(error))
+        with self._lock:
+            self._process(self._session.relay_failure(error))
 
     def _on_lost(self, exc: BaseException | None) -> None:
         self._close(BoardDisconnectedError(f"{self.name}: port lost ({exc or 'EOF'})"))
@@ -503,9 +583,10 @@ class Transport:
                 logger.exception("%s: state listener %r failed", self.name, callback)
 
     def _close(self, error: BoardDisconnectedError) -> None:
-        if self._session.state is SessionState.CLOSED:
-            return
-        self._process(self._session.close(error))
+        with self._lock:
+            if self._session.state is SessionState.CLOSED:
+                return
+            self._process(self._session.close(error))
         detach = getattr(self.stream, "detach", None)
         if detach is not None:
             detach()
@@ -537,15 +618,17 @@ class Transport:
                 await self._drain()
                 if session.state is not SessionState.DRAINING:
                     break
-                probe = session.start_probe()
-                self._sync_state()
-                self.last_send = self._now()
-                self._write(probe)
+                with self._lock:
+                    probe = session.start_probe()
+                    self._sync_state()
+                    self.last_send = self._now()
+                    self._write(probe)
                 give_up = self._now() + self.timeout
                 while session.state is SessionState.PROBING and self._now() < give_up:
                     await self._wait_changed(give_up)
                 if session.state is SessionState.PROBING:
-                    session.probe_failed("no answer to the ID probe")
+                    with self._lock:
+                        session.probe_failed("no answer to the ID probe")
                     logger.warning("%s: no answer to the ID probe", self.name)
                     await anyio.sleep(backoff)
                     backoff = min(backoff * 2, MAX_PROBE_BACKOFF)
@@ -554,10 +637,11 @@ class Transport:
                         "%s: probe failed (%s); draining again", self.name, session.last_loss
                     )
             if session.state is SessionState.READY:
-                data = session.admit()
-                if data:
-                    self.last_send = self._now()
-                    self._write(data)
+                with self._lock:
+                    data = session.admit()
+                    if data:
+                        self.last_send = self._now()
+                        self._write(data)
 
     async def _drain(self) -> None:
         """Until the board is ready for a frame and the line is drained (see above)."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -61,6 +62,13 @@ class SerialByteStream(anyio.abc.ByteStream):
     runs is written by that callback at once, in the order it was sent -- in the same
     loop iteration as the sends, so no request waits for another iteration.  Sends at
     any other time (a lone request and its reply) are written at once.
+
+    *Writes from another thread.*  A server whose requests arrive on a network library's
+    threads saves a hop into the loop per request by writing them there
+    (:meth:`send_from_thread`, used by ``Transport.request_from_thread``).  :attr:`lock`
+    orders those writes with the loop's: whoever holds it may change what goes on the
+    wire, so the loop's callbacks here hold it, and the transport holds it from handing
+    a request to its session until the request's bytes are written or queued.
     """
 
     #: Present only where writing without suspending is possible (asyncio).
@@ -78,6 +86,9 @@ class SerialByteStream(anyio.abc.ByteStream):
         self._collected: bytearray | None = None
         self._on_data: Callable[[bytes], None] | None = None
         self._on_lost: Callable[[BaseException | None], None] | None = None
+        #: Held while the wire's order is decided (see the class docstring); reentrant,
+        #: as the loop's read callback holds it while the transport's handler runs.
+        self.lock = threading.RLock()
         try:
             self._loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()
         except RuntimeError:
@@ -93,46 +104,51 @@ class SerialByteStream(anyio.abc.ByteStream):
         backend cannot (then use :meth:`receive`)."""
         if self._loop is None or self._closed:
             return False
-        self._on_data = on_data
-        self._on_lost = on_lost
+        with self.lock:
+            self._on_data = on_data
+            self._on_lost = on_lost
         self._loop.add_reader(self._fd, self._read_ready)
         return True
 
     def detach(self) -> None:
         """Stop pushing (the port stays open)."""
-        if self._on_data is not None and self._loop is not None and not self._closed:
-            self._loop.remove_reader(self._fd)
-        self._on_data = None
+        with self.lock:
+            if self._on_data is not None and self._loop is not None and not self._closed:
+                self._loop.remove_reader(self._fd)
+            self._on_data = None
 
     def _read_ready(self) -> None:
-        try:
-            data = os.read(self._fd, 65536)
-        except (BlockingIOError, InterruptedError):
-            return
-        except OSError as exc:
-            self._port_lost(exc)
-            return
-        if not data:  # a pseudo-terminal whose other end went away, or an unplugged device
-            self._port_lost(None)
-            return
-        on_data = self._on_data
-        if on_data is not None:
-            on_data(data)
+        with self.lock:
+            try:
+                data = os.read(self._fd, 65536)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:
+                self._port_lost(exc)
+                return
+            if not data:  # a pseudo-terminal whose other end went away, or an unplugged device
+                self._port_lost(None)
+                return
+            on_data = self._on_data
+            if on_data is not None:
+                on_data(data)
 
     def collect_sends(self) -> None:
         """Collect what is sent from now on until the callbacks the loop has queued so far
         have run, then write it in one ``os.write`` (see the class docstring)."""
-        if self._collected is None and self._loop is not None and not self._closed:
-            self._collected = bytearray()
-            self._loop.call_soon(self._write_collected)
+        with self.lock:
+            if self._collected is None and self._loop is not None and not self._closed:
+                self._collected = bytearray()
+                self._loop.call_soon(self._write_collected)
 
     def _write_collected(self) -> None:
-        collected, self._collected = self._collected, None
-        if not collected or self._closed or self._lost is not None:
-            return
-        # A failed write already told the transport (on_lost): every request fails.
-        with contextlib.suppress(anyio.BrokenResourceError):
-            self._send_nowait(bytes(collected))
+        with self.lock:
+            collected, self._collected = self._collected, None
+            if not collected or self._closed or self._lost is not None:
+                return
+            # A failed write already told the transport (on_lost): every request fails.
+            with contextlib.suppress(anyio.BrokenResourceError):
+                self._send_nowait(bytes(collected))
 
     def _port_lost(self, exc: BaseException | None) -> None:
         self._lost = exc or anyio.EndOfStream()
@@ -145,39 +161,83 @@ class SerialByteStream(anyio.abc.ByteStream):
             on_lost(exc)
 
     def _send_nowait(self, item: bytes) -> None:
+        # In the loop; where another thread may send, the caller holds ``lock`` (the
+        # transport does, from the session's send until here).
+        if not self._send_in_turn(item, from_thread=False):
+            self._check_open()  # raises: closed or lost
+
+    def _write_ready(self) -> None:
+        with self.lock:
+            try:
+                written = os.write(self._fd, self._pending)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:
+                self._port_lost(exc)
+                return
+            del self._pending[:written]
+            if not self._pending and self._loop is not None:
+                self._loop.remove_writer(self._fd)
+
+    # ---- from another thread (push mode) -------------------------------------------------
+
+    def send_from_thread(self, item: bytes) -> bool:
+        """Write ``item`` after everything sent before, from a thread that is not the
+        loop's; the caller holds :attr:`lock`.  False, writing nothing, once the stream
+        is closed or lost.
+
+        Bytes that cannot follow at once are queued as the loop's own would be; the loop
+        is asked to watch for writability, and told of a failed write, which loses the
+        port as a failed write in the loop does.
+        """
+        return self._send_in_turn(item, from_thread=True)
+
+    def _send_in_turn(self, item: bytes, *, from_thread: bool) -> bool:
+        """Write ``item`` now or queue it behind earlier bytes; False if closed or lost."""
+        if self._closed or self._lost is not None:
+            return False
         collected = self._collected
-        if collected is not None and not self._closed and self._lost is None:
-            collected += item
-            return
-        if self._pending or self._closed or self._lost is not None:
-            self._check_open()  # raises when closed or lost
-            self._pending += item
-            return
+        if collected is not None:
+            collected += item  # written by _write_collected, in its turn
+            return True
+        if self._pending:
+            self._pending += item  # behind bytes the writability callback is writing
+            return True
+        loop = self._loop
+        assert loop is not None  # push mode
         try:
             written = os.write(self._fd, item)
         except (BlockingIOError, InterruptedError):
             written = 0
         except OSError as exc:
+            if from_thread:
+                with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to tell
+                    loop.call_soon_threadsafe(self._write_failed, exc)
+                return True
             self._port_lost(exc)
             raise anyio.BrokenResourceError(
                 f"serial port {self.port}: write failed: {exc}"
             ) from exc
         if written < len(item):
             self._pending += item[written:]
-            assert self._loop is not None
-            self._loop.add_writer(self._fd, self._write_ready)
+            if from_thread:
+                with contextlib.suppress(RuntimeError):
+                    loop.call_soon_threadsafe(self._watch_writable)
+            else:
+                loop.add_writer(self._fd, self._write_ready)
+        return True
 
-    def _write_ready(self) -> None:
-        try:
-            written = os.write(self._fd, self._pending)
-        except (BlockingIOError, InterruptedError):
-            return
-        except OSError as exc:
-            self._port_lost(exc)
-            return
-        del self._pending[:written]
-        if not self._pending and self._loop is not None:
-            self._loop.remove_writer(self._fd)
+    def _watch_writable(self) -> None:
+        """In the loop: write what another thread queued once the port takes it."""
+        with self.lock:
+            if self._pending and not self._closed and self._lost is None and self._loop:
+                self._loop.add_writer(self._fd, self._write_ready)
+
+    def _write_failed(self, exc: OSError) -> None:
+        """In the loop: another thread's write failed; the port is lost."""
+        with self.lock:
+            if not self._closed and self._lost is None:
+                self._port_lost(exc)
 
     # ---- pull mode (any backend) ---------------------------------------------------------
 
@@ -229,9 +289,10 @@ class SerialByteStream(anyio.abc.ByteStream):
         if self._closed:
             return
         self.detach()
-        if self._loop is not None and self._pending:
-            self._loop.remove_writer(self._fd)
-        self._closed = True
+        with self.lock:
+            if self._loop is not None and self._pending:
+                self._loop.remove_writer(self._fd)
+            self._closed = True
         anyio.notify_closing(self._fd)
         with contextlib.suppress(OSError, serial.SerialException):
             self._serial.close()
