@@ -12,10 +12,9 @@ that the server does not answer itself -- goes on the board's link right there, 
 ``Transport.request_from_thread``, unless something holds it back: an earlier query
 still in the loop's hands, a board being starved, a failsafe owned by a client, a link
 resyncing or busy in the loop that moment.  The transport's lock puts it in one order
-with the loop's own requests; the loop hears of it only to answer it (``_adopt``), from
-the callback that completes its exchange.  This saves the hop into the loop before the
-request can reach the board, the largest cost of serving that is ours (about 50 us of a
-0.5 ms overhead on this machine; see docs/network.md).
+with the loop's own requests, and the loop hears of it only when its reply has come, to
+answer the query (``_answer_exchange``).  This takes the hop into the loop out of the
+round trip, the largest cost of serving that is ours (see docs/network.md, "How fast").
 
 Every other query is handed to the event loop and numbered in arrival order; while any
 is there, later queries follow it, so nothing overtakes it.  If nothing holds it back (no
@@ -63,6 +62,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import math
 import threading
@@ -224,32 +224,25 @@ class ServedBoard:
                     and self._direct
                     and not self.closed
                 ):
-                    exchange = self.link.request_from_thread(request)
-                    if exchange is not None:
-                        self._loop.call_soon(self._adopt, query, request, exchange)
+                    answer = functools.partial(self._answer_exchange, query, request)
+                    if self.link.request_from_thread(request, answer):
                         return
             self._in_loop += 1
             self._loop.call_soon(self._admit, query)
 
-    def _adopt(self, query: zenoh.Query, request: p.Request[Any], exchange: Exchange) -> None:
-        """In the loop: answer a query whose request went on the link from Zenoh's thread
-        once its exchange is done."""
-
-        def done(_: object = None) -> None:
-            frame = None
-            error = exchange.error
-            if error is None:
-                assert exchange.reply is not None
-                try:
-                    frame = self._after_link("", request, exchange.reply)
-                except ArduinoIOError as exc:
-                    error = exc
-            self._reply(query, request, frame, error, looped=False)
-
-        if exchange.done:
-            done()
-        else:
-            self.link.adopt(exchange).add_done_callback(done)
+    def _answer_exchange(
+        self, query: zenoh.Query, request: p.Request[Any], exchange: Exchange
+    ) -> None:
+        """In the loop: answer a query whose request went on the link from Zenoh's thread."""
+        frame = None
+        error = exchange.error
+        if error is None:
+            assert exchange.reply is not None
+            try:
+                frame = self._after_link("", request, exchange.reply)
+            except ArduinoIOError as exc:
+                error = exc
+        self._reply(query, request, frame, error, looped=False)
 
     def _admit(self, query: zenoh.Query) -> None:
         """In the loop, in arrival order: number the query; answer it at once if nothing

@@ -37,7 +37,8 @@ class DeadlineAlarm:
         self.armed_at = math.inf
 
     def arm(self, when: float) -> None:
-        """Ring at ``when`` instead of the time armed before (from the loop's thread)."""
+        """Ring at ``when`` instead of the time armed before (from the loop's thread, or
+        from another holding the lock its owner arms under, see ``Transport``)."""
         self.armed_at = when
         _WATCHDOG.arm(self, when)
 

@@ -49,12 +49,13 @@ in one is logged and never reaches the link.
 *Requests from other threads.*  A server receives requests on its network library's
 threads; handing each to the loop before it can go on the wire costs a thread wake-up per
 round trip.  :meth:`Transport.request_from_thread` puts a request into the session and
-on the wire from the calling thread instead, and :meth:`Transport.adopt` gives the loop
-its outcome.  One lock -- the serial stream's, held by every loop callback that changes
-what goes on the wire -- makes the session's order the wire's order whichever thread
-sends: the loop holds it from ``session.send`` until the bytes are written or queued,
-and while it handles received bytes, expires requests or resyncs.  The other thread
-never waits for it: if the loop holds it, the request goes through the loop after all.
+on the wire from the calling thread instead, with a callback the loop runs when the
+request is done.  One lock -- the serial stream's, held by every loop callback that
+changes what goes on the wire -- makes the session's order the wire's order whichever
+thread sends: the loop holds it from ``session.send`` until the bytes are written or
+queued and the caller's waiter and deadline are set, and while it handles received
+bytes, expires requests or resyncs.  The other thread never waits for it: if the loop
+holds it, the request goes through the loop after all.
 """
 
 from __future__ import annotations
@@ -352,14 +353,18 @@ class Transport:
                             send_nowait(data)
                         except _WRITE_ERRORS as exc:
                             self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
-            if exchange.done:
+                future = None
+                if not exchange.done:
+                    future = exchange.waiter = loop.create_future()
+                    deadline = exchange.deadline = now + (
+                        self.timeout if timeout is None else timeout
+                    )
+                    alarm = self._alarm
+                    if alarm is not None and deadline < alarm.armed_at:  # else it rings earlier
+                        alarm.arm(deadline)
+            if future is None:
                 await anyio.lowlevel.checkpoint()
             else:
-                future = exchange.waiter = loop.create_future()
-                deadline = exchange.deadline = now + (self.timeout if timeout is None else timeout)
-                alarm = self._alarm
-                if alarm is not None and deadline < alarm.armed_at:  # else it rings earlier
-                    alarm.arm(deadline)
                 try:
                     await future
                 except BaseException:
@@ -383,9 +388,9 @@ class Transport:
             next_deadline = min(
                 (exchange.deadline for exchange in session.pending()), default=math.inf
             )
-        alarm = self._alarm
-        if alarm is not None and next_deadline < alarm.armed_at:
-            alarm.arm(next_deadline)
+            alarm = self._alarm
+            if alarm is not None and next_deadline < alarm.armed_at:
+                alarm.arm(next_deadline)
 
     async def _wait_event(self, exchange: Exchange, limit: float) -> None:
         event = exchange.waiter = anyio.Event()
@@ -400,56 +405,53 @@ class Transport:
             self._process(self._session.expire(exchange))
 
     def request_from_thread(
-        self, request: p.Request[Any], *, timeout: float | None = None
-    ) -> Exchange | None:
+        self,
+        request: p.Request[Any],
+        on_done: Callable[[Exchange], object],
+        *,
+        timeout: float | None = None,
+    ) -> bool:
         """Put ``request`` on the link from a thread that is not the event loop's.
 
         For a server whose requests arrive on a network library's threads: sending them
-        from there saves a hop into the loop on each round trip.  Returns the request's
-        exchange -- pass it to :meth:`adopt`, in the loop, to learn its outcome -- or
-        None, having done nothing, when the request must go through the loop instead:
-        not asyncio with a stream that pushes (the serial stream), the link resyncing
-        or closed, or the loop busy with the link this very moment (never waited for).
-        The link's lock puts requests from both sides into the session and on the wire
-        in one order.  ``timeout`` as for :meth:`request`, from now.
+        from there spares each round trip a hop into the loop before the request can
+        reach the board.  True once the request is the session's: ``on_done(exchange)``
+        then runs in the loop when it is done, ``exchange.reply`` or ``exchange.error``
+        holding what :meth:`request` would return or raise (``timeout`` as there, from
+        now).  False, having done nothing, when the request must go through the loop
+        instead: not asyncio with a stream that pushes (the serial stream), the link
+        resyncing or closed, or the loop busy with the link this very moment (never
+        waited for).  The link's lock puts requests from both sides into the session and
+        on the wire in one order; the loop is not woken until the reply comes (or the
+        link's deadline alarm must ring earlier).
         """
         send = self._send_from_thread
         if send is None or not self._lock.acquire(blocking=False):
-            return None
+            return False
         try:
-            if self._session.state is not SessionState.READY:
-                return None
+            loop = self._loop
+            if loop is None or self._session.state is not SessionState.READY:
+                return False
             now = self._now()
             exchange, data = self._session.send(request)
-            exchange.deadline = now + (self.timeout if timeout is None else timeout)
+            # Done in the loop's receive path, which waits for the lock; its callback runs
+            # an iteration later, after the events that came before the reply.
+            future = exchange.waiter = loop.create_future()
+            future.add_done_callback(lambda _: on_done(exchange))
+            deadline = exchange.deadline = now + (self.timeout if timeout is None else timeout)
+            alarm = self._alarm
+            if alarm is not None and deadline < alarm.armed_at:  # armed under the lock too
+                alarm.arm(deadline)
             if data:
                 self.last_send = now
                 if not send(data):  # closed under us: the loop closes the link, as it would
-                    loop = self._loop
-                    assert loop is not None
                     with suppress(RuntimeError):  # the loop is gone: nobody waits
                         loop.call_soon_threadsafe(
                             self._close, BoardDisconnectedError(f"{self.name}: port closed")
                         )
-            return exchange
+            return True
         finally:
             self._lock.release()
-
-    def adopt(self, exchange: Exchange) -> asyncio.Future[None]:
-        """In the loop: a future done once ``exchange`` (from :meth:`request_from_thread`)
-        is; its outcome is then ``exchange.reply`` or ``exchange.error``.  The exchange's
-        deadline is watched from here on, as a request's own is."""
-        loop = self._loop
-        assert loop is not None  # request_from_thread only sends on asyncio
-        future: asyncio.Future[None] = loop.create_future()
-        if exchange.done:
-            future.set_result(None)
-            return future
-        exchange.waiter = future
-        alarm = self._alarm
-        if alarm is not None and exchange.deadline < alarm.armed_at:
-            alarm.arm(exchange.deadline)
-        return future
 
     # ---- bytes in and out --------------------------------------------------------------
 

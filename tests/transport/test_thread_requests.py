@@ -14,9 +14,11 @@ import os
 import random
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import anyio
+import anyio.lowlevel
 import pytest
 
 from arduinoio_async import protocol as p
@@ -70,7 +72,7 @@ async def test_requests_from_threads_and_the_loop_keep_one_order(pty: tuple[int,
 
 async def _share_one_order(pty: tuple[int, str]) -> None:
     master, path = pty
-    tasks, threads, per_caller, burst = 6, 3, 40, 4
+    tasks, threads, per_caller, burst = 6, 4, 96, 8
     total = (tasks + threads) * per_caller
     received: list[p.AnalogRead] = []
     board = threading.Thread(target=_numbering_board, args=(master, total, received))
@@ -79,16 +81,15 @@ async def _share_one_order(pty: tuple[int, str]) -> None:
     refused = 0
     stream = await open_serial_stream(path)
     async with Transport(stream, timeout=5.0) as link:
-        loop = asyncio.get_running_loop()
 
-        def track(request: p.AnalogRead, exchange: Exchange, settled: threading.Event) -> None:
-            def record(_: object) -> None:
+        def recorder(request: p.AnalogRead, settled: threading.Event) -> Callable[[Exchange], None]:
+            def record(exchange: Exchange) -> None:
                 assert exchange.error is None, exchange.error
                 assert isinstance(exchange.reply, p.AnalogReadReply)
                 outcomes.append((request, exchange.reply))
                 settled.set()
 
-            link.adopt(exchange).add_done_callback(record)
+            return record
 
         def sender(seed: int) -> None:
             """Bursts of requests from this thread, each burst sent without waiting."""
@@ -98,14 +99,11 @@ async def _share_one_order(pty: tuple[int, str]) -> None:
                 settled = [threading.Event() for _ in range(burst)]
                 for done in settled:
                     request = p.AnalogRead(rng.randrange(6))
-                    exchange = link.request_from_thread(request)
-                    if exchange is None:  # the loop held the link: it goes through the loop
-                        refused += 1
+                    if not link.request_from_thread(request, recorder(request, done)):
+                        refused += 1  # the loop held the link: it goes through the loop
                         reply = anyio.from_thread.run(link.request, request)
                         outcomes.append((request, reply))
                         done.set()
-                    else:
-                        loop.call_soon_threadsafe(track, request, exchange, done)
                 for done in settled:
                     assert done.wait(10)
 
@@ -136,25 +134,58 @@ async def test_a_thread_is_refused_while_the_loop_holds_the_link_or_it_is_closed
     _, path = pty
     stream = await open_serial_stream(path)
     assert isinstance(stream, SerialByteStream)
+    done: list[Exchange] = []
     async with Transport(stream, timeout=1.0) as link:
         with stream.lock:  # the loop is busy with the link: the thread never waits
-            assert await anyio.to_thread.run_sync(link.request_from_thread, p.ReadId()) is None
-    assert await anyio.to_thread.run_sync(link.request_from_thread, p.ReadId()) is None
+            taken = await anyio.to_thread.run_sync(
+                link.request_from_thread, p.ReadId(), done.append
+            )
+        assert not taken
+    assert not await anyio.to_thread.run_sync(link.request_from_thread, p.ReadId(), done.append)
+    assert done == []  # refused requests are never called back
+
+
+async def _settled(link: Transport, request: p.Request[Any], **kwargs: float) -> Exchange:
+    """Send ``request`` from a worker thread; the exchange once the loop has it done."""
+    loop = asyncio.get_running_loop()
+    outcome: asyncio.Future[Exchange] = loop.create_future()
+    taken = await anyio.to_thread.run_sync(
+        lambda: link.request_from_thread(request, outcome.set_result, **kwargs)
+    )
+    assert taken
+    with anyio.fail_after(2):
+        return await outcome
 
 
 async def test_an_unanswered_request_from_a_thread_times_out(pty: tuple[int, str]) -> None:
     master, path = pty
     stream = await open_serial_stream(path)
-    async with Transport(stream, timeout=1.0) as link:
-        exchange = await anyio.to_thread.run_sync(
-            lambda: link.request_from_thread(p.ReadId(), timeout=0.05)
-        )
-        assert exchange is not None
+    async with Transport(stream, timeout=1.0) as link, anyio.create_task_group() as tg:
+        tg.start_soon(_expect_timeout, link)
         sent = await anyio.to_thread.run_sync(os.read, master, 16)
-        assert sent == p.ReadId().encode()  # on the wire at once
-        with anyio.fail_after(2):
-            await link.adopt(exchange)
-        assert isinstance(exchange.error, BoardTimeoutError)
+        assert sent == p.ReadId().encode()  # on the wire at once, never answered
+
+
+async def _expect_timeout(link: Transport) -> None:
+    exchange = await _settled(link, p.ReadId(), timeout=0.05)
+    assert isinstance(exchange.error, BoardTimeoutError)
+
+
+async def test_a_reply_to_a_request_from_a_thread_reaches_its_callback(
+    pty: tuple[int, str],
+) -> None:
+    master, path = pty
+    stream = await open_serial_stream(path)
+    async with Transport(stream, timeout=1.0) as link:
+
+        async def answer() -> None:
+            assert await anyio.to_thread.run_sync(os.read, master, 16) == p.ReadId().encode()
+            os.write(master, p.ReadIdReply(0x0107).encode())
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(answer)
+            exchange = await _settled(link, p.ReadId())
+        assert exchange.error is None and exchange.reply == p.ReadIdReply(0x0107)
 
 
 async def test_a_request_from_a_thread_on_a_lost_port_fails(pty: tuple[int, str]) -> None:
@@ -164,10 +195,33 @@ async def test_a_request_from_a_thread_on_a_lost_port_fails(pty: tuple[int, str]
         os.close(master)  # the cable is pulled
         # Called before the loop can notice (no await in between): the write fails in
         # "the thread", and the loop, told so, loses the port and fails the request.
-        exchange = link.request_from_thread(p.ReadId())
-        assert exchange is not None and not exchange.done
+        loop = asyncio.get_running_loop()
+        outcome: asyncio.Future[Exchange] = loop.create_future()
+        assert link.request_from_thread(p.ReadId(), outcome.set_result)
         with anyio.fail_after(2):
-            await link.adopt(exchange)
+            exchange = await outcome
         assert isinstance(exchange.error, BoardDisconnectedError)
         with pytest.raises(BoardDisconnectedError):
             await link.request(p.ReadId())
+
+
+async def test_a_threads_bytes_follow_bytes_the_loop_collected_before(
+    pty: tuple[int, str],
+) -> None:
+    """A wave of replies opened a collection: the loop's sends wait for its one write,
+    and a thread's send meanwhile must go after them, not ahead."""
+    master, path = pty
+    stream = await open_serial_stream(path)
+    assert isinstance(stream, SerialByteStream) and stream.send_nowait is not None
+    try:
+        stream.collect_sends()
+        stream.send_nowait(b"\x01")  # the loop's, collected
+        with stream.lock:
+            assert stream.send_from_thread(b"\x02")  # a thread's, while the wave is open
+        await anyio.lowlevel.checkpoint()  # the collected write
+        written = await anyio.to_thread.run_sync(os.read, master, 16)
+        assert written == b"\x01\x02"
+    finally:
+        await stream.aclose()
+    with stream.lock:
+        assert not stream.send_from_thread(b"\x03")  # closed: refused, nothing written
