@@ -420,17 +420,21 @@ class Transport:
         holding what :meth:`request` would return or raise (``timeout`` as there, from
         now).  False, having done nothing, when the request must go through the loop
         instead: not asyncio with a stream that pushes (the serial stream), the link
-        resyncing or closed, or the loop busy with the link this very moment (never
-        waited for).  The link's lock puts requests from both sides into the session and
-        on the wire in one order; the loop is not woken until the reply comes (or the
-        link's deadline alarm must ring earlier).
+        resyncing or closed or traced (a trace hook runs in the loop), or the loop busy
+        with the link this very moment (never waited for).  The link's lock puts
+        requests from both sides into the session and on the wire in one order; the loop
+        is not woken until the reply comes (or the deadline alarm must ring earlier).
         """
         send = self._send_from_thread
         if send is None or not self._lock.acquire(blocking=False):
             return False
         try:
             loop = self._loop
-            if loop is None or self._session.state is not SessionState.READY:
+            if (
+                loop is None
+                or self._session.state is not SessionState.READY
+                or self._trace is not None  # a user's hook runs in the loop only
+            ):
                 return False
             now = self._now()
             exchange, data = self._session.send(request)

@@ -24,7 +24,7 @@ import pytest
 from arduinoio_async import protocol as p
 from arduinoio_async.errors import BoardDisconnectedError, BoardTimeoutError
 from arduinoio_async.protocol.session import Exchange
-from arduinoio_async.transport import Transport, open_serial_stream
+from arduinoio_async.transport import TraceRecord, Transport, open_serial_stream
 from arduinoio_async.transport._serial import SerialByteStream
 
 pytestmark = pytest.mark.anyio
@@ -225,3 +225,13 @@ async def test_a_threads_bytes_follow_bytes_the_loop_collected_before(
         await stream.aclose()
     with stream.lock:
         assert not stream.send_from_thread(b"\x03")  # closed: refused, nothing written
+
+
+async def test_a_traced_link_takes_requests_only_in_the_loop(pty: tuple[int, str]) -> None:
+    """A user's trace hook must never run on another thread."""
+    _, path = pty
+    stream = await open_serial_stream(path)
+    records: list[TraceRecord] = []
+    async with Transport(stream, timeout=1.0, trace=records.append) as link:
+        assert not await anyio.to_thread.run_sync(link.request_from_thread, p.ReadId(), print)
+    assert records == []
