@@ -7,11 +7,9 @@ reached the far end of a pseudo-terminal (the order).
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import os
 import select
 import threading
-from collections.abc import Iterator
 
 import anyio
 import anyio.lowlevel
@@ -31,17 +29,6 @@ _far_write = os.write
 @pytest.fixture
 def anyio_backend() -> str:
     return "asyncio"  # collecting needs the loop's callbacks (push mode)
-
-
-@pytest.fixture
-def pty() -> Iterator[tuple[int, str]]:
-    master, slave = os.openpty()
-    try:
-        yield master, os.ttyname(slave)
-    finally:
-        os.close(slave)
-        with contextlib.suppress(OSError):  # a test closed it
-            os.close(master)
 
 
 @pytest.fixture

@@ -9,12 +9,11 @@ can check that its reply is the one for its own request, whichever thread sent i
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import os
 import random
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import anyio
@@ -33,17 +32,6 @@ pytestmark = pytest.mark.anyio
 @pytest.fixture
 def anyio_backend() -> str:
     return "asyncio"  # requests from threads need the loop's push mode
-
-
-@pytest.fixture
-def pty() -> Iterator[tuple[int, str]]:
-    master, slave = os.openpty()
-    try:
-        yield master, os.ttyname(slave)
-    finally:
-        os.close(slave)
-        with contextlib.suppress(OSError):  # a test closed it
-            os.close(master)
 
 
 def _numbering_board(master: int, total: int, received: list[p.AnalogRead]) -> None:
