@@ -16,8 +16,8 @@ interleaved, the bench measures batches of sequential round trips of
 * ``floor``: a get on the echo queryable from this event loop (a callback handler
   handing the reply to the loop, the way any asyncio program receives it);
 * ``floor_blocking``: the same get from a plain thread, blocking on Zenoh's channel;
-* ``floor_server_loop``: the get on a queryable that answers from its event loop (the
-  one thread-to-loop hop any asyncio server adds);
+* ``floor_server_loop``: the get on a queryable that answers from its event loop (a
+  thread-to-loop hop, as an asyncio server has when the loop writes the request);
 * ``floor_done_callback``: the ``floor`` get with a per-query "done" callback as well
   (what the remote stream used before it watched for vanished servers once per stream:
   ``done_callback_cost_us`` is its cost, round by round);
@@ -29,18 +29,18 @@ interleaved, the bench measures batches of sequential round trips of
   threads that slept wake up slower and with colder caches than in the back-to-back
   ``floor``;
 * ``floor_held_server_loop``: the same, held and answered in the queryable's event loop
-  (plus the one thread-to-loop hop any asyncio server adds);
+  (plus that hop);
 
 then the pipelined throughput (many concurrent tasks) of the remote and the local board.
 The goal: the remote overhead ``remote - local`` within 1.5x of the floor (p50).  The
 serial round trip and the client's own transport are in both ``remote`` and ``local``,
 so the overhead is what serving adds: the network round trip itself (the floor) plus our
-server's hop into its event loop and its work around the board's link, and the client
-stream's work around the query.  As the
-machine's load drifts, the ratio is taken round by round -- ``(median remote - median
-local) / median floor`` of the round's batches -- and reported as the median over rounds
-with its quartiles; each round starts with the next kind, so no kind always runs right
-after another.
+server's work around the board's link (in Zenoh's thread, which puts the request on the
+link, and in its event loop, which sends the reply), and the client stream's work around
+the query.  As the machine's load drifts, the ratio is taken round by round --
+``(median remote - median local) / median floor`` of the round's batches -- and reported
+as the median over rounds with its quartiles; each round starts with the next kind, so
+no kind always runs right after another.
 
 ``--cpu-idle shallow`` holds the CPUs out of deep idle states for the whole run (a PM QoS
 request, :mod:`arduinoio_async.bench.cpu_idle`; every process on the machine gets it):
