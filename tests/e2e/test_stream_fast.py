@@ -170,3 +170,30 @@ async def test_samples_come_at_the_period_in_simulated_time(
     # that many periods passed between the two status reads, give or take host latency
     elapsed = end_us - start_us
     assert periods * period_us - 2_000 <= elapsed <= periods * period_us + 6_000 + period_us
+
+
+#: Short streams, back to back: before the fix, one stop in 200-300 met a sample being finished.
+STOPS = 1000
+
+
+async def test_no_sample_follows_the_stop_reply_that_counts_it(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """STREAM STOP's reply counts the samples sent before it (its next sequence number).
+
+    A stop that met a sample being finished was answered ahead of that sample: the stream
+    counted the sample as lost, and it reached the host after the stream had ended, where
+    the next stream took it for its first.  Each short stream must be whole: samples 0, 1,
+    2... and no gap, stop after stop.
+    """
+    uno = await virtual_uno_factory(board_id=1, baud=1_000_000)
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        for run in range(STOPS):
+            sequences: list[int] = []
+            async with board.stream(analog=[A0, A1, A2, A3], period_ms=0.3) as stream:
+                async for sample in stream:
+                    sequences.append(sample.sequence)
+                    if len(sequences) == 10:
+                        break
+            assert sequences == list(range(10)), (run, sequences)
+            assert (stream.gaps, stream.dropped) == (0, 0), run
