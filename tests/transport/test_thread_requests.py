@@ -48,10 +48,10 @@ def _numbering_board(master: int, total: int, received: list[p.AnalogRead]) -> N
 
 
 async def test_requests_from_threads_and_the_loop_keep_one_order(pty: tuple[int, str]) -> None:
-    # Threads take turns with the loop every 10 us instead of every 5 ms: the threads'
+    # Threads take turns with the loop every microsecond or so instead of every 5 ms: their
     # sends land between any two steps of the loop's, collected writes included.
     previous = sys.getswitchinterval()
-    sys.setswitchinterval(1e-5)
+    sys.setswitchinterval(1e-6)
     try:
         await _share_one_order(pty)
     finally:
@@ -223,3 +223,37 @@ async def test_a_traced_link_takes_requests_only_in_the_loop(pty: tuple[int, str
     async with Transport(stream, timeout=1.0, trace=records.append) as link:
         assert not await anyio.to_thread.run_sync(link.request_from_thread, p.ReadId(), print)
     assert records == []
+
+
+async def test_no_thread_slips_between_the_loops_send_and_its_write(
+    pty: tuple[int, str],
+) -> None:
+    """The loop's request is the session's before its bytes are written: a thread that
+    comes in between must be refused, or its frame would reach the wire first and take
+    the loop's reply."""
+    master, path = pty
+    stream = await open_serial_stream(path)
+    assert isinstance(stream, SerialByteStream) and stream.send_nowait is not None
+    write = stream.send_nowait
+    taken: list[bool] = []
+
+    def write_after_a_thread_tried(data: bytes) -> None:
+        if not taken:  # the first write: a thread tries to send right now
+            thread = threading.Thread(
+                target=lambda: taken.append(link.request_from_thread(p.AnalogRead(5), print))
+            )
+            thread.start()
+            thread.join()
+        write(data)
+
+    stream.send_nowait = write_after_a_thread_tried  # what the transport writes with
+    async with Transport(stream, timeout=1.0) as link, anyio.create_task_group() as tg:
+
+        async def answer() -> None:
+            frame = await anyio.to_thread.run_sync(os.read, master, 16)
+            assert frame == p.AnalogRead(1).encode()  # the loop's, alone
+            os.write(master, p.AnalogReadReply(1, 100).encode())
+
+        tg.start_soon(answer)
+        assert await link.request(p.AnalogRead(1)) == p.AnalogReadReply(1, 100)
+    assert taken == [False]
