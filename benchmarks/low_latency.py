@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 import anyio
-import anyio.lowlevel
 
 from arduinoio_async.bench import cpu_idle
 from arduinoio_async.bench.cpu_idle import ShallowCpuIdle

@@ -62,16 +62,13 @@ class ShallowCpuIdle:
         system does not let this process."""
         if self._fd is not None:
             return True
+        fd = None
         try:
             fd = os.open(self._path, os.O_WRONLY)
-        except OSError as exc:
-            self.unavailable = f"{self._path}: {exc.strerror or exc}"
-            logger.info("cannot hold the CPUs in shallow idle states: %s", self.unavailable)
-            return False
-        try:
             os.write(fd, struct.pack("i", 0))
         except OSError as exc:
-            os.close(fd)
+            if fd is not None:
+                os.close(fd)
             self.unavailable = f"{self._path}: {exc.strerror or exc}"
             logger.info("cannot hold the CPUs in shallow idle states: %s", self.unavailable)
             return False

@@ -71,7 +71,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import anyio
-import anyio.abc
 import zenoh
 from anyio.streams.memory import MemoryObjectReceiveStream
 
