@@ -245,7 +245,7 @@ class AnalogInput:
         return f"<AnalogInput {self.pin.name} on {self.board}>"
 
     async def read(self) -> int:
-        """Raw value 0-1023."""
+        """One conversion, raw: 0-1023 (10 bits, 0 V to ``vref``)."""
         reply = await self.board.request(p.AnalogRead(int(self.pin)))
         return reply.value
 

@@ -131,7 +131,7 @@ class BlockingGpio(_BlockingPin):
 
 
 class BlockingDigitalOutput(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.handles.DigitalOutput`."""
+    """Blocking :class:`~arduinoio_async.handles.DigitalOutput`: a level the board replays."""
 
     handle: DigitalOutput
 
@@ -369,7 +369,7 @@ class BlockingBoard(_Blocking):
         self._runner.call(self.handle.arm_failsafe, timeout_ms, states)
 
     def disarm_failsafe(self) -> None:
-        """Stop the board's link watchdog."""
+        """Stop the board's link watchdog (before a planned pause of the program)."""
         self._runner.call(self.handle.disarm_failsafe)
 
     def rearm_failsafe(self, *, restore: bool = True) -> None:

@@ -34,7 +34,12 @@ def test_the_reference_lists_the_everyday_methods() -> None:
 
 
 def test_every_public_member_has_a_docstring() -> None:
-    missing = [f"{item.name} ({item.page.name})" for item in OBJECTS if not docstring_of(item.obj)]
+    """A docstring of three words at least: "TODO" or "Write." is no documentation."""
+    missing = [
+        f"{item.name} ({item.page.name})"
+        for item in OBJECTS
+        if len(docstring_of(item.obj).split()) < 3
+    ]
     assert not missing, "public members without a docstring:\n" + "\n".join(missing)
 
 
