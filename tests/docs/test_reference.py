@@ -14,8 +14,11 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from types import FunctionType
 
 import pytest
+
+import arduinoio_async
 
 from .reference import REPO, anchors_in, docstring_of, documented_objects
 
@@ -31,6 +34,18 @@ def test_the_reference_lists_the_everyday_methods() -> None:
         "arduinoio_async.handles.Gpio.watch",
     ):
         assert everyday in names
+
+
+def test_everything_the_package_exports_is_in_the_reference() -> None:
+    """``from arduinoio_async import X``: X is documented on some reference page."""
+    documented = {id(item.obj) for item in OBJECTS}
+    absent = [
+        name
+        for name in arduinoio_async.__all__
+        if isinstance(value := getattr(arduinoio_async, name), type | FunctionType)
+        and id(value) not in documented
+    ]
+    assert not absent, f"exported by the package, in no reference page: {absent}"
 
 
 def test_every_public_member_has_a_docstring() -> None:
