@@ -34,6 +34,7 @@ __all__ = [
     "LinkResyncError",
     "PinCapabilityError",
     "PinRoleError",
+    "PortBusyError",
     "ProtocolError",
     "ReplyMismatchError",
     "StaleHandleError",
