@@ -192,6 +192,7 @@ def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> 
         assert required in names, required
     assert not any(name.startswith(("firmware/build/", "firmware/sim/build/")) for name in names)
     assert not any(name.startswith("arduinoio_async/_data/sim") for name in names)  # no copy
+    assert not any("node_modules" in name for name in names)  # npm's install, not the project
     (wheel,) = tmp_path.glob("arduinoio_async-*.whl")
     with zipfile.ZipFile(wheel) as archive:
         shipped = sorted(
