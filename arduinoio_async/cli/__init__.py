@@ -4,8 +4,8 @@ Every sub-command is an ``async def`` taking parsed arguments; :func:`main` take
 ``argv`` and returns the exit code, so tests call it directly.  Every command, the ones
 dispatched to their own modules included, ends through :func:`._entry.run_command`: an
 error is one line on stderr and a documented exit code (1 failed, 2 usage or missing
-tool/extra, 130 Ctrl-C; ``docs/cli.md``).  Output piped to a file is not squeezed to 80
-columns (:func:`._entry.make_console`).
+tool/extra, 130 Ctrl-C; ``docs/howto/command-line.md``).  Output piped to a file is not
+squeezed to 80 columns (:func:`._entry.make_console`).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """What every ``arduinoio`` command shares at its entry point: consoles and exit codes.
 
 One mechanism turns whatever ends a command into one line on stderr and a documented
-exit code (``docs/cli.md``), so no command prints a traceback for something the user can
-fix:
+exit code (``docs/howto/command-line.md``), so no command prints a traceback for
+something the user can fix:
 
 ====  =====================================================================================
 0     success
