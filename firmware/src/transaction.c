@@ -70,7 +70,8 @@ uint8_t transaction_handle(const aio_request_t *rq, aio_reply_t *rp)
     aio_request_t item;
     uint8_t frame[AIO_FRAME_MAX];
 
-    if (count == 0)
+    /* The items are the request's own bytes: never walk past what it holds. */
+    if (count == 0 || count > AIO_MAX_BLOB || rq->len != (uint8_t)(count + 1u))
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     for (pos = 0; pos < count; pos = (uint8_t)(pos + len)) {
         len = measure(items + pos, (uint8_t)(count - pos), &result);

@@ -333,6 +333,21 @@ static void test_transaction(void)
     /* variable-length items: an I2C write of two bytes (bus off: a per-item error) */
     CHECK(B(1, 9, 7, 4, 3, 0x50, 0, 2, 0xAA, 0xBB),
           B(1, 9, 3, 0x84, 3, AIO_ERR_I2C_NOT_CONFIGURED));
+    /* A declared items length over 32 (issue 28: found by a libFuzzer target): 40 item
+     * bytes, an I2C write of 32 bytes and a GPIO read, so walking the list reaches past
+     * the 35 data bytes a request holds.  The whole frame is consumed and refused; nothing
+     * is read beyond the request (ASan) and the next frame is answered. */
+    {
+        static const uint8_t frame[] = {
+            1, 9, 0x28, 4, 3, 0x50, 0, 0x20, 0xED, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 2, 13, 0xB7};
+        EXPECT(xor_of(frame, sizeof frame) == 0);
+        fake_rx_push(frame, sizeof frame);
+        run();
+        take();
+        EXPECT(outn == 4 && out[0] == 0x81 && out[1] == 9 && out[2] == AIO_ERR_VALUE_OUT_OF_RANGE);
+        CHECK(B(2, 2, 13), B(2, 2, 13, 1));
+    }
     /* six servo widths at once */
     board();
     {
