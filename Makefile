@@ -7,6 +7,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc \
+                clang libclang-rt-dev \
                 arduino-core-avr chromium
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
