@@ -12,6 +12,7 @@
 #include "dispatch.h"
 #include "fake_hal.h"
 #include "hal.h"
+#include "i2c.h"
 #include "parser.h"
 #include "stream.h"
 #include "transaction.h"
@@ -359,6 +360,17 @@ static void test_transaction(void)
         EXPECT(transaction_handle(&rq, &rp) == AIO_ERR_VALUE_OUT_OF_RANGE);
         rq.data[1] = AIO_REQUEST_DATA_MAX - 1u; /* one more than it holds */
         EXPECT(transaction_handle(&rq, &rp) == AIO_ERR_VALUE_OUT_OF_RANGE);
+    }
+    /* nor does I2C WRITE: a length byte of 32 with 2 data bytes sent writes nothing */
+    {
+        aio_request_t rq = {AIO_CT_I2C, AIO_DT_I2C_WRITE, 5, {0x50, 0x10, 32, 0xAA, 0xBB}};
+        aio_reply_t rp;
+        CHECK(B(4, 1, 0), B(4, 1, 0));
+        fake_i2c_mem[0x10] = 0x11;
+        EXPECT(i2c_handle(&rq, &rp) == AIO_ERR_VALUE_OUT_OF_RANGE);
+        EXPECT(fake_i2c_mem[0x10] == 0x11);
+        rq.data[2] = 2;
+        EXPECT(i2c_handle(&rq, &rp) == 0 && fake_i2c_mem[0x10] == 0xAA);
     }
     /* six servo widths at once */
     board();
