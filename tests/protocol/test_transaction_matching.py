@@ -117,3 +117,25 @@ def test_a_transaction_with_a_side_effect_on_a_pin_written_later_is_not_retried(
     session.receive_data(bytes(damaged) + reply(2, p.GpioWriteReply(12, False)))
     assert isinstance(first.error, LinkResyncError)
     assert second.reply is not None
+
+
+def test_a_frame_that_could_answer_two_requests_fails_only_those_before_the_next_placed() -> None:
+    """Two identical reads behind a long reply that noise destroyed: each GpioRead reply could
+    be either read's (the noise fits both), so it counts as noise instead of losing sync.
+    The ReadId reply behind them places the stream again: the reads before it fail (GpioRead
+    clears edges: not repeated), the I2C read is asked again, the ReadId is answered."""
+    session = Session(expected_id=BOARD_ID)
+    i2c, _ = session.send(p.I2CRead(0x50, 0, 10))
+    reads = [session.send(p.GpioRead(2))[0] for _ in range(2)]
+    read_id, _ = session.send(p.ReadId())
+    damaged = bytearray(p.I2CReadReply(0x50, 0, bytes(range(10))).encode())
+    damaged[7] ^= 0x20
+    read_reply = p.GpioReadReply(2, p.GpioState.HIGH).encode()
+    session.receive_data(bytes(damaged) + read_reply + read_reply)
+    marker = answer(p.ReadCapabilities().encode())  # the session's marker, sent after noise
+    out = session.receive_data(p.ReadIdReply(BOARD_ID).encode() + marker)
+    assert session.state is SessionState.READY  # before: lost sync, everything in flight failed
+    assert session.stats.ambiguous == 2
+    assert read_id.reply == p.ReadIdReply(BOARD_ID)
+    assert all(isinstance(r.error, LinkResyncError) and r.reply is None for r in reads)
+    assert not i2c.done and p.I2CRead(0x50, 0, 10).encode() in out.outgoing
