@@ -57,13 +57,20 @@ class UsageError(ArduinoIOError, ValueError):
 class PinCapabilityError(UsageError):
     """A pin was asked for a function that Table III does not give it."""
 
-    def __init__(self, pin: str, function: str, capable: Sequence[str]) -> None:
+    def __init__(
+        self, pin: str, function: str, capable: Sequence[str], *, number: bool = False
+    ) -> None:
         self.pin = pin
         self.function = function
         self.capable = tuple(capable)
-        super().__init__(
-            f"{pin} cannot do {function}: {function} is available on {', '.join(capable)}"
-        )
+        where = f"{function} is available on {', '.join(capable)}"
+        if not number:
+            super().__init__(f"{pin} cannot do {function}: {where}")
+            return
+        # A plain number (13 for D13) is the commonest slip: name the pin it meant.
+        meant = [name for name in self.capable if name[1:] == pin]
+        use = f"use {meant[0]} (from arduinoio_async import {meant[0]})" if meant else where
+        super().__init__(f"{pin} is a number, not a pin: {use}")
 
 
 class PinRoleError(UsageError):
@@ -114,7 +121,8 @@ class ProtocolError(ArduinoIOError):
 
 
 def describe_request(request: object) -> str:
-    """``PwmConfig(pin=D3, pulse_us=1500)``: a request as a user wrote it, enums by name."""
+    """``PwmConfig(pin=D3, pulse_us=1500)``: a request as a user wrote it, enums by name
+    (for reprs; messages say it in words, see :func:`request_in_words`)."""
     if not dataclasses.is_dataclass(request) or isinstance(request, type):
         return str(request)
     fields = []
@@ -125,12 +133,40 @@ def describe_request(request: object) -> str:
     return f"{type(request).__name__}({', '.join(fields)})"
 
 
+def request_in_words(request: object) -> str:
+    """ "make D4 a digital output (initially high)": what ``request`` asks, completing "the
+    board refused to ..." (the words live beside the command table)."""
+    from .protocol.commands.descriptions import describe  # the protocol imports this module
+
+    return describe(request)
+
+
 def _pin_name(request: object) -> str:
     pin = getattr(request, "pin", None)
     if isinstance(pin, enum.Enum) and pin.name:
         return pin.name
     return f"D{pin}" if isinstance(pin, int) else "the pin"
 
+
+#: Each error code in words, by name: why the board refused.
+_REFUSAL_REASONS = {
+    "BAD_CHECKSUM": "the frame's checksum was wrong",
+    "UNKNOWN_CLASS": "its firmware does not know this kind of command (older firmware?)",
+    "UNKNOWN_DESCRIPTOR": "its firmware does not know this command (older firmware?)",
+    "INCOMPLETE_FRAME": "the frame arrived incomplete",
+    "RX_OVERFLOW": "its receive buffer overflowed",
+    "PIN_NOT_CAPABLE": "the pin cannot do that",
+    "PIN_NOT_CONFIGURED": "the pin is not set up for that",
+    "PIN_BUSY": "the pin is busy",
+    "VALUE_OUT_OF_RANGE": "a value is out of range",
+    "I2C_NACK_ADDRESS": "no I2C device answered at that address",
+    "I2C_NACK_DATA": "the I2C device refused a data byte",
+    "I2C_TIMEOUT": "the I2C bus timed out",
+    "I2C_NOT_CONFIGURED": "the I2C bus is off",
+    "LINK_CAPACITY": "the link cannot carry that much",
+    "FAILSAFE_TRIPPED": "the failsafe has tripped",
+    "EEPROM_FAILED": "its EEPROM did not keep the value",
+}
 
 #: What a refusal means and what to do about it, by error code name.
 _REFUSAL_HINTS = {
@@ -155,8 +191,8 @@ class BoardError(ArduinoIOError):
     """The board answered a request with an error reply.
 
     ``code`` is the protocol's :class:`~arduinoio_async.protocol.ErrorCode`; ``request`` the
-    request that was refused.  The message names the request and says in words what the
-    refusal means and how to get past it.
+    request that was refused.  The message says in words what was asked, why the board
+    refused it and how to get past it (code inspects ``code``, not the text).
     """
 
     def __init__(self, code: object, request: object, detail: str = "") -> None:
@@ -164,7 +200,8 @@ class BoardError(ArduinoIOError):
         self.request = request
         name = str(getattr(code, "name", code))
         hint = _REFUSAL_HINTS.get(name, "").format(pin=_pin_name(request))
-        text = f"board refused {describe_request(request)}: {name}"
+        reason = _REFUSAL_REASONS.get(name, f"error {name}")
+        text = f"board refused to {request_in_words(request)}: {reason}"
         extra = "; ".join(part for part in (hint, detail) if part)
         super().__init__(f"{text} ({extra})" if extra else text)
 
@@ -215,7 +252,8 @@ class WatchLostError(ArduinoIOError):
         self.request = request
         self.reason = reason
         super().__init__(
-            f"the board reset and {describe_request(request)} could not be restored: {reason}"
+            f"the board reset and the request to {request_in_words(request)} could not be "
+            f"restored: {reason}"
         )
 
 
