@@ -70,9 +70,13 @@ async def read_id_retrying(link: Transport, deadline: float) -> int:
 async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: str) -> None:
     """Poll until the board on ``link`` reports a session tag other than ``session``: it
     has booted since it was tagged.  BoardTimeoutError names ``who`` after ``deadline``
-    seconds."""
+    seconds.
+
+    The board is silent while it boots, so polls time out and the link resyncs: expected
+    here, so the link logs it as such, not as a lost sync (a real loss stays a warning).
+    """
     try:
-        with anyio.fail_after(deadline):
+        with link.expecting_reboot(), anyio.fail_after(deadline):
             while True:
                 try:
                     status = await link.request(p.ReadStatus(), timeout=0.1)

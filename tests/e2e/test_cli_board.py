@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import io
 import json
+import logging
+import sys
 
 import anyio
 import pytest
 from rich.console import Console
 
+from arduinoio_async import Board, BoardTimeoutError
+from arduinoio_async import protocol as p
 from arduinoio_async.cli import main
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -36,3 +40,37 @@ async def test_read_reports_an_output_level_and_leaves_it_an_output(
         assert d4.ddr == 1 and d4.level == level and d5.level == level
     code, out = await run("status", "--port", uno.port, "--json")
     assert code == 0 and json.loads(out)["pins"] == {"D4": "digital output"}
+
+
+async def arduinoio(*argv: str) -> tuple[int, str, str]:
+    """The command in its own process, as a user runs it (its stderr is what they see)."""
+    result = await anyio.run_process([sys.executable, "-m", "arduinoio_async", *argv], check=False)
+    return result.returncode, result.stdout.decode(), result.stderr.decode()
+
+
+async def test_an_asked_reset_is_no_lost_sync(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory(board_id=3)
+    assert (await arduinoio("write", "--port", uno.port, "D4", "1"))[0] == 0
+    code, out, err = await arduinoio("reset", "--port", uno.port)
+    assert code == 0 and "reset" in out, err
+    assert (await uno.pin("D4")).ddr == 0  # the board really rebooted: D4 is free again
+    code, out, err2 = await arduinoio("set-id", "--port", uno.port, "0x0004")
+    assert code == 0 and "verified" in out, err2
+    assert await uno.eeprom(0, 2) == b"\x00\x04"
+    assert "lost sync" not in err + err2 and "ID probe" not in err + err2
+
+
+async def test_a_real_loss_of_sync_is_still_a_warning(
+    virtual_uno_factory: VirtualUnoFactory, caplog: pytest.LogCaptureFixture
+) -> None:
+    uno = await virtual_uno_factory(board_id=3)
+    async with Board.open(uno.port) as board:
+        await board.reset()
+        await uno.set_faults(drop=1.0)  # every byte to the host lost: the board goes quiet
+        with caplog.at_level(logging.INFO, logger="arduinoio_async"):
+            with pytest.raises(BoardTimeoutError):
+                await board.request(p.ReadId(), timeout=0.2)
+            await uno.set_faults(drop=0.0)
+            assert await board.read_id() == 3
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert f"{uno.port} lost sync: ReadId timed out" in warnings
