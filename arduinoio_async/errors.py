@@ -307,7 +307,8 @@ class BoardNotFoundError(ArduinoIOError, LookupError):
         if not ports:
             super().__init__(
                 f"no board with ID 0x{board_id:04X} found: there are no candidate ports "
-                "(plug in an Uno, or name ports: BoardManager(ports=..., patterns=...), "
+                "(plug in an Uno or start a virtual one with `arduinoio sim`, or name ports: "
+                "BoardManager(ports=..., patterns=...), "
                 "--ports PATH_OR_GLOB on the command line, or ARDUINOIO_PORTS)"
             )
             return

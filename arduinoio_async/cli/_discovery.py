@@ -28,9 +28,10 @@ def add_commands(sub: Any) -> None:
     listing = sub.add_parser(
         "list",
         help="probe ports and list the boards that answer (exit 1 when none does)",
-        description="Probe every candidate port (USB serial devices of Uno bridges, --ports, "
-        "ARDUINOIO_PORTS) and list what answered. Ports another program holds are skipped "
-        "and listed as busy. With --remote: the boards `arduinoio serve` announces.",
+        description="Probe every candidate port (USB serial devices of Uno bridges, virtual "
+        "Unos that `arduinoio sim` runs, --ports, ARDUINOIO_PORTS) and list what answered. "
+        "Ports another program holds are skipped and listed as busy. With --remote: the "
+        "boards `arduinoio serve` announces.",
     )
     add_scan_options(listing)
     add_remote_options(listing, help="list the boards served on the network (arduinoio serve)")

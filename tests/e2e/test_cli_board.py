@@ -5,10 +5,13 @@ from __future__ import annotations
 import io
 import json
 import logging
+import os
 import sys
+from pathlib import Path
 
 import anyio
 import pytest
+from anyio.streams.buffered import BufferedByteReceiveStream
 from rich.console import Console
 
 from arduinoio_async import Board, BoardTimeoutError
@@ -74,3 +77,29 @@ async def test_a_real_loss_of_sync_is_still_a_warning(
             assert await board.read_id() == 3
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert f"{uno.port} lost sync: ReadId timed out" in warnings
+
+
+async def test_a_running_virtual_uno_is_found_without_naming_its_port(
+    tmp_path: Path, virtual_uno_factory: VirtualUnoFactory
+) -> None:
+    await virtual_uno_factory()  # skips here when the simulator is missing
+    env = {k: v for k, v in os.environ.items() if k != "ARDUINOIO_PORTS"}
+    env["ARDUINOIO_REGISTRY_DIR"] = str(tmp_path / "registry")
+    command = [sys.executable, "-m", "arduinoio_async"]
+    sim = await anyio.open_process([*command, "sim", "--id", "0x0011"], env=env)
+    try:
+        assert sim.stdout is not None
+        with anyio.fail_after(20):
+            line = await BufferedByteReceiveStream(sim.stdout).receive_until(b"\n", 4096)
+        port = json.loads(line)["port"]
+        found = await anyio.run_process([*command, "info", "--json"], env=env, check=False)
+        assert found.returncode == 0, found.stderr.decode()
+        info = json.loads(found.stdout)
+        assert info["id"] == 0x11 and info["port"] == port
+    finally:
+        sim.terminate()
+        with anyio.fail_after(10):
+            await sim.wait()
+    assert sim.returncode == 0
+    gone = await anyio.run_process([*command, "list"], env=env, check=False)
+    assert gone.returncode == 1 and "no candidate ports" in gone.stderr.decode()
