@@ -24,6 +24,7 @@ __all__ = [
     "BoardDisconnectedError",
     "BoardError",
     "BoardNotFoundError",
+    "BoardSilentError",
     "BoardTimeoutError",
     "DuplicateBoardError",
     "FailsafeTrippedError",
@@ -266,6 +267,61 @@ class LinkError(ArduinoIOError):
 
 class BoardTimeoutError(LinkError, TimeoutError):
     """No reply arrived within the request's timeout."""
+
+
+#: Replies of an STK500 bootloader (optiboot, avrdude's ``-c arduino``): STK_INSYNC then
+#: STK_OK, or STK_NOSYNC.
+_STK500_REPLIES = (b"\x14\x10", b"\x15")
+_EITHER = (
+    "either the baud rate is wrong (this firmware runs at 115200, 1000000 or 2000000 baud: "
+    "try --baud) or the board {runs} (`arduinoio flash` installs this firmware)"
+)
+
+
+class BoardSilentError(BoardTimeoutError):
+    """A board did not answer the ID requests sent while waiting for it to boot.
+
+    ``heard`` is what arrived instead (the first bytes), ``baudrate`` the rate the port
+    was opened at, ``bootloader`` what a look at the board's bootloader found (None: not
+    looked or no answer; "empty": the application flash is erased; "program": it holds
+    one).  The message names the likely causes these tell apart: silence is a wrong baud
+    rate or no firmware; STK500 replies, or an erased flash behind the bootloader, are a
+    board that runs only its bootloader.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        heard: bytes,
+        *,
+        baudrate: int | None = None,
+        bootloader: str | None = None,
+    ) -> None:
+        self.port = port
+        self.heard = bytes(heard)
+        self.baudrate = baudrate
+        self.bootloader = bootloader
+        at = f" at {baudrate} baud" if baudrate else ""
+        sent = f"it sent {self.heard[:16].hex(' ')}" if heard else f"it sent nothing{at}"
+        if bootloader == "empty":
+            why = (
+                "this board runs a bootloader only (the bootloader answers, the application "
+                "flash is empty): install the firmware with `arduinoio flash`"
+            )
+        elif any(reply in self.heard for reply in _STK500_REPLIES):
+            why = (
+                f"{sent}, bootloader (STK500) replies: this board runs a bootloader only; "
+                "install the firmware with `arduinoio flash`"
+            )
+        elif bootloader == "program":
+            why = f"{sent}, but its bootloader says it holds a program; "
+            why += _EITHER.format(runs="runs other firmware")
+        elif heard:
+            why = f"{sent}, which is no reply of this firmware; "
+            why += _EITHER.format(runs="runs other firmware")
+        else:
+            why = f"{sent}; " + _EITHER.format(runs="has no firmware yet")
+        super().__init__(f"{port} did not answer an ID request: {why}")
 
 
 class BoardDisconnectedError(LinkError, ConnectionError):

@@ -7,8 +7,9 @@ from typing import Any
 
 import pytest
 
-from arduinoio_async import A0, D3, D4, D9, BoardError, PinCapabilityError
+from arduinoio_async import A0, D3, D4, D9, BoardError, BoardTimeoutError, PinCapabilityError
 from arduinoio_async import protocol as p
+from arduinoio_async.errors import BoardSilentError
 from arduinoio_async.protocol._messages import REQUEST_TYPES
 from arduinoio_async.protocol.commands.descriptions import DESCRIPTIONS, describe
 
@@ -85,3 +86,18 @@ async def test_a_plain_number_for_a_pin_gets_the_pin_to_use() -> None:
             "D7, D8, D9, D10, D11, D12, D13"
         )
         assert board.analog(A0).pin is A0
+
+
+@pytest.mark.parametrize(
+    ("heard", "words"),
+    [
+        (b"", "it sent nothing at 1000000 baud; either the baud rate is wrong"),
+        (b"\x14\x10", "this board runs a bootloader only"),
+        (b"\x3e\x00", "it sent 3e 00, which is no reply of this firmware; either"),
+    ],
+)
+def test_a_silent_board_gets_the_likely_causes(heard: bytes, words: str) -> None:
+    error = BoardSilentError("/dev/ttyACM0", heard, baudrate=1_000_000)
+    assert str(error).startswith("/dev/ttyACM0 did not answer an ID request")
+    assert words in str(error)
+    assert isinstance(error, BoardTimeoutError)

@@ -17,11 +17,24 @@ import anyio.abc
 import anyio.lowlevel
 
 from .. import protocol as p
-from ..errors import BoardDisconnectedError, BoardTimeoutError, LinkError
-from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport
+from ..errors import (
+    ArduinoIOError,
+    BoardDisconnectedError,
+    BoardSilentError,
+    BoardTimeoutError,
+    LinkError,
+)
+from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_stream
 from ..transport._ready import wait_ready
 
-__all__ = ["READY_TIMEOUT", "read_id_retrying", "start_link", "wait_new_boot"]
+__all__ = [
+    "READY_TIMEOUT",
+    "explain_silence",
+    "look_at_bootloader",
+    "read_id_retrying",
+    "start_link",
+    "wait_new_boot",
+]
 
 #: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
 #: opens and answers 1.6-2 s later.
@@ -93,3 +106,74 @@ async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: 
         raise BoardTimeoutError(
             f"{who} did not come back from its reboot within {deadline:g} s"
         ) from None
+
+
+# ---- a board that stays silent -------------------------------------------------------------
+
+#: The Uno's bootloader (optiboot) speaks STK500 at this rate, whatever the firmware's.
+BOOTLOADER_BAUD = 115200
+#: How long to look for the bootloader after the reset that opening the port causes: it
+#: listens for about 1 s after the reset.
+BOOTLOADER_WINDOW = 2.0
+_STK_INSYNC, _STK_OK = 0x14, 0x10
+
+
+async def _stk(stream: anyio.abc.ByteStream, command: bytes, answer: int, wait: float) -> bytes:
+    """Send an STK500 ``command``; its ``answer`` bytes between INSYNC and OK (TimeoutError
+    after ``wait`` seconds, ValueError on anything else)."""
+    await stream.send(command)
+    got = bytearray()
+    with anyio.fail_after(wait):
+        while len(got) < answer + 2:
+            got += await stream.receive()
+    if got[0] != _STK_INSYNC or got[answer + 1] != _STK_OK:
+        raise ValueError(f"no STK500 answer: {bytes(got).hex(' ')}")
+    return bytes(got[1 : answer + 1])
+
+
+async def _sync(stream: anyio.abc.ByteStream) -> None:
+    """avrdude's first step: GET_SYNC until the bootloader answers, then a quiet line."""
+    while True:
+        try:
+            await _stk(stream, b"\x30\x20", 0, 0.1)
+            break
+        except (TimeoutError, ValueError):
+            await anyio.lowlevel.checkpoint()
+    while True:  # answers to earlier syncs
+        with anyio.move_on_after(0.05):
+            await stream.receive()
+            continue
+        return
+
+
+async def look_at_bootloader(port: str) -> str | None:
+    """What the bootloader of the board on ``port`` says: "empty" when no application is
+    in its flash, "program" when one is, None when no STK500 bootloader answered.
+
+    Opening the port resets an Uno into its bootloader (DTR, as for avrdude); this asks
+    what avrdude asks first -- sync, then the flash's first word (0xFFFF: erased) -- and
+    leaves the bootloader, which then starts whatever the flash holds.
+    """
+    try:
+        stream = await open_serial_stream(port, BOOTLOADER_BAUD)
+    except ArduinoIOError:
+        return None
+    try:
+        with anyio.move_on_after(BOOTLOADER_WINDOW):
+            await _sync(stream)
+            await _stk(stream, b"\x55\x00\x00\x20", 0, 0.2)  # LOAD_ADDRESS 0
+            first = await _stk(stream, b"\x74\x00\x02\x46\x20", 2, 0.2)  # READ_PAGE 2 F
+            await _stk(stream, b"\x51\x20", 0, 0.2)  # LEAVE_PROGMODE
+            return "empty" if first == b"\xff\xff" else "program"
+        return None
+    except (TimeoutError, ValueError, anyio.BrokenResourceError, anyio.EndOfStream):
+        return None
+    finally:
+        with anyio.CancelScope(shield=True):
+            await stream.aclose()
+
+
+async def explain_silence(port: str, baudrate: int, silent: BoardSilentError) -> BoardSilentError:
+    """``silent`` again, with what the board's bootloader says (see BoardSilentError)."""
+    found = await look_at_bootloader(port)
+    return BoardSilentError(port, silent.heard, baudrate=baudrate, bootloader=found)

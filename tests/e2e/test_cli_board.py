@@ -103,3 +103,43 @@ async def test_a_running_virtual_uno_is_found_without_naming_its_port(
     assert sim.returncode == 0
     gone = await anyio.run_process([*command, "list"], env=env, check=False)
     assert gone.returncode == 1 and "no candidate ports" in gone.stderr.decode()
+
+
+OPTIBOOT_HEX = Path(__file__).resolve().parents[2] / "firmware/bootloader/build/optiboot-1k.hex"
+
+
+def optiboot() -> Path:
+    """The optiboot image (``make bootloader``), or skip (fail with ARDUINOIO_SIM_REQUIRED)."""
+    if not OPTIBOOT_HEX.is_file():
+        if os.environ.get("ARDUINOIO_SIM_REQUIRED"):
+            pytest.fail(f"{OPTIBOOT_HEX} missing (make bootloader)")
+        pytest.skip(f"{OPTIBOOT_HEX} missing (make bootloader)")
+    return OPTIBOOT_HEX
+
+
+async def test_a_board_with_only_its_bootloader_is_named_so(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(bootloader=optiboot())
+    assert await uno.eeprom(0, 2) == b"\xff\xff"  # nothing but the bootloader
+    code, _, err = await arduinoio("info", "--port", uno.port, "--probe-timeout", "1")
+    assert code == 1
+    assert "this board runs a bootloader only" in err and "arduinoio flash" in err, err
+    assert "Traceback" not in err
+    code, out, err = await arduinoio("flash", "--port", uno.port, "--id", "5")
+    assert code == 0, err  # the diagnosis left the bootloader working
+    assert "lost sync" not in err  # the flash's closing reset is no fault (item 7)
+    code, out, err = await arduinoio("info", "--port", uno.port)
+    assert code == 0 and "0x0005" in out, err
+
+
+async def test_a_wrong_baud_rate_gets_the_baud_hint(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=6, baud=115200)
+    code, _, err = await arduinoio("info", "--port", uno.port, "--probe-timeout", "1")
+    assert code == 1
+    assert "it sent nothing at 1000000 baud" in err and "--baud" in err, err
+    assert "arduinoio flash" in err and "bootloader only" not in err
+    code, out, err = await arduinoio("info", "--port", uno.port, "--baud", "115200")
+    assert code == 0 and "0x0006" in out, err  # the hint was right
