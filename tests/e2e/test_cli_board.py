@@ -14,7 +14,7 @@ import pytest
 from anyio.streams.buffered import BufferedByteReceiveStream
 from rich.console import Console
 
-from arduinoio_async import Board, BoardTimeoutError
+from arduinoio_async import Board, BoardTimeoutError, _resources
 from arduinoio_async import protocol as p
 from arduinoio_async.cli import main
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -143,3 +143,16 @@ async def test_a_wrong_baud_rate_gets_the_baud_hint(
     assert "arduinoio flash" in err and "bootloader only" not in err
     code, out, err = await arduinoio("info", "--port", uno.port, "--baud", "115200")
     assert code == 0 and "0x0006" in out, err  # the hint was right
+
+
+async def test_a_board_whose_bootloader_holds_a_program_gets_the_baud_hint(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    firmware = _resources.firmware_image(115200, "elf")
+    uno = await virtual_uno_factory(bootloader=optiboot(), elf=firmware, baud=115200, board_id=7)
+    code, _, err = await arduinoio("info", "--port", uno.port, "--probe-timeout", "1")
+    assert code == 1
+    assert "but its bootloader says it holds a program" in err and "--baud" in err, err
+    assert "bootloader only" not in err
+    code, out, err = await arduinoio("info", "--port", uno.port, "--baud", "115200")
+    assert code == 0 and "0x0007" in out, err
