@@ -164,7 +164,7 @@ _REFUSAL_REASONS = {
     "I2C_NACK_DATA": "the I2C device refused a data byte",
     "I2C_TIMEOUT": "the I2C bus timed out",
     "I2C_NOT_CONFIGURED": "the I2C bus is off",
-    "LINK_CAPACITY": "the link cannot carry that much",
+    "LINK_CAPACITY": "too much for the link",
     "FAILSAFE_TRIPPED": "the failsafe has tripped",
     "EEPROM_FAILED": "its EEPROM did not keep the value",
 }
@@ -176,15 +176,12 @@ _REFUSAL_HINTS = {
     "or `arduinoio release {pin}`, or reset the board with `arduinoio reset`",
     "PIN_NOT_CONFIGURED": "{pin} does not have the role this request needs on the board: "
     "configure it first (roles end at every reset of the board)",
-    "PIN_NOT_CAPABLE": "{pin} cannot do this (Table III of the paper lists the pins)",
-    "VALUE_OUT_OF_RANGE": "a value lies outside the range the board accepts",
-    "FAILSAFE_TRIPPED": "the failsafe fired and holds the outputs in their safe states: "
-    "re-arm it (board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
-    "I2C_NACK_ADDRESS": "no I2C device acknowledged its address",
-    "I2C_NACK_DATA": "the I2C device refused a data byte",
-    "I2C_TIMEOUT": "the I2C bus did not finish in time (SDA/SCL held low? pull-ups?)",
+    "PIN_NOT_CAPABLE": "Table III of the paper lists what each pin can do",
+    "FAILSAFE_TRIPPED": "it holds the outputs in their safe states: re-arm it "
+    "(board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
+    "I2C_NACK_ADDRESS": "is a device at that address, and powered?",
+    "I2C_TIMEOUT": "SDA/SCL held low? pull-ups?",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
-    "EEPROM_FAILED": "the EEPROM did not read back what was written",
 }
 
 
