@@ -131,19 +131,29 @@ async def _stk(stream: anyio.abc.ByteStream, command: bytes, answer: int, wait: 
     return bytes(got[1 : answer + 1])
 
 
+async def _drain(stream: anyio.abc.ByteStream, quiet: float = 0.2, limit: float = 1.0) -> None:
+    """Read until nothing arrived for ``quiet`` seconds (at most ``limit``): late answers
+    to repeated syncs would otherwise meet the next command, or the next program."""
+    with anyio.move_on_after(limit):
+        while True:
+            with anyio.move_on_after(quiet):
+                await stream.receive()
+                continue
+            return
+
+
 async def _sync(stream: anyio.abc.ByteStream) -> None:
-    """avrdude's first step: GET_SYNC until the bootloader answers, then a quiet line."""
+    """avrdude's first step: GET_SYNC until the bootloader answers, then a quiet line.
+
+    Each try waits long enough for its answer (the bootloader answers at once; a busy
+    host reads late), so few tries are outstanding when one is answered."""
     while True:
         try:
-            await _stk(stream, b"\x30\x20", 0, 0.1)
+            await _stk(stream, b"\x30\x20", 0, 0.25)
             break
         except (TimeoutError, ValueError):
             await anyio.lowlevel.checkpoint()
-    while True:  # answers to earlier syncs
-        with anyio.move_on_after(0.05):
-            await stream.receive()
-            continue
-        return
+    await _drain(stream)
 
 
 async def look_at_bootloader(port: str) -> str | None:
@@ -152,25 +162,31 @@ async def look_at_bootloader(port: str) -> str | None:
 
     Opening the port resets an Uno into its bootloader (DTR, as for avrdude); this asks
     what avrdude asks first -- sync, then the flash's first word (0xFFFF: erased) -- and
-    leaves the bootloader, which then starts whatever the flash holds.
+    leaves the bootloader, which then starts whatever the flash holds.  The line is left
+    quiet for whoever opens the port next (``arduinoio flash``).
     """
     try:
         stream = await open_serial_stream(port, BOOTLOADER_BAUD)
     except ArduinoIOError:
         return None
+    found: str | None = None
     try:
-        with anyio.move_on_after(BOOTLOADER_WINDOW):
-            await _sync(stream)
-            await _stk(stream, b"\x55\x00\x00\x20", 0, 0.2)  # LOAD_ADDRESS 0
-            first = await _stk(stream, b"\x74\x00\x02\x46\x20", 2, 0.2)  # READ_PAGE 2 F
-            await _stk(stream, b"\x51\x20", 0, 0.2)  # LEAVE_PROGMODE
-            return "empty" if first == b"\xff\xff" else "program"
-        return None
-    except (TimeoutError, ValueError, anyio.BrokenResourceError, anyio.EndOfStream):
+        try:
+            with anyio.move_on_after(BOOTLOADER_WINDOW):
+                await _sync(stream)
+                await _stk(stream, b"\x55\x00\x00\x20", 0, 0.25)  # LOAD_ADDRESS 0
+                first = await _stk(stream, b"\x74\x00\x02\x46\x20", 2, 0.25)  # READ_PAGE
+                await _stk(stream, b"\x51\x20", 0, 0.25)  # LEAVE_PROGMODE
+                found = "empty" if first == b"\xff\xff" else "program"
+        except (TimeoutError, ValueError):
+            pass  # something answered, but not as a bootloader does
+        await _drain(stream)
+    except (anyio.BrokenResourceError, anyio.EndOfStream):
         return None
     finally:
         with anyio.CancelScope(shield=True):
             await stream.aclose()
+    return found
 
 
 async def explain_silence(port: str, baudrate: int, silent: BoardSilentError) -> BoardSilentError:
