@@ -8,7 +8,9 @@ import sys
 import anyio
 import pytest
 
-from arduinoio_async import A0
+from arduinoio_async import A0, D6, D7
+from arduinoio_async import protocol as p
+from arduinoio_async.errors import BoardError
 from arduinoio_async.network import RemoteBoards, open_remote_board
 
 from .conftest import ServeFactory
@@ -52,3 +54,40 @@ async def test_a_client_joins_while_another_streams(
             tg.cancel_scope.cancel()
         # The streaming client lost nothing to the newcomers.
         assert received > 0 and samples.gaps == 0 and samples.dropped == 0
+
+
+async def test_a_client_cannot_take_another_clients_pin(serve_unos: ServeFactory) -> None:
+    """Within one client a second role on a pin is a PinRoleError; between clients the
+    server refuses it with the board's PIN_BUSY, and the holder's output keeps working."""
+    async with (
+        serve_unos([7], fixture="loopback") as served,
+        RemoteBoards(connect=[served.endpoint]) as first,
+        RemoteBoards(connect=[served.endpoint]) as second,
+    ):
+        uno = served.unos[7]
+        a, b = await first.get(7), await second.get(7)
+        led = await a.digital_output(D6, initial=True)
+        with pytest.raises(BoardError) as busy:
+            await b.digital_input(D6)
+        assert busy.value.code is p.ErrorCode.PIN_BUSY
+        with pytest.raises(BoardError) as busy:  # nor release it from under A
+            await b.release(D6)
+        assert busy.value.code is p.ErrorCode.PIN_BUSY
+        with pytest.raises(BoardError) as busy:  # nor inside a transaction
+            async with b.transaction() as tx:
+                tx.add(p.GpioConfig(int(D6), p.GpioFlags(0)))
+        assert busy.value.code is p.ErrorCode.PIN_BUSY
+        assert D6 not in b.roles  # B's refused claim was undone
+        await led.write(False)  # A's output is still A's
+        assert (await uno.pin("D6")).level == 0
+        await led.write(True)
+        assert (await uno.pin("D6")).level == 1
+        # The same role is shared (a restarted controller sets its pins up again) ...
+        again = await b.digital_output(D6, initial=True)
+        await again.write(True)
+        # ... and a pin nobody else holds is free to change.
+        await b.digital_input(D7)
+        inp = b.roles[D7]
+        assert inp.role == "digital input"
+        await b.release(D7)
+        await a.digital_output(D7)
