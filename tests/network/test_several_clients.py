@@ -4,16 +4,20 @@ client, the failsafe owner across a server restart (issue 25, items 15-17)."""
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import anyio
 import pytest
+from anyio.streams.text import TextReceiveStream
 
 from arduinoio_async import A0, D6, D7
 from arduinoio_async import protocol as p
 from arduinoio_async.errors import BoardError
 from arduinoio_async.network import RemoteBoards, open_remote_board
+from arduinoio_async.sim import VirtualUno
 
 from .conftest import ServeFactory
+from .test_remote import killed_on_exit
 
 pytestmark = pytest.mark.sim
 
@@ -91,3 +95,66 @@ async def test_a_client_cannot_take_another_clients_pin(serve_unos: ServeFactory
         assert inp.role == "digital input"
         await b.release(D7)
         await a.digital_output(D7)
+
+
+OWNER = """
+import sys, anyio
+from arduinoio_async import D2
+from arduinoio_async.network import RemoteBoards
+
+async def main():
+    async with RemoteBoards(connect=[sys.argv[1]]) as remote:
+        remote.subscribe(lambda event: print(event.kind, event.detail, flush=True))
+        board = await remote.get(7)
+        led = await board.digital_output(D2, initial=True)
+        await board.arm_failsafe(300, {led: False})
+        print("armed", flush=True)
+        await anyio.sleep_forever()
+
+anyio.run(main)
+"""
+
+
+async def wait_level(uno: VirtualUno, pin: str, level: int, timeout: float) -> None:
+    """Until the board drives ``pin`` at ``level`` (the fixture's ground truth)."""
+    with anyio.fail_after(timeout):
+        while (await uno.pin(pin)).level != level:
+            await uno.status()
+
+
+async def test_the_failsafe_owner_recovers_after_the_server_restarts(
+    serve_unos: ServeFactory, tmp_path: Path
+) -> None:
+    """The server dies: the owner's failsafe trips (its outputs go safe).  The server
+    comes back on the tripped board: the owner reconnects, re-arms and restores D2, and
+    its failsafe works again under the new server."""
+    async with serve_unos([7]) as served:
+        uno = served.unos[7]
+        script = tmp_path / "owner.py"
+        script.write_text(OWNER)
+        owner = await anyio.open_process([sys.executable, str(script), served.endpoint])
+        async with killed_on_exit(owner):
+            assert owner.stdout is not None
+            lines = TextReceiveStream(owner.stdout)
+            said: list[str] = []
+
+            async def wait_said(word: str, timeout: float) -> None:
+                with anyio.fail_after(timeout):
+                    async for chunk in lines:
+                        said.extend(chunk.splitlines())
+                        if any(line.startswith(word) for line in said):
+                            return
+                raise AssertionError(f"the owner ended; it said {said}")
+
+            await wait_said("armed", 20)
+            assert (await uno.pin("D2")).level == 1
+            await served.kill()
+            await wait_level(uno, "D2", 0, 3)  # the failsafe tripped: D2 is safe
+            said.clear()
+            assert await served.start() == ["0x0007"]
+            await wait_said("connected", 15)
+            await wait_level(uno, "D2", 1, 3)  # the owner's role is back, re-armed
+            # The owner's failsafe is armed under the new server: its death trips it.
+            owner.kill()
+            await wait_level(uno, "D2", 0, 3)
+        print(f"\nthe owner said while the server restarted: {said}")
