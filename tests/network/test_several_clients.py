@@ -158,3 +158,32 @@ async def test_the_failsafe_owner_recovers_after_the_server_restarts(
             owner.kill()
             await wait_level(uno, "D2", 0, 3)
         print(f"\nthe owner said while the server restarted: {said}")
+
+
+async def test_the_monitor_shows_another_clients_pin_and_cannot_take_it(
+    serve_unos: ServeFactory,
+) -> None:
+    """A monitor on a served board shows the pins another live client holds as set
+    elsewhere (the board's roles, through the server), and taking one is refused."""
+    monitor = pytest.importorskip("arduinoio_async.monitor")
+    async with (
+        serve_unos([7]) as served,
+        RemoteBoards(connect=[served.endpoint]) as controller,
+        RemoteBoards(connect=[served.endpoint]) as watcher,
+    ):
+        led = await (await controller.get(7)).digital_output(D6, initial=True)
+        hub = monitor.MonitorHub([await watcher.get(7)], period_ms=20)
+        panel = hub.panels["b0"]
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(hub.run)
+            with anyio.fail_after(5):
+                while panel.pin_roles()[D6].elsewhere is None:
+                    await panel.board.read_id()
+            assert panel.snapshot()["pins"][6 - 2]["role"] == "elsewhere"
+            result = await hub.perform(
+                {"id": 1, "board": "b0", "op": "role", "pin": "D6", "role": "input"}
+            )
+            assert not result["ok"] and "PIN_BUSY" in str(result["error"]), result
+            await led.write(False)  # still the controller's
+            assert (await served.unos[7].pin("D6")).level == 0
+            tg.cancel_scope.cancel()
