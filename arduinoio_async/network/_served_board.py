@@ -88,7 +88,14 @@ from ..errors import (
 )
 from ..protocol.session import Exchange
 from ..transport import Transport
-from ._keys import announcement_key, encode_fault, events_key, request_key, undeclare
+from ._keys import (
+    announcement_key,
+    encode_fault,
+    events_key,
+    request_key,
+    samples_key,
+    undeclare,
+)
 from ._loop import zenoh_callback
 from ._pin_holders import CLAIMS, PinHolders
 from ._resumer import Resumer
@@ -154,6 +161,8 @@ class ServedBoard:
         self.owner_timeout = 0.0
         self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
         self.streamer: str | None = None  # the client whose stream runs (one per board)
+        self._streamer_before: str | None = None  # while a StreamStart is on its way
+        self._samples: tuple[str, zenoh.Publisher] | None = None  # (streamer, publisher)
         self.pins = PinHolders()  # which client holds which pin, in which role
         self.last_heard: dict[str, float] = {}
         self.gate: anyio.Event | None = None  # while the board is being starved
@@ -200,6 +209,8 @@ class ServedBoard:
         self._unsubscribe()
         for entity in (self.token, self.queryable, self.publisher):
             undeclare(entity)
+        if self._samples is not None:
+            undeclare(self._samples[1])
         if self.gate is not None:
             self.gate.set()
 
@@ -208,10 +219,22 @@ class ServedBoard:
     def _on_event(self, event: p.Event) -> None:
         if isinstance(event, p.FailsafeTripped):
             self.tripped.set()
+        publisher = self.publisher
+        if isinstance(event, p.StreamSample) and self.streamer:
+            publisher = self._samples_publisher(self.streamer)
         try:
-            self.publisher.put(event.encode())
+            publisher.put(event.encode())
         except zenoh.ZError as exc:
             log.debug("board 0x%04X: event not published: %s", self.board_id, exc)
+
+    def _samples_publisher(self, client: str) -> zenoh.Publisher:
+        """The publisher of the samples of ``client``'s stream (declared once per streamer)."""
+        if self._samples is None or self._samples[0] != client:
+            if self._samples is not None:
+                undeclare(self._samples[1])
+            publisher = self.server.session.declare_publisher(samples_key(self.board_id, client))
+            self._samples = (client, publisher)
+        return self._samples[1]
 
     # ---- requests --------------------------------------------------------------------
 
@@ -364,7 +387,7 @@ class ServedBoard:
         def done(reply: p.Reply | None, error: BaseException | None) -> None:
             frame = None
             if error is not None:
-                self.pins.refused(client, request)
+                self._refused(client, request)
             if reply is not None:
                 try:
                     frame = self._after_link(client, request, reply)
@@ -396,7 +419,7 @@ class ServedBoard:
                         try:
                             reply = await self.link.request(request)
                         except ArduinoIOError:
-                            self.pins.refused(client, request)
+                            self._refused(client, request)
                             raise
                         frame = self._after_link(client, request, reply)
                 except ArduinoIOError as exc:
@@ -443,12 +466,22 @@ class ServedBoard:
         if isinstance(request, p.SetSession):
             self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
             return p.SetSessionReply(request.session).encode()
+        if isinstance(request, p.StreamStart):
+            # The stream's samples go to this client from its first sample on: the board
+            # sends them after its reply, which may be handled after they are published.
+            self._streamer_before, self.streamer = self.streamer, client
         if type(request) in CLAIMS:
             why = self.pins.claim(client, request)
             if why is not None:  # the client gets the board's own refusal frame
                 log.info("board 0x%04X: refused %r of %s: %s", self.board_id, request, client, why)
                 raise BoardError(p.ErrorCode.PIN_BUSY, request, why)
         return None
+
+    def _refused(self, client: str, request: p.Request[Any]) -> None:
+        """``request`` failed: undo what the server recorded when it was admitted."""
+        self.pins.refused(client, request)
+        if isinstance(request, p.StreamStart) and self.streamer == client:
+            self.streamer = self._streamer_before  # the board kept the stream it had
 
     def _after_link(self, client: str, request: p.Request[Any], reply: p.Reply) -> bytes:
         """The board's reply as ``client`` gets it; the server's records follow the request."""
@@ -463,8 +496,6 @@ class ServedBoard:
         elif isinstance(request, p.FailsafeDisarm):
             self.owner = None
             self.board.failsafe_tripped = False
-        elif isinstance(request, p.StreamStart):
-            self.streamer = client
         elif isinstance(request, p.StreamStop):
             self.streamer = None
         frame: bytes = reply.encode()

@@ -187,3 +187,26 @@ async def test_the_monitor_shows_another_clients_pin_and_cannot_take_it(
             await led.write(False)  # still the controller's
             assert (await served.unos[7].pin("D6")).level == 0
             tg.cancel_scope.cancel()
+
+
+async def test_a_client_gets_no_samples_of_another_clients_stream(
+    serve_unos: ServeFactory,
+) -> None:
+    """Samples go to the client whose stream it is: the others' links do not carry them
+    (a 1 ms stream would otherwise cost every client 1,000 frames a second)."""
+    async with (
+        serve_unos([7]) as served,
+        RemoteBoards(connect=[served.endpoint]) as first,
+        RemoteBoards(connect=[served.endpoint]) as second,
+    ):
+        streamer, other = await first.get(7), await second.get(7)
+        before = other.link.stats.events
+        async with streamer.stream(analog=[A0], period_ms=1) as samples:
+            received = 0
+            async for _ in samples:
+                received += 1
+                if received == 300:
+                    break
+        assert samples.gaps == 0
+        assert await other.read_id() == 7  # anything published meanwhile has arrived
+        assert other.link.stats.events - before == 0
