@@ -13,7 +13,8 @@ a vanished client's pins stay configured on the board but are held by nobody.
 
 A claim is recorded when the set-up is admitted (in arrival order, before it reaches
 the link), so two clients asking for one pin at once cannot both get it, and undone if
-the board refuses it.  Set-ups inside a transaction count as well.
+the board refuses it (not when it timed out: it may have been carried out, and the
+client's retry may be admitted already).  Set-ups inside a transaction count as well.
 """
 
 from __future__ import annotations

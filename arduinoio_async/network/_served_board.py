@@ -386,7 +386,7 @@ class ServedBoard:
 
         def done(reply: p.Reply | None, error: BaseException | None) -> None:
             frame = None
-            if error is not None:
+            if isinstance(error, BoardError):
                 self._refused(client, request)
             if reply is not None:
                 try:
@@ -418,7 +418,7 @@ class ServedBoard:
                     if frame is None:
                         try:
                             reply = await self.link.request(request)
-                        except ArduinoIOError:
+                        except BoardError:
                             self._refused(client, request)
                             raise
                         frame = self._after_link(client, request, reply)
@@ -478,7 +478,10 @@ class ServedBoard:
         return None
 
     def _refused(self, client: str, request: p.Request[Any]) -> None:
-        """``request`` failed: undo what the server recorded when it was admitted."""
+        """The board refused ``request``: undo what the server recorded when it was
+        admitted.  Only a refusal: a request that timed out or lost its reply may have
+        been carried out (and the client's retry of an idempotent set-up may already be
+        on its way), so its claim stands."""
         self.pins.refused(client, request)
         if isinstance(request, p.StreamStart) and self.streamer == client:
             self.streamer = self._streamer_before  # the board kept the stream it had
