@@ -8,7 +8,10 @@ from pyserial's port listing (by vendor/product ID), explicit paths, glob patter
 running ``arduinoio sim``) -- and probes every candidate that is not in
 use *concurrently*, each with a deadline long enough for a Uno's auto-reset on open.  A
 port that does not answer an ID request is closed at once and not probed again until it
-disappears from the candidates and comes back, so foreign devices are left alone.
+disappears from the candidates and comes back, so foreign devices are left alone.  A port
+that could not be opened at all (another process holds it, it is not there yet, no
+permission) sent and heard nothing: it is tried again at every scan, and why it is
+skipped is logged once per reason, not at every scan.
 
 Each board that answers gets a supervisor task: it runs the transport, re-tags the
 board's session and replays its pin configuration whenever it meets a fresh boot of the
@@ -208,6 +211,8 @@ class BoardManager:
     #: (a protocol-version mismatch, a port lost mid-handshake).  Reported by ``probed()``
     #: without keeping the port from being probed again at the next scan.
     _failed: dict[str, ProbeResult] = field(default_factory=dict, init=False)
+    #: Ports that could not be opened, with the reason last logged (logged once per reason).
+    _unopened: dict[str, str] = field(default_factory=dict, init=False)
 
     async def __aenter__(self) -> BoardManager:
         # Through an exit stack: if the first scan raises, the task group is still
@@ -280,8 +285,8 @@ class BoardManager:
             return await self.wait_connected(board_id)
         self._raise_duplicate(board_id)
         tried = {
-            port: known.result.error or f"board 0x{known.result.board_id:04X}"
-            for port, known in self._known.items()
+            port: result.error or f"board 0x{result.board_id:04X}"
+            for port, result in self.probed().items()
         }
         raise BoardNotFoundError(board_id, tried)
 
@@ -307,6 +312,9 @@ class BoardManager:
             for gone in set(self._known) - set(candidates):
                 if not self._known[gone].held:
                     del self._known[gone]  # it may come back as something else
+            for gone in set(self._unopened) - set(candidates):
+                del self._unopened[gone]
+                self._failed.pop(gone, None)
             fresh = [port for port in candidates if port not in self._known]
             results: dict[str, ProbeResult] = {}
             async with anyio.create_task_group() as tg:
@@ -353,8 +361,14 @@ class BoardManager:
         try:
             stream = await open_serial_stream(port, self.baudrate)
         except ArduinoIOError as exc:
-            results[port] = self._remember(ProbeResult(port, error=str(exc)))
+            # Not remembered as known: the next scan tries it again (see the docstring).
+            results[port] = self._failed[port] = ProbeResult(port, error=str(exc))
+            if self._unopened.get(port) != str(exc):
+                self._unopened[port] = str(exc)
+                logger.warning("skipping %s until a later scan: %s", port, exc)
             return
+        if self._unopened.pop(port, None) is not None:
+            logger.info("%s opened at last", port)
         try:
             board_id = await wait_ready(
                 stream, deadline=anyio.current_time() + self.probe_deadline, name=port
@@ -450,6 +464,10 @@ class BoardManager:
             self._wake()  # connected again: wait_connected() returns
 
         async def rearm_after_trip() -> None:
+            if board.failsafe is None:
+                # Armed by someone else (a served client): nothing of ours to re-arm.  The
+                # trip was logged once when noticed; the keepalive asks at every heartbeat.
+                return
             self._emit(ManagerEvent("failsafe", board.board_id, link.name, "re-arming"))
             await board.rearm_failsafe(restore=True)
 

@@ -203,13 +203,16 @@ class Board:
 
         Used after a replug or a reset: the capabilities are read again, the session is
         tagged, and every pin role is replayed *before* the link is handed to callers,
-        so handles never see a half-restored board.
+        so handles never see a half-restored board.  A failsafe this board armed is armed
+        again *first*: a board that did not reboot may still be tripped (its host -- or,
+        remotely, the server -- died while it stayed powered), and a tripped board refuses
+        every output set-up until it is armed again; armed, it also guards the restore.
         """
         self._link = None
         self.capabilities = await link.request(p.ReadCapabilities())
         await self._handshake(link)
-        await self._restore_on(link)
         await self._failsafe.arm_on(link)
+        await self._restore_on(link)
         self._failsafe.listen(link)
         self._link = link
 

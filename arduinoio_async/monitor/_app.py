@@ -3,7 +3,8 @@
 Who may connect:
 
 * Bound to a loopback address, only this machine can reach the server; the Host header
-  must name a loopback host too, so a web page on the Internet cannot reach it through
+  must name a loopback host too (``localhost``, ``127.0.0.1``, ``::1`` or the address it
+  is bound to, say ``127.0.0.2``), so a web page on the Internet cannot reach it through
   DNS rebinding.
 * Bound to any other address, the page and the WebSocket need the server's token
   (``?token=...``; the page passes it on to the WebSocket).  Static files (our script,
@@ -62,8 +63,11 @@ def _same_origin(websocket: WebSocket) -> bool:
     return urlsplit(origin).netloc.lower() == websocket.headers.get("host", "").lower()
 
 
-def create_app(hub: MonitorHub, *, token: str | None = None, loopback: bool = True) -> Starlette:
-    """The ASGI app serving ``hub``; ``token`` is required unless bound to loopback."""
+def create_app(
+    hub: MonitorHub, *, token: str | None = None, loopback: bool = True, host: str = ""
+) -> Starlette:
+    """The ASGI app serving ``hub``; ``token`` is required unless bound to loopback
+    (``host``: the loopback address it is bound to, also a valid Host header)."""
     index_html = (STATIC_DIR / "index.html").read_text(encoding="utf-8")
 
     async def index(request: Request) -> Response:
@@ -115,7 +119,9 @@ def create_app(hub: MonitorHub, *, token: str | None = None, loopback: bool = Tr
 
     middleware = []
     if loopback:
-        middleware.append(Middleware(TrustedHostMiddleware, allowed_hosts=LOOPBACK_HOSTS))
+        bound = [host, f"[{host}]"] if host else []
+        allowed = [*LOOPBACK_HOSTS, *bound]
+        middleware.append(Middleware(TrustedHostMiddleware, allowed_hosts=allowed))
     return Starlette(
         routes=[
             Route("/", index),

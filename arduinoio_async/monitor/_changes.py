@@ -19,10 +19,12 @@ The subscriptions follow the board (:class:`~._sources.SubscribingSource`):
   same pin keeps its subscription (``watch_changes`` counts the watchers).
 
 Edges that happen while the inputs are being subscribed again are not counted (the level
-is read again afterwards).  The sequence numbers count the events of all watched pins of
-a board together, so a loss names no pin: the page shows it per board.  Reading the
-starting level with ``GpioRead`` clears the edges the board latched for that pin, which
-a program embedding the monitor and relying on ``DigitalInput.read()``'s edges would see.
+is read again afterwards); the page's role control therefore answers only once the new
+inputs are watched (:meth:`ChangeSource.wait_watching`), so an edge after its answer
+counts.  The sequence numbers count the events of all watched pins of a board
+together, so a loss names no pin: the page shows it per board.  Reading the starting
+level with ``GpioRead`` clears the edges the board latched for that pin, which a program
+embedding the monitor and relying on ``DigitalInput.read()``'s edges would see.
 
 A board whose firmware does not announce change events (``Feature.GPIO_CHANGES``) gets
 none: the page says so, and its inputs show the stream's levels instead.
@@ -84,6 +86,13 @@ class ChangeSource(SubscribingSource):
         self._lost_before = 0
         self._gap_counter: ChangeStream | None = None
         self._seen = dict.fromkeys(DigitalPin, 0)
+        self._watching = anyio.Event()
+
+    async def wait_watching(self, pins: frozenset[DigitalPin]) -> None:
+        """Return once exactly ``pins`` are watched (at once when change events are not
+        supported: nothing would ever be watched)."""
+        while self.supported and self.watched != pins:
+            await self._watching.wait()
 
     @property
     def supported(self) -> bool:
@@ -143,6 +152,8 @@ class ChangeSource(SubscribingSource):
                     for pin in pins:
                         await self._read_level(pin, emit)
                     self.watched = frozenset(pins)
+                    watching, self._watching = self._watching, anyio.Event()
+                    watching.set()
                     self.state.subscriptions += 1
                     self._on_change()
                     await self._while_current(link, epoch)

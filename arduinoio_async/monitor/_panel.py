@@ -12,6 +12,13 @@ batch that the hub sends to the browsers a few times a second (the browser never
 the digital inputs' levels and edges from the board's change events
 (:class:`~._changes.ChangeSource`), everything else from the firmware-timed stream
 (:class:`~._sources.StreamSource`).  A pin's level is shown only while a source knows it.
+The board latches edges of its inputs only; an output's edges are counted from its
+levels in the stream (an output toggled twice within one period shows no edge).
+
+Pins the board has a role for and the panel has no handle for (set up by an earlier
+program or by another client of a served board) are shown as set elsewhere, with the
+board's own word for the role (:mod:`._elsewhere`); choosing a role on the page takes
+such a pin over (the board, or the server for another live client, may refuse).
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutp
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
+from ._elsewhere import RolesElsewhere
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
 
 if TYPE_CHECKING:
@@ -37,6 +45,8 @@ __all__ = ["ROLES", "BoardPanel", "roles_for"]
 
 #: Bit n set for every digital pin Dn the page shows.
 ALL_PINS = sum(1 << int(pin) for pin in DigitalPin)
+#: Longest a role control waits for the change events of its inputs to be subscribed.
+SUBSCRIBE_WAIT = 2.0
 #: The event counters' pins, in the order the stream reports their counts.
 COUNTER_PINS = (DigitalPin.D2, DigitalPin.D3)
 
@@ -69,6 +79,8 @@ class PinRole:
     #: Output level, or pulse width in us, or None.
     value: int | None = None
     handle: PinHandle | None = None
+    #: The board's role in words when it was set up elsewhere (``role`` is "elsewhere").
+    elsewhere: str | None = None
 
 
 def _role_of(handle: PinHandle, config: p.Request[Any]) -> PinRole:
@@ -121,6 +133,7 @@ class BoardPanel:
         self.changes = ChangeSource(board, self.inputs, on_change=self.changed)
         self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
+        self.elsewhere = RolesElsewhere(board, on_change=self.changed)
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
         self.known = 0
@@ -174,10 +187,15 @@ class BoardPanel:
             # The stream: every pin except those the change events own.
             mine = ALL_PINS & ~self.changes.watched_mask
             high = activity.levels or 0
+        rose, fell = activity.rose & mine, activity.fell & mine
+        if activity.levels is not None:
+            # The board latches no edges of outputs: count them from the levels.
+            outputs = self._outputs() & mine & self.known
+            rose |= outputs & high & ~self.levels
+            fell |= outputs & ~high & self.levels
         if activity.levels is not None or activity.pin_levels:
             self.levels = self.levels & ~mine | high & mine
             self.known |= mine
-        rose, fell = activity.rose & mine, activity.fell & mine
         if rose or fell:
             batch.rose |= rose
             batch.fell |= fell
@@ -225,11 +243,21 @@ class BoardPanel:
             "counts": self.counts.describe(),
         }
 
+    def _outputs(self) -> int:
+        """Bit n set for each pin Dn that is a digital output (here or elsewhere)."""
+        roles = self.pin_roles().items()
+        return sum(
+            1 << int(pin)
+            for pin, role in roles
+            if role.role == "output" or role.elsewhere == "digital output"
+        )
+
     async def run(self) -> None:
         """Run every activity source until cancelled; a failsafe trip updates the page."""
         stop_listening = self.board.on_failsafe(lambda _board: self.changed())
         try:
             async with anyio.create_task_group() as tg:
+                tg.start_soon(self.elsewhere.run)
                 for source in self.sources:
                     tg.start_soon(source.run, self.on_activity)
         finally:
@@ -239,6 +267,10 @@ class BoardPanel:
 
     def pin_roles(self) -> dict[DigitalPin, PinRole]:
         roles = {pin: PinRole() for pin in DigitalPin}
+        for pin in DigitalPin:
+            words = self.elsewhere.role(pin)
+            if words is not None:
+                roles[pin] = PinRole("elsewhere", elsewhere=words)
         for pin, (handle, config) in self.board.roles.items():
             roles[pin] = _role_of(handle, config)
         return roles
@@ -274,6 +306,7 @@ class BoardPanel:
                     "name": pin.name,
                     "role": roles[pin].role,
                     "value": roles[pin].value,
+                    "elsewhere": roles[pin].elsewhere,
                     "roles": roles_for(pin),
                 }
                 for pin in DigitalPin
@@ -294,6 +327,7 @@ class BoardPanel:
             try:
                 return await action(args)
             finally:
+                self.elsewhere.refresh()
                 self.changed()
 
     def _actions(self) -> dict[str, Callable[[Mapping[str, Any]], Any]]:
@@ -327,6 +361,9 @@ class BoardPanel:
                 self.changes.restart()
             if self.counter_pins() != counters:
                 self.counts.restart()
+        # Answer once the inputs are watched: an edge after the answer is counted.
+        with anyio.move_on_after(SUBSCRIBE_WAIT):
+            await self.changes.wait_watching(frozenset(self.inputs()))
 
     async def _change_role(self, pin: DigitalPin, role: str) -> None:
         if role not in roles_for(pin):

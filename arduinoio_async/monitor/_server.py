@@ -128,7 +128,7 @@ async def serve_monitor(
     if not boards:
         raise UsageError("no boards to monitor")
     hub = MonitorHub(boards, period_ms=period_ms, stream=stream)
-    app = create_app(hub, token=token, loopback=loopback)
+    app = create_app(hub, token=token, loopback=loopback, host=host)
     sock = _bind(host, port)
     config = uvicorn.Config(
         app,

@@ -11,8 +11,13 @@ Key space (one board ID = four lowercase hex digits, ``0x0007`` -> ``0007``)::
                                   is a reply frame too); a link fault is a Zenoh error
                                   reply (see :func:`encode_fault`)
     arduinoio/board/0007/ev       publications: the board-initiated frames (class 0x40:
-                                  stream samples with their sequence numbers, failsafe
-                                  trips), byte for byte as the board sent them
+                                  failsafe trips, change events, counter reports), byte
+                                  for byte as the board sent them
+    arduinoio/board/0007/ev/s/<client>
+                                  publications: the stream samples, to the client whose
+                                  ``StreamStart`` started the stream only (a 1 ms stream
+                                  is 1,000 frames a second every other client would
+                                  have to decode and drop)
     arduinoio/board/0007/conn     publications: the server's connection events (JSON)
     arduinoio/client/<zid>        liveliness token of a client session
 
@@ -53,6 +58,7 @@ __all__ = [
     "encode_fault",
     "events_key",
     "request_key",
+    "samples_key",
     "undeclare",
     "zenoh_config",
 ]
@@ -78,6 +84,11 @@ def request_key(board_id: int) -> str:
 
 def events_key(board_id: int) -> str:
     return f"{board_key(board_id)}/ev"
+
+
+def samples_key(board_id: int, client_id: str) -> str:
+    """Where the stream samples of client ``client_id``'s stream are published."""
+    return f"{events_key(board_id)}/s/{client_id}"
 
 
 def connection_key(board_id: int) -> str:

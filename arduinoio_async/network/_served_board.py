@@ -51,7 +51,9 @@ What the server changes on the way (everything else passes through untouched):
   every client's ``Board`` -- names the board by its ID, and a new ID would leave them
   all pointing at a board that no longer answers to it.
 
-Pin roles are the board's: a vanished client's roles stay configured (outputs hold their
+Pin roles are the board's, and a client's pins are its own: a set-up or release of a pin
+another live client holds in another role is refused with ``PIN_BUSY``
+(:mod:`._pin_holders`).  A vanished client's roles stay configured (outputs hold their
 levels unless its failsafe makes them safe); its sample stream, which nobody reads any
 more, is stopped.  Configuring a pin in the role it already has
 is accepted by the board, so a restarted controller sets its pins up again as usual; a
@@ -86,8 +88,16 @@ from ..errors import (
 )
 from ..protocol.session import Exchange
 from ..transport import Transport
-from ._keys import announcement_key, encode_fault, events_key, request_key, undeclare
+from ._keys import (
+    announcement_key,
+    encode_fault,
+    events_key,
+    request_key,
+    samples_key,
+    undeclare,
+)
 from ._loop import zenoh_callback
+from ._pin_holders import CLAIMS, PinHolders
 from ._resumer import Resumer
 
 if TYPE_CHECKING:
@@ -116,8 +126,8 @@ WORKERS = 64
 KNOWN_FRAMES = 256
 #: Requests whose handling depends on the client that sent them: only for these (and
 #: for every request while a client owns the failsafe) the query's attachment is read.
-_PER_CLIENT: frozenset[type[p.Request[Any]]] = frozenset(
-    {p.SetSession, p.ReadStatus, p.FailsafeArm, p.StreamStart}
+_PER_CLIENT: frozenset[type[p.Request[Any]]] = (
+    frozenset({p.SetSession, p.ReadStatus, p.FailsafeArm, p.StreamStart}) | CLAIMS
 )
 #: Requests that always go through the loop: their client matters, or the server answers
 #: them itself.
@@ -151,6 +161,9 @@ class ServedBoard:
         self.owner_timeout = 0.0
         self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
         self.streamer: str | None = None  # the client whose stream runs (one per board)
+        self._streamer_before: str | None = None  # while a StreamStart is on its way
+        self._samples: tuple[str, zenoh.Publisher] | None = None  # (streamer, publisher)
+        self.pins = PinHolders()  # which client holds which pin, in which role
         self.last_heard: dict[str, float] = {}
         self.gate: anyio.Event | None = None  # while the board is being starved
         self.tripped = anyio.Event()
@@ -196,6 +209,8 @@ class ServedBoard:
         self._unsubscribe()
         for entity in (self.token, self.queryable, self.publisher):
             undeclare(entity)
+        if self._samples is not None:
+            undeclare(self._samples[1])
         if self.gate is not None:
             self.gate.set()
 
@@ -204,10 +219,22 @@ class ServedBoard:
     def _on_event(self, event: p.Event) -> None:
         if isinstance(event, p.FailsafeTripped):
             self.tripped.set()
+        publisher = self.publisher
+        if isinstance(event, p.StreamSample) and self.streamer:
+            publisher = self._samples_publisher(self.streamer)
         try:
-            self.publisher.put(event.encode())
+            publisher.put(event.encode())
         except zenoh.ZError as exc:
             log.debug("board 0x%04X: event not published: %s", self.board_id, exc)
+
+    def _samples_publisher(self, client: str) -> zenoh.Publisher:
+        """The publisher of the samples of ``client``'s stream (declared once per streamer)."""
+        if self._samples is None or self._samples[0] != client:
+            if self._samples is not None:
+                undeclare(self._samples[1])
+            publisher = self.server.session.declare_publisher(samples_key(self.board_id, client))
+            self._samples = (client, publisher)
+        return self._samples[1]
 
     # ---- requests --------------------------------------------------------------------
 
@@ -359,6 +386,8 @@ class ServedBoard:
 
         def done(reply: p.Reply | None, error: BaseException | None) -> None:
             frame = None
+            if isinstance(error, BoardError):
+                self._refused(client, request)
             if reply is not None:
                 try:
                     frame = self._after_link(client, request, reply)
@@ -387,7 +416,11 @@ class ServedBoard:
                         raise self._gone()
                     frame = self._answer_locally(client, request)
                     if frame is None:
-                        reply = await self.link.request(request)
+                        try:
+                            reply = await self.link.request(request)
+                        except BoardError:
+                            self._refused(client, request)
+                            raise
                         frame = self._after_link(client, request, reply)
                 except ArduinoIOError as exc:
                     error = exc
@@ -433,7 +466,25 @@ class ServedBoard:
         if isinstance(request, p.SetSession):
             self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
             return p.SetSessionReply(request.session).encode()
+        if isinstance(request, p.StreamStart):
+            # The stream's samples go to this client from its first sample on: the board
+            # sends them after its reply, which may be handled after they are published.
+            self._streamer_before, self.streamer = self.streamer, client
+        if type(request) in CLAIMS:
+            why = self.pins.claim(client, request)
+            if why is not None:  # the client gets the board's own refusal frame
+                log.info("board 0x%04X: refused %r of %s: %s", self.board_id, request, client, why)
+                raise BoardError(p.ErrorCode.PIN_BUSY, request, why)
         return None
+
+    def _refused(self, client: str, request: p.Request[Any]) -> None:
+        """The board refused ``request``: undo what the server recorded when it was
+        admitted.  Only a refusal: a request that timed out or lost its reply may have
+        been carried out (and the client's retry of an idempotent set-up may already be
+        on its way), so its claim stands."""
+        self.pins.refused(client, request)
+        if isinstance(request, p.StreamStart) and self.streamer == client:
+            self.streamer = self._streamer_before  # the board kept the stream it had
 
     def _after_link(self, client: str, request: p.Request[Any], reply: p.Reply) -> bytes:
         """The board's reply as ``client`` gets it; the server's records follow the request."""
@@ -448,8 +499,6 @@ class ServedBoard:
         elif isinstance(request, p.FailsafeDisarm):
             self.owner = None
             self.board.failsafe_tripped = False
-        elif isinstance(request, p.StreamStart):
-            self.streamer = client
         elif isinstance(request, p.StreamStop):
             self.streamer = None
         frame: bytes = reply.encode()
@@ -475,6 +524,7 @@ class ServedBoard:
     def client_gone(self, client: str) -> None:
         self.tags.pop(client, None)
         self.last_heard.pop(client, None)
+        self.pins.client_gone(client)
         if client == self.owner and not self.tripped.is_set():
             self._starve(f"client {client} vanished")
         if client == self.streamer:

@@ -136,5 +136,6 @@ class BoardServer:
         if sample.kind != zenoh.SampleKind.DELETE:
             return
         client = str(sample.key_expr).rsplit("/", 1)[-1]
+        log.info("client %s vanished (its session closed or its lease ran out)", client)
         for served in list(self.served.values()):
             served.client_gone(client)

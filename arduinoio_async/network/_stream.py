@@ -9,8 +9,9 @@ until every earlier slot is settled, so ``receive()`` yields reply frames strict
 order the requests were sent -- the order the transport's pending queue expects.
 Once a transport is attached (:meth:`RemoteByteStream.attach`), settled slots go
 straight to it from the callback that settled them: no reader task is woken per reply.
-Board-initiated frames (class 0x40) arrive as publications and join the same byte queue
-as they arrive; the transport's decoder sorts them from the replies as it does on a
+Board-initiated frames (class 0x40) arrive as publications -- the stream samples on this
+client's own key, so another client's stream costs it nothing -- and join the same byte
+queue as they arrive; the transport's decoder sorts them from the replies as it does on a
 serial line.
 
 A slot settles in one of three ways:
@@ -54,7 +55,7 @@ import zenoh
 
 from .. import protocol as p
 from ..errors import ArduinoIOError
-from ._keys import RemoteFault, decode_fault, events_key, request_key, undeclare
+from ._keys import RemoteFault, decode_fault, events_key, request_key, samples_key, undeclare
 from ._loop import LoopHandle, zenoh_callback
 
 __all__ = ["LINK_FAULT_BYTE", "RemoteByteStream"]
@@ -142,10 +143,10 @@ class RemoteByteStream(anyio.abc.ByteStream):
         self._relay: Callable[[ArduinoIOError], None] | None = None
         #: The server's link faults seen so far (class name and message), for diagnostics.
         self.faults: list[RemoteFault] = []
-        self._subscriber = session.declare_subscriber(
-            events_key(board_id),
-            self._loop.forward(self._deliver_event),
-        )
+        self._subscribers = [
+            session.declare_subscriber(key, self._loop.forward(self._deliver_event))
+            for key in (events_key(board_id), samples_key(board_id, client_id))
+        ]
 
     # ---- push mode: the transport's receive path --------------------------------------
 
@@ -233,7 +234,8 @@ class RemoteByteStream(anyio.abc.ByteStream):
         if self._on_lost is not None:
             self._on_lost(None)
         # Undeclaring waits for running callbacks; ours only schedule, so it is quick.
-        undeclare(self._subscriber)
+        for subscriber in self._subscribers:
+            undeclare(subscriber)
         undeclare(self._matcher)
         undeclare(self._querier)
 

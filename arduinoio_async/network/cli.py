@@ -21,13 +21,13 @@ import anyio
 import zenoh
 
 from ..errors import ArduinoIOError
-from ..manager import BoardManager, ManagerEvent
+from ..manager import BoardManager
 from ..protocol import DEFAULT_BAUD
 from ..transport import run as run_event_loop  # uvloop when installed
 from ._keys import DEFAULT_ENDPOINT, zenoh_config
 from ._server import BoardServer
 
-__all__ = ["build_parser", "main", "serve"]
+__all__ = ["build_parser", "listen_endpoints", "main", "serve"]
 
 log = logging.getLogger(__name__)
 
@@ -66,10 +66,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def listen_endpoints(config: zenoh.Config) -> list[str]:
+    """Where a session opened with ``config`` listens: the effective configuration (the
+    ``--config`` file with ``--listen`` over it), for the ready line."""
+    listen = json.loads(config.get_json("listen/endpoints"))
+    if isinstance(listen, dict):  # Zenoh's per-mode form: {"router": [...], "peer": [...]}
+        listen = listen.get(json.loads(config.get_json("mode")) or "peer", [])
+    return [str(endpoint) for endpoint in listen or []]
+
+
 async def serve(args: argparse.Namespace) -> None:
     """Run the server until cancelled."""
     listen = list(args.listen) or ([] if args.config else [DEFAULT_ENDPOINT])
     config = zenoh_config(listen=listen, connect=args.connect, config_file=args.config)
+    listen = listen_endpoints(config)
     session = await anyio.to_thread.run_sync(zenoh.open, config)
     try:
         async with BoardManager(
@@ -78,13 +88,8 @@ async def serve(args: argparse.Namespace) -> None:
             baudrate=args.baud,
             rescan_interval=args.rescan,
         ) as boards:
-
-            def report(event: ManagerEvent) -> None:
-                log.info(
-                    "board 0x%04X %s on %s %s", event.board_id, event.kind, event.port, event.detail
-                )
-
-            boards.subscribe(report)
+            # The manager logs its events itself (once each: a second log line here made
+            # every event appear twice).
             server = BoardServer(boards, session)
             async with anyio.create_task_group() as tg:
                 await tg.start(server.run)

@@ -6,6 +6,13 @@ fixed 4-5 s (what Firmata and Telemetrix clients do) is slow and still not safe.
 the host sends the paper's ID request every ``poll_interval`` and stops at the first valid
 reply, then drains the replies of earlier polls that may still be on their way, so the
 transport starts on a clean line.
+
+The drain ends when every poll has had its reply, or when no *reply* has come for
+``settle`` (a poll the booting board never heard gets none).  Board-initiated frames
+(class 0x40) are no replies: they neither end nor prolong the wait.  On a board served
+on the network another client's stream sends them without pause (every 20 ms for the
+monitor), so waiting for a quiet line would never end there; on a serial line a stream
+a previous program left running would do the same.
 """
 
 from __future__ import annotations
@@ -49,10 +56,12 @@ async def _wait_ready(
     request = p.ReadId().encode()
     heard = bytearray()
     board_id: int | None = None
+    polls = replies = 0
     while board_id is None:
         if anyio.current_time() >= deadline:
             raise BoardSilentError(name, bytes(heard), baudrate=getattr(stream, "baudrate", None))
         await stream.send(request)
+        polls += 1
         poll_end = min(deadline, anyio.current_time() + poll_interval)
         with anyio.move_on_after(max(0.0, poll_end - anyio.current_time())):
             while board_id is None:
@@ -60,10 +69,18 @@ async def _wait_ready(
                 heard += data[: max(0, 64 - len(heard))]
                 for item in decoder.feed(data):
                     if isinstance(item, p.ReadIdReply):
+                        replies += 1
                         board_id = item.board_id
-    # Replies to earlier polls may still arrive: let the line go quiet before handing over.
-    while True:
-        with anyio.move_on_after(settle):
-            await stream.receive()
-            continue
-        return board_id
+    # Replies to earlier polls may still arrive: drain them before handing over.
+    quiet_until = anyio.current_time() + settle
+    limit = max(deadline, quiet_until)  # a line that never stops babbling ends too
+    while (replies < polls or decoder.buffered) and anyio.current_time() < quiet_until:
+        with anyio.move_on_after(quiet_until - anyio.current_time()):
+            data = await stream.receive()
+            for item in decoder.feed(data):
+                if isinstance(item, p.Event):
+                    continue  # not an answer to a poll (see the module docstring)
+                if isinstance(item, p.ReadIdReply):
+                    replies += 1
+                quiet_until = min(limit, anyio.current_time() + settle)
+    return board_id

@@ -14,7 +14,7 @@ import socket
 import sys
 from collections.abc import AsyncIterator, Callable
 from contextlib import AbstractAsyncContextManager, asynccontextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import anyio
@@ -44,8 +44,24 @@ class Served:
 
     unos: dict[int, VirtualUno]
     endpoint: str
-    server: anyio.abc.Process
     ports_dir: Path
+    command: list[str]
+    env: dict[str, str]
+    server: anyio.abc.Process = field(init=False)
+
+    async def start(self) -> list[str]:
+        """Start the server (again, after ``stop``); return the boards it serves at once."""
+        self.server = await anyio.open_process(self.command, env=self.env, stderr=None)
+        assert self.server.stdout is not None
+        with anyio.fail_after(SERVER_START_TIMEOUT):
+            line = await BufferedByteReceiveStream(self.server.stdout).receive_until(b"\n", 4096)
+        serving: list[str] = json.loads(line)["serving"]
+        return serving
+
+    async def kill(self) -> None:
+        """SIGKILL the server, as a crash would end it."""
+        self.server.kill()
+        await self.server.wait()
 
     def link_port(self, board_id: int) -> None:
         """Point the board's symlink at its current port (after a replug)."""
@@ -81,23 +97,18 @@ def serve_unos(virtual_uno_factory: VirtualUnoFactory, tmp_path: Path) -> ServeF
         command += ["--listen", endpoint, "--rescan", "0.2", *server_args]
         for bid, uno in unos.items():
             (ports_dir / f"uno-{bid:04x}").symlink_to(uno.port)
-        server = await anyio.open_process(command, env=env, stderr=None)
-        served = Served(unos, endpoint, server, ports_dir)
+        served = Served(unos, endpoint, ports_dir, command, env)
         try:
-            assert served.server.stdout is not None
-            with anyio.fail_after(SERVER_START_TIMEOUT):
-                line = await BufferedByteReceiveStream(served.server.stdout).receive_until(
-                    b"\n", 4096
-                )
-            assert json.loads(line)["serving"] == [f"0x{bid:04X}" for bid in sorted(ids)]
+            assert await served.start() == [f"0x{bid:04X}" for bid in sorted(ids)]
             yield served
         finally:
-            with anyio.CancelScope(shield=True):
-                served.server.terminate()
-                with anyio.move_on_after(5):
-                    await served.server.wait()
-                if served.server.returncode is None:
-                    served.server.kill()
-                    await served.server.wait()
+            if hasattr(served, "server"):
+                with anyio.CancelScope(shield=True):
+                    served.server.terminate()
+                    with anyio.move_on_after(5):
+                        await served.server.wait()
+                    if served.server.returncode is None:
+                        served.server.kill()
+                        await served.server.wait()
 
     return serve

@@ -117,6 +117,11 @@
         option.textContent = ROLE_LABELS[role] || role;
         select.appendChild(option);
       }
+      // A role given by another program or client: shown, not chosen (choosing another
+      // role takes the pin over).
+      const elsewhere = document.createElement("option");
+      elsewhere.value = "elsewhere"; elsewhere.disabled = true; elsewhere.hidden = true;
+      select.appendChild(elsewhere);
       select.addEventListener("change", async () => {
         const result = await control(view, "role", { pin: pin.name, role: select.value },
           () => `${pin.name} is now ${ROLE_LABELS[select.value] || select.value}`);
@@ -223,9 +228,14 @@
   function renderPin(view, pin) {
     const state = view.pins[pin.name];
     const select = state.row.querySelector("select.role");
+    const elsewhere = select.querySelector('option[value="elsewhere"]');
+    elsewhere.hidden = pin.role !== "elsewhere";
+    elsewhere.textContent = pin.elsewhere ? `${pin.elsewhere} (set elsewhere)` : "";
+    state.row.dataset.elsewhere = pin.elsewhere || "";
     if (document.activeElement !== select) select.value = pin.role;
     const box = state.row.querySelector(".control");
-    if (state.role !== pin.role) {
+    if (state.role !== pin.role || state.elsewhere !== pin.elsewhere) {
+      state.elsewhere = pin.elsewhere;
       state.role = pin.role;
       box.replaceChildren(...buildControl(view, pin));
     }
@@ -235,6 +245,8 @@
     } else if (pin.role === "servo" || pin.role === "soft_pwm") {
       const slider = box.querySelector("input.pulse");
       if (document.activeElement !== slider && pin.value) slider.value = pin.value;
+      // No pulses: the slider says so (greyed) instead of standing at a width not sent.
+      slider.classList.toggle("off", !pin.value);
       box.querySelector("output").textContent = pin.value ? `${pin.value} µs` : "off";
     }
   }
@@ -254,13 +266,26 @@
       slider.type = "range"; slider.className = "pulse";
       slider.min = 1000; slider.max = 2000; slider.step = pin.role === "servo" ? 1 : 100;
       slider.value = pin.value || 1500;
+      slider.classList.toggle("off", !pin.value);
+      slider.title = "pulse width; greyed while no pulses go out";
       const shown = document.createElement("output");
+      shown.textContent = pin.value ? `${pin.value} µs` : "off";
       const send = latestOnly((us) => control(view, "pulse", { pin: key, us }));
-      slider.addEventListener("input", () => { shown.textContent = `${slider.value} µs`; send(Number(slider.value)); });
+      slider.addEventListener("input", () => {
+        slider.classList.remove("off");
+        shown.textContent = `${slider.value} µs`;
+        send(Number(slider.value));
+      });
       const off = document.createElement("button");
       off.type = "button"; off.textContent = "off"; off.className = "pulse-off";
       off.addEventListener("click", () => send(0));
       return [slider, shown, off];
+    }
+    if (pin.role === "elsewhere") {
+      const note = document.createElement("span");
+      note.className = "elsewhere";
+      note.textContent = "set by another program or client";
+      return [note];
     }
     if (pin.role.startsWith("counter_")) {
       const clear = document.createElement("button");

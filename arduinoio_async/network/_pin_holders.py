@@ -1,0 +1,135 @@
+"""Which client holds which pin of a served board, so one client cannot take another's.
+
+The board enforces one role *class* per pin (a PWM set-up on a GPIO pin is refused with
+``PIN_BUSY``) but lets any host turn a GPIO output into an input: on its own serial line
+there is one host, and the library refuses that change before sending it
+(:class:`~arduinoio_async.errors.PinRoleError`).  Several clients of one served board
+do not see each other's handles, so the server keeps the rule between them: a set-up of
+a pin that another *live* client holds in another role, or a release of such a pin, is
+refused with the board's own ``PIN_BUSY`` error reply, as a local board refuses a
+set-up of another class.  A set-up in the role the pin already has is accepted and
+shared (a restarted controller sets its pins up again; two clients may read one input);
+a vanished client's pins stay configured on the board but are held by nobody.
+
+A claim is recorded when the set-up is admitted (in arrival order, before it reaches
+the link), so two clients asking for one pin at once cannot both get it, and undone if
+the board refuses it (not when it timed out: it may have been carried out, and the
+client's retry may be admitted already).  Set-ups inside a transaction count as well.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from .. import protocol as p
+
+__all__ = ["PinHolders", "role_of"]
+
+#: Requests that give a pin a role or take it away.
+CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
+    {p.GpioConfig, p.PwmConfig, p.CounterConfig, p.PinRelease, p.Transaction}
+)
+
+
+def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
+    """(pin, role) that ``request`` sets up, (pin, "") for a release, else None."""
+    if isinstance(request, p.GpioConfig):
+        if request.flags & p.GpioFlags.OUTPUT:
+            return request.pin, "digital output"
+        pull_up = request.flags & p.GpioFlags.PULL_UP
+        return request.pin, "digital input with pull-up" if pull_up else "digital input"
+    if isinstance(request, p.PwmConfig):
+        return request.pin, "pulse output"
+    if isinstance(request, p.CounterConfig):
+        return request.pin, f"counter ({request.edge.name.lower()} edges)"
+    if isinstance(request, p.PinRelease):
+        return request.pin, ""
+    return None
+
+
+def _items(request: p.Transaction) -> list[p.Request[Any]]:
+    """The requests a transaction carries (those that decode; the board checks the rest)."""
+    out: list[p.Request[Any]] = []
+    items, pos = request.items, 0
+    decoder = p.Decoder.from_host()
+    while pos + 2 <= len(items):
+        cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
+        if cls is None:
+            break
+        layout = cls.LAYOUT
+        size = layout.base_size - 1
+        if layout.length_offset >= 0 and pos + layout.length_offset < len(items):
+            size += items[pos + layout.length_offset]
+        raw = items[pos : pos + size]
+        if len(raw) != size:
+            break
+        frames = decoder.feed(raw + bytes((p.checksum(raw),)))
+        decoder.reset()
+        out.extend(frame for frame in frames if isinstance(frame, p.Request))
+        pos += size
+    return out
+
+
+@dataclass
+class _Held:
+    role: str
+    clients: set[str] = field(default_factory=set)
+
+
+@dataclass
+class PinHolders:
+    """The pins of one served board that live clients hold, and in which role."""
+
+    pins: dict[int, _Held] = field(default_factory=dict)
+
+    def claim(self, client: str, request: p.Request[Any]) -> str | None:
+        """Record what ``request`` of ``client`` claims; return why it is refused instead
+        (the role another client holds the pin in), or None."""
+        roles = [role_of(item) for item in self._requests(request)]
+        wanted = [role for role in roles if role is not None]
+        for pin, role in wanted:
+            why = self._conflict(client, pin, role)
+            if why is not None:
+                return why
+        for pin, role in wanted:
+            self._take(client, pin, role)
+        return None
+
+    def refused(self, client: str, request: p.Request[Any]) -> None:
+        """The board refused ``request``: ``client`` holds nothing through it."""
+        for item in self._requests(request):
+            found = role_of(item)
+            if found is None:
+                continue
+            held = self.pins.get(found[0])
+            if held is not None and held.role == found[1]:
+                held.clients.discard(client)
+                if not held.clients:
+                    del self.pins[found[0]]
+
+    def client_gone(self, client: str) -> None:
+        """A vanished client holds nothing; its pins keep their roles on the board."""
+        for pin, held in list(self.pins.items()):
+            held.clients.discard(client)
+            if not held.clients:
+                del self.pins[pin]
+
+    @staticmethod
+    def _requests(request: p.Request[Any]) -> list[p.Request[Any]]:
+        return _items(request) if isinstance(request, p.Transaction) else [request]
+
+    def _conflict(self, client: str, pin: int, role: str) -> str | None:
+        held = self.pins.get(pin)
+        if held is None or not held.clients - {client} or held.role == role:
+            return None
+        return f"D{pin} is a {held.role} of another client"
+
+    def _take(self, client: str, pin: int, role: str) -> None:
+        held = self.pins.get(pin)
+        if not role:  # a release: the pin is free (no other client held it)
+            self.pins.pop(pin, None)
+        elif held is not None and held.role == role:
+            held.clients.add(client)
+        else:
+            self.pins[pin] = _Held(role, {client})
