@@ -19,6 +19,13 @@ Each test has an oracle that failed on the harness before the fix:
   jump against the wall when a host byte ends an idle run-ahead, so a request after an
   idle spell met the frame 0.6-1 ms early every time; now the bridge clocks keep wall
   time and the request meets the frame at a random phase.
+* writing another pin of port B (D12) cut the D9 servo pulse short: simavr drives OC1A's
+  pin from the PORTB bit on every PORTB write; on silicon the compare output overrides
+  the port bit while COM1A connects it, and now the harness models the pin that way;
+* under back-to-back requests the simulated clock ran ~8x faster than the wall clock
+  (each request ended an idle run-ahead of up to 2 ms, which the time base then dropped),
+  so a servo gave ~430 pulses per wall second; now the idle run-ahead grows with the
+  idle time and the simulated clock keeps to the wall clock within a few per cent.
 
 Blocking pyserial calls run in worker threads (``anyio.to_thread``).
 """
@@ -36,12 +43,14 @@ import anyio
 import pytest
 import serial
 
+from arduinoio_async import DigitalPin
 from arduinoio_async import protocol as proto
 from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardTimeoutError
 from arduinoio_async.sim import VirtualUno, find_firmware_elf
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from ..e2e.pulses import fresh_pulses
 from .conftest import start_test_board
 
 sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
@@ -344,3 +353,34 @@ async def test_16u2_usb_frames_keep_wall_time_across_idle_spells(
     assert all(0 < w <= 1050 for w in waits_us)
     # uniform over 0-1 ms: fewer than 8 of 40 in the first half has probability ~3e-5
     assert sum(w < 500 for w in waits_us) >= 8
+
+
+@pytest.mark.parametrize("other", [DigitalPin.D12, DigitalPin.D4])
+async def test_writes_to_port_b_leave_the_servo_pulse_alone(
+    virtual_uno_factory: VirtualUnoFactory, other: DigitalPin
+) -> None:
+    """While COM1A connects OC1A, the timer drives D9, not PORTB bit 1: writing D12 (port
+    B) as fast as the link allows must not touch D9's pulses (D4, port D, is the control).
+    32 pulses, each measured by the fixture's capture on D9."""
+    uno = await virtual_uno_factory(board_id=7)
+    async with Board.open(uno.port, baudrate=uno.baud, timeout=2.0) as board:
+        await board.servo(DigitalPin.D9, pulse_us=1500)
+        output = await board.digital_output(other)
+        writes = 0
+
+        async def write_forever() -> None:
+            nonlocal writes
+            while True:
+                await output.write(writes % 2 == 0)
+                writes += 1
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(write_forever)
+            await fresh_pulses(uno, "D9", 1)  # from a whole pulse under the writes
+            stats = await fresh_pulses(uno, "D9", 32, within=10.0)
+            tg.cancel_scope.cancel()
+    widths = stats.high_us[-32:]
+    off = [w for w in widths if abs(w - 1500) > 1]
+    print(f"\n{other.name} writes: {writes}, D9 pulses off-width: {len(off)} of {len(widths)}")
+    assert writes > 100
+    assert not off, widths
