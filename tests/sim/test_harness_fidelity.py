@@ -384,3 +384,54 @@ async def test_writes_to_port_b_leave_the_servo_pulse_alone(
     print(f"\n{other.name} writes: {writes}, D9 pulses off-width: {len(off)} of {len(widths)}")
     assert writes > 100
     assert not off, widths
+
+
+def _back_to_back(port: str, baud: int, seconds: float) -> int:
+    """READ IDs one after another for ``seconds`` of wall time; returns how many."""
+    link = serial.Serial(port, baud, timeout=1.0)
+    try:
+        request, count = proto.ReadId().encode(), 0
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            link.write(request)
+            if len(link.read(5)) != 5:
+                raise AssertionError("no reply to READ ID")
+            count += 1
+        return count
+    finally:
+        link.close()
+
+
+async def test_the_simulated_clock_keeps_to_the_wall_under_back_to_back_requests(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """A servo gives 50 pulses per *wall* second while the host sends requests back to
+    back.  Each request used to end an idle run-ahead of up to 2 ms, which the time base
+    dropped, so the simulated clock ran ~8x (2x on a loaded machine) faster than the
+    wall: 100-430 pulses a wall second.  The pulses are counted by the fixture's capture
+    on D9 over a window timed on the wall clock.
+
+    Tolerance: at most 6 % above 50/s (the idle run-ahead may gain 1/32 of the wall
+    time, ~3 %, and each request may end up to the answering lead early, measured
+    ~2 % at 1 Mbaud); below, 40/s, as a machine too loaded for the harness to keep up
+    makes it fall behind (``rebases``), which is not what this test is about."""
+    uno = await virtual_uno_factory(baud=1_000_000, board_id=8)
+    async with Board.open(uno.port, baudrate=uno.baud, timeout=2.0) as board:
+        await board.servo(DigitalPin.D9, pulse_us=1500)
+    await fresh_pulses(uno, "D9", 1)
+    before = await uno.status()
+    await uno.clear_pulse_stats("D9")
+    start = time.monotonic()
+    requests = await anyio.to_thread.run_sync(_back_to_back, uno.port, uno.baud, 2.0)
+    wall = time.monotonic() - start
+    pulses = (await uno.pulse_stats("D9")).highs
+    after = await uno.status()
+    gained_ms = (after["runahead_jump_us"] - before["runahead_jump_us"]) / 1000
+    jumps = after["runahead_jumps"] - before["runahead_jumps"]
+    print(
+        f"\n{requests} requests in {wall:.2f} s: {pulses / wall:.1f} servo pulses per wall "
+        f"second; simulated clock gained {gained_ms:.1f} ms in {jumps} jumps, "
+        f"rebases {after['rebases'] - before['rebases']}"
+    )
+    assert requests > 200
+    assert 40 <= pulses / wall <= 50 * 1.06
