@@ -19,7 +19,9 @@ so it competes for the server, not for this process's CPU) runs one attack per p
 Recorded per phase: the legitimate client's round trips (p50, p99, max, in wall-clock
 milliseconds) and the errors it got by class; the attacker's queries, answers and errors
 by class; the server's resident memory (VmRSS) before and after the phase and after the
-rest that follows it.  Every loop is bounded by a count and a deadline; loopback only.
+rest that follows it.  The legitimate client's round trips count successful calls; its
+longest stall is the longest time between two successful replies (a failed call is
+retried after 1 ms).  Every loop is bounded by a count and a deadline; loopback only.
 
     .venv/bin/python benchmarks/network_attacks.py --json benchmarks/results/network_attacks.json
 """
@@ -181,6 +183,7 @@ async def run_phase(
     }
     rss_before = rss_kb(server.pid)
     rtts: list[float] = []
+    stalls = [0.0]  # the longest time without a successful reply
     errors: collections.Counter[str] = collections.Counter()
     attacker_result: dict[str, Any] = {}
     async with open_remote_board(BOARD_ID, connect=[endpoint], timeout=1.0) as board:
@@ -188,13 +191,18 @@ async def run_phase(
 
         async def legitimate() -> None:
             deadline = anyio.current_time() + ATTACK_DEADLINE + 30
+            last_ok = time.perf_counter()
             while not finished.is_set() and anyio.current_time() < deadline:
                 start = time.perf_counter()
                 try:
                     await board.read_id()
                 except ArduinoIOError as exc:
                     errors[type(exc).__name__] += 1
+                    await anyio.sleep(0.001)  # a disconnected board fails at once
+                    continue
                 rtts.append(time.perf_counter() - start)
+                stalls[0] = max(stalls[0], time.perf_counter() - last_ok)
+                last_ok = time.perf_counter()
 
         async with anyio.create_task_group() as tg:
             tg.start_soon(legitimate)
@@ -211,6 +219,7 @@ async def run_phase(
     await anyio.sleep(args.rest)
     return {
         "legitimate_ms": summary_ms(rtts),
+        "legitimate_longest_stall_ms": round(stalls[0] * 1e3, 1),
         "legitimate_errors": dict(errors),
         "attacker": attacker_result,
         "server_rss_kb": {"before": rss_before, "after": rss_after, "rested": rss_kb(server.pid)},
