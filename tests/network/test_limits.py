@@ -15,6 +15,7 @@ on the server before its fix:
 
 from __future__ import annotations
 
+import json
 import threading
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -25,7 +26,13 @@ import zenoh
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.network import zenoh_config
-from arduinoio_async.network._keys import client_key, decode_fault, request_key, undeclare
+from arduinoio_async.network._keys import (
+    MAX_MESSAGE,
+    client_key,
+    decode_fault,
+    request_key,
+    undeclare,
+)
 from arduinoio_async.network._limits import (
     CLIENT_QUERIES,
     CLIENT_RECORDS,
@@ -132,6 +139,14 @@ async def test_too_large_a_payload_or_attachment_is_refused_from_its_length() ->
         # the longest real frame is well inside the limit
         longest = max(t.LAYOUT.max_size for t in p.REQUEST_TYPES.values())
         assert longest < MAX_PAYLOAD <= 2 * longest
+
+
+def test_zenoh_drops_a_message_larger_than_any_of_ours() -> None:
+    """Between processes a query of megabytes is dropped by Zenoh before it is whole (its
+    sender times out), so it costs this process no more than MAX_MESSAGE bytes."""
+    config = zenoh_config(listen=["tcp/127.0.0.1:0"])
+    assert json.loads(config.get_json("transport/link/rx/max_message_size")) == MAX_MESSAGE
+    assert MAX_PAYLOAD < MAX_MESSAGE <= 64 * 1024
 
 
 async def test_per_client_records_stay_bounded_and_a_live_client_keeps_its_tag() -> None:
