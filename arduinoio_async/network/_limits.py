@@ -11,10 +11,11 @@ legitimate client's latency under each attack):
   alone, in Zenoh's thread, with a ``ProtocolError`` to its sender.  (A 1 MB payload used
   to be decoded byte by byte under the board's lock: 2.5 s in which every other client
   waited.)
-* **Queries in progress, per client.**  A client (its attachment; queries without one
-  share one client) has at most :data:`CLIENT_QUERIES` queries on their way to the board
-  at once; later ones wait in the client's own queue, in order, and go on as its earlier
-  ones are answered.  So a client flooding the server holds at most that many places
+* **Queries in progress, per client.**  A client (its attachment, if its liveliness
+  token is up; all other queries -- no attachment, or a made-up one -- share one client)
+  has at most :data:`CLIENT_QUERIES` queries on their way to the board at once; later
+  ones wait in the client's own queue, in order, and go on as its earlier ones are
+  answered.  So a client flooding the server holds at most that many places
   ahead of anyone else's request, whatever it sends, and a library client (64 requests in
   flight at most) is slowed, never refused.  Past :data:`CLIENT_BACKLOG` waiting queries
   of one client, or :data:`SERVER_BACKLOG` for the whole board, a query is refused with a
@@ -29,16 +30,18 @@ legitimate client's latency under each attack):
   fresh board (session 0): it restores its pin roles, as after a reset, and sets its tag
   again.
 
-The attachment is whatever the client declares: a hostile peer that sends a new one with
-every query gets a share per query, so the server-wide backlog is the bound there; keeping
-such peers off the network is the job of Zenoh's access control (docs/network.md).
+The attachment is whatever the client declares; only a client that also holds a liveliness
+token gets a share of its own, so a peer inventing a new attachment per query shares one
+share with every other such query.  A peer that declares tokens too gets a share per
+token (the server tracks at most ``LIVE_CLIENTS``): keeping such peers off the network is
+the job of Zenoh's access control (docs/network.md).
 """
 
 from __future__ import annotations
 
 import collections
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Set
 from typing import Generic, TypeVar
 
 import zenoh
@@ -96,10 +99,15 @@ def oversized(query: zenoh.Query) -> str | None:
     return None
 
 
-def client_key(query: zenoh.Query) -> bytes:
-    """The client a query counts against: its attachment (``b""`` without one)."""
+def client_key(query: zenoh.Query, live: Set[str]) -> bytes:
+    """The client a query counts against: its attachment if that client's liveliness
+    token is up (``live``), else ``b""``: every query without a live client -- no
+    attachment, or one made up -- shares one client's share."""
     attachment = query.attachment
-    return attachment.to_bytes() if attachment is not None else b""
+    if attachment is None:
+        return b""
+    raw = attachment.to_bytes()
+    return raw if raw.decode(errors="replace") in live else b""
 
 
 class ClientQueues:
@@ -113,6 +121,7 @@ class ClientQueues:
         self.per_client = per_client
         self._running: dict[bytes, int] = {}
         self._waiting: dict[bytes, collections.deque[zenoh.Query]] = {}
+        self._key_of: dict[int, bytes] = {}  # id() of each query in progress: its client
         self._backlog = 0
 
     def admit(self, key: bytes, query: zenoh.Query) -> bool | str:
@@ -122,6 +131,7 @@ class ClientQueues:
         running = self._running.get(key, 0)
         if waiting is None and running < self.per_client:
             self._running[key] = running + 1
+            self._key_of[id(query)] = key
             return True
         if waiting is None:
             waiting = self._waiting[key] = collections.deque()
@@ -136,15 +146,20 @@ class ClientQueues:
         self._backlog += 1
         return False
 
-    def done(self, key: bytes) -> zenoh.Query | None:
-        """A query of ``key`` was answered: the client's next waiting query, now admitted."""
+    def done(self, query: zenoh.Query) -> zenoh.Query | None:
+        """An admitted ``query`` was answered: its client's next waiting query, now admitted
+        (None: none waits, or ``query`` was never admitted)."""
+        key = self._key_of.pop(id(query), None)
+        if key is None:
+            return None
         waiting = self._waiting.get(key)
         if waiting:
-            query = waiting.popleft()
+            following = waiting.popleft()
             self._backlog -= 1
             if not waiting:
                 del self._waiting[key]
-            return query  # takes the finished query's place: the count stays
+            self._key_of[id(following)] = key
+            return following  # takes the finished query's place: the count stays
         running = self._running.get(key, 0) - 1
         if running > 0:
             self._running[key] = running
@@ -158,6 +173,7 @@ class ClientQueues:
             yield from waiting
         self._waiting.clear()
         self._running.clear()
+        self._key_of.clear()
         self._backlog = 0
 
     @property

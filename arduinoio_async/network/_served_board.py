@@ -222,7 +222,7 @@ class ServedBoard(FailsafeOwner):
             self._refuse(query, ProtocolError(too_large))
             return
         with self._lock:
-            admitted = self._queues.admit(client_key(query), query)
+            admitted = self._queues.admit(client_key(query, self.server.live_clients), query)
             if admitted is not True:
                 if admitted is not False:
                     self._refuse(query, UsageError(admitted))
@@ -423,11 +423,10 @@ class ServedBoard(FailsafeOwner):
         """Answer ``query`` with the reply frame, the board's error reply or a fault;
         ``looped``: the query came through the loop (the count of those goes down).  The
         client's next waiting query, if any, goes on in its place."""
-        key = client_key(query)
         with self._lock:
             if looped:
                 self._in_loop -= 1
-            following = self._queues.done(key)
+            following = self._queues.done(query)
             if following is not None:
                 self._in_loop += 1
                 self._loop.call_soon(self._admit, following)

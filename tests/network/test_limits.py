@@ -198,9 +198,13 @@ def test_records_expire_and_kept_clients_stay() -> None:
 async def test_a_flooding_client_holds_only_its_share_ahead_of_another() -> None:
     # Each reply takes the board 1 ms, so the flood is still waiting when the legit query
     # comes, however slowly this machine sends it.
-    async with served_fake(Faults(delay=(0.001, 0.001))) as (_served, session):
+    async with served_fake(Faults(delay=(0.001, 0.001))) as (served, session):
         replies = Replies()
         flood = 400
+        token = session.liveliness().declare_token(client_key("legit"))
+        with anyio.fail_after(5):
+            while "legit" not in served.server.live_clients:  # noqa: ASYNC110 (no event)
+                await anyio.sleep(0.01)
 
         def send_flood() -> None:
             for _ in range(flood):
@@ -228,3 +232,39 @@ async def test_a_flooding_client_holds_only_its_share_ahead_of_another() -> None
         # The runaway client holds at most its share of places ahead of another client's
         # request (plus the few answered while that request crossed to the board).
         assert ahead <= 2 * CLIENT_QUERIES
+        undeclare(token)
+
+
+async def test_made_up_clients_share_one_share() -> None:
+    """Queries whose attachment names no live client (one made up per query) count as one
+    client: at most its share of them is ahead of a live client's request."""
+    async with served_fake(Faults(delay=(0.001, 0.001))) as (served, session):
+        replies = Replies()
+        token = session.liveliness().declare_token(client_key("legit"))
+        with anyio.fail_after(5):
+            while "legit" not in served.server.live_clients:  # noqa: ASYNC110 (no event)
+                await anyio.sleep(0.01)
+        flood = 400
+
+        def send_flood() -> None:
+            for number in range(flood):
+                replies.get(session, "made-up", p.ReadStatus().encode(), b"made-up-%d" % number)
+
+        await anyio.to_thread.run_sync(send_flood)
+        with replies.lock:
+            answered_when_sent = len(replies.order)
+        replies.get(session, "legit", p.ReadId().encode(), b"legit")
+        order = await anyio.to_thread.run_sync(replies.wait, flood + 1, 60.0)
+        legit_at = next(i for i, (who, _) in enumerate(order) if who == "legit")
+        assert order[legit_at][1] == p.ReadIdReply(BOARD).encode().hex()
+        board_answers = [
+            i for i, (who, o) in enumerate(order) if who == "made-up" and "Error" not in o
+        ]
+        ahead = sum(1 for i in board_answers if answered_when_sent <= i < legit_at)
+        waiting = sum(1 for i in board_answers if i >= answered_when_sent)
+        print(
+            f"\nmade-up clients: {waiting} answered after the legit query went, {ahead} before it"
+        )
+        assert waiting > 4 * CLIENT_QUERIES, "the flood was over too soon"
+        assert ahead <= 2 * CLIENT_QUERIES
+        undeclare(token)
