@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 
 __all__ = ["STARVE_MARGIN", "STARVE_TICK", "FailsafeOwner"]
 
-log = logging.getLogger(__name__.rsplit(".", 1)[0] + "._served_board")
+log = logging.getLogger(__name__)
 
 #: After the failsafe owner is gone the board is starved this much beyond its timeout at
 #: most (a trip report normally ends the starvation sooner).
