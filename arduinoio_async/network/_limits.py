@@ -99,7 +99,7 @@ def oversized(query: zenoh.Query) -> str | None:
     return None
 
 
-def client_key(query: zenoh.Query, live: Set[str]) -> bytes:
+def fair_key(query: zenoh.Query, live: Set[str]) -> bytes:
     """The client a query counts against: its attachment if that client's liveliness
     token is up (``live``), else ``b""``: every query without a live client -- no
     attachment, or one made up -- shares one client's share."""

@@ -87,7 +87,7 @@ from ..errors import (
 from ..protocol.session import Exchange
 from ..transport import Transport
 from ._keys import announcement_key, encode_fault, events_key, request_key, undeclare
-from ._limits import ClientQueues, ClientRecords, client_key, oversized
+from ._limits import ClientQueues, ClientRecords, fair_key, oversized
 from ._loop import zenoh_callback
 from ._owner import FailsafeOwner
 from ._resumer import Resumer
@@ -222,7 +222,7 @@ class ServedBoard(FailsafeOwner):
             self._refuse(query, ProtocolError(too_large))
             return
         with self._lock:
-            admitted = self._queues.admit(client_key(query, self.server.live_clients), query)
+            admitted = self._queues.admit(fair_key(query, self.server.live_clients), query)
             if admitted is not True:
                 if admitted is not False:
                     self._refuse(query, UsageError(admitted))
