@@ -131,7 +131,8 @@ class MonitorHub:
             if panel is None:
                 raise UsageError(f"no board {request.get('board')!r} on this monitor")
             reply["data"] = await panel.perform(str(request.get("op")), request)
-        except (ArduinoIOError, KeyError, TypeError, ValueError) as exc:  # bad input or refusal
+        except (ArduinoIOError, KeyError, TypeError, ValueError, OverflowError) as exc:
+            # Bad input or a refusal (OverflowError: ``int()`` of an infinite float).
             logger.info("monitor: %s refused: %s", request.get("op"), exc)
             reply["ok"] = False
             reply["error"] = describe_error(exc)

@@ -21,7 +21,7 @@ import anyio
 import uvicorn
 
 from ..errors import UsageError
-from ._app import create_app, missing_assets
+from ._app import MAX_MESSAGE, create_app, missing_assets
 from ._hub import MonitorHub
 
 if TYPE_CHECKING:
@@ -135,6 +135,7 @@ async def serve_monitor(
         log_level="warning",
         lifespan="off",
         ws="websockets-sansio",
+        ws_max_size=MAX_MESSAGE,
         timeout_graceful_shutdown=SHUTDOWN_GRACE,
     )
     server = _Server(config)

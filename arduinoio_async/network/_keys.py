@@ -68,6 +68,8 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 #: How long a silent peer counts as alive (ms).  Zenoh's default is 10 s; a shorter lease
 #: lets the server notice a dead client (pulled cable, frozen machine) sooner.
 DEFAULT_LEASE_MS = 1000
+#: Bytes of one Zenoh message a peer may send us at most (Zenoh's default is 1 GiB).
+MAX_MESSAGE = 64 * 1024
 
 PREFIX = "arduinoio"
 ALL_BOARDS = f"{PREFIX}/board/*/server/*"
@@ -193,6 +195,9 @@ def zenoh_config(
         config.insert_json5("scouting/multicast/enabled", "false")
         config.insert_json5("listen/endpoints", "[]")
         config.insert_json5("transport/link/tx/lease", str(DEFAULT_LEASE_MS))
+        # Zenoh drops a larger message before it is whole (the sender's query times out):
+        # no frame of ours comes near this, and a 16 MB query cannot cost 16 MB here.
+        config.insert_json5("transport/link/rx/max_message_size", str(MAX_MESSAGE))
     if listen:
         config.insert_json5("listen/endpoints", json.dumps(list(listen)))
     if connect:

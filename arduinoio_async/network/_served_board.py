@@ -96,7 +96,9 @@ from ._keys import (
     samples_key,
     undeclare,
 )
+from ._limits import ClientQueues, ClientRecords, fair_key, oversized
 from ._loop import zenoh_callback
+from ._owner import FailsafeOwner
 from ._pin_holders import CLAIMS, PinHolders
 from ._resumer import Resumer
 
@@ -107,11 +109,6 @@ __all__ = ["ServedBoard"]
 
 log = logging.getLogger(__name__)
 
-#: After the failsafe owner is gone the board is starved this much beyond its timeout at
-#: most (a trip report normally ends the starvation sooner).
-STARVE_MARGIN = 0.2
-#: How often a starving board's heartbeat is held off and its owner's silence is checked.
-STARVE_TICK = 0.02
 #: Why a remote ``write_id`` is refused (it reaches the client as a UsageError).
 WRITE_ID_REFUSED = (
     "board 0x{board:04X}: write_id(0x{new:04X}) is refused over the network: the server, "
@@ -142,7 +139,7 @@ class _Tag:
     boot: int | None  # None: set after a reboot the server has not re-tagged yet
 
 
-class ServedBoard:
+class ServedBoard(FailsafeOwner):
     """One board on the network: queryable, event publisher, liveliness token."""
 
     def __init__(self, server: BoardServer, board: Board) -> None:
@@ -155,7 +152,6 @@ class ServedBoard:
         # Parsed once: a key given as a string is parsed and checked on every reply.
         self.key = zenoh.KeyExpr(request_key(self.board_id))
         self.closed = False
-        self.tags: dict[str, _Tag] = {}
         self.stale = False  # the board rebooted and the manager has not re-tagged it yet
         self.owner: str | None = None  # the client whose failsafe is armed
         self.owner_timeout = 0.0
@@ -164,7 +160,6 @@ class ServedBoard:
         self._streamer_before: str | None = None  # while a StreamStart is on its way
         self._samples: tuple[str, zenoh.Publisher] | None = None  # (streamer, publisher)
         self.pins = PinHolders()  # which client holds which pin, in which role
-        self.last_heard: dict[str, float] = {}
         self.gate: anyio.Event | None = None  # while the board is being starved
         self.tripped = anyio.Event()
         self._decoder = p.Decoder.from_host()  # the loop's
@@ -181,6 +176,10 @@ class ServedBoard:
         except RuntimeError:
             self._now = anyio.current_time
             self._direct = False
+        # Bounded and expiring (see ._limits); the failsafe's owner and the streamer stay.
+        self.tags = ClientRecords[_Tag](self._now, self._keeps)
+        self.last_heard = ClientRecords[float](self._now, self._keeps)
+        self._queues = ClientQueues()  # queries in progress and waiting, per client
         self._clients: dict[bytes, str] = {}  # attachments seen, decoded once
         self._requests: dict[bytes, p.Request[Any]] = {}  # frames seen, decoded once
         #: Held by Zenoh's threads from checking that a query may skip the loop until its
@@ -206,6 +205,9 @@ class ServedBoard:
         with self._lock:
             self.closed = True
         self._admitted.close()  # the workers answer what was admitted, then end
+        with self._lock:
+            for query in self._queues.drain():
+                self._refuse(query, self._gone())
         self._unsubscribe()
         for entity in (self.token, self.queryable, self.publisher):
             undeclare(entity)
@@ -240,8 +242,18 @@ class ServedBoard:
 
     def _arrive(self, query: zenoh.Query) -> None:
         """In Zenoh's thread: the query's request goes on the link right here if nothing
-        holds it back, else the query goes to the loop (see the module docstring)."""
+        holds it back, else the query goes to the loop (see the module docstring).  Too
+        large a query is refused; a client's query past its share waits (see ._limits)."""
+        too_large = oversized(query)
+        if too_large is not None:
+            self._refuse(query, ProtocolError(too_large))
+            return
         with self._lock:
+            admitted = self._queues.admit(fair_key(query, self.server.live_clients), query)
+            if admitted is not True:
+                if admitted is not False:
+                    self._refuse(query, UsageError(admitted))
+                return  # False: it waits; ``_reply`` of the client's earlier query admits it
             if self._in_loop == 0 and self.gate is None and self.owner is None:
                 request = self._request_in(query, self._thread_decoder)
                 if (
@@ -336,9 +348,11 @@ class ServedBoard:
         if attachment is None:
             return "", request
         raw = attachment.to_bytes()
-        client = self._clients.get(raw) or self._clients.setdefault(
-            raw, raw.decode(errors="replace")
-        )
+        client = self._clients.get(raw)
+        if client is None:
+            if len(self._clients) >= KNOWN_FRAMES:
+                self._clients.clear()
+            client = self._clients[raw] = raw.decode(errors="replace")
         return client, request
 
     def _request_in(self, query: zenoh.Query, decoder: p.Decoder) -> p.Request[Any] | None:
@@ -440,10 +454,15 @@ class ServedBoard:
         looped: bool = True,
     ) -> None:
         """Answer ``query`` with the reply frame, the board's error reply or a fault;
-        ``looped``: the query came through the loop (the count of those goes down)."""
-        if looped:
-            with self._lock:
+        ``looped``: the query came through the loop (the count of those goes down).  The
+        client's next waiting query, if any, goes on in its place."""
+        with self._lock:
+            if looped:
                 self._in_loop -= 1
+            following = self._queues.done(query)
+            if following is not None:
+                self._in_loop += 1
+                self._loop.call_soon(self._admit, following)
         with query, contextlib.suppress(zenoh.ZError):  # ZError: the session is closing
             if frame is not None:
                 query.reply(self.key, frame)
@@ -458,6 +477,15 @@ class ServedBoard:
             else:
                 log.error("board 0x%04X: %r failed: %r", self.board_id, request, error)
                 query.reply_err(encode_fault(LinkResyncError(f"server failure: {error!r}")))
+
+    @staticmethod
+    def _refuse(query: zenoh.Query, error: ArduinoIOError) -> None:
+        with query, contextlib.suppress(zenoh.ZError):  # not counted in progress: no release
+            query.reply_err(encode_fault(error))
+
+    def _keeps(self, client: str) -> bool:
+        """Whether ``client``'s records stay: owner, streamer, or its liveliness is up."""
+        return client in (self.owner, self.streamer) or client in self.server.live_clients
 
     def _answer_locally(self, client: str, request: p.Request[Any]) -> bytes | None:
         """The reply of a request the server answers itself, or None: it goes to the link."""
@@ -519,64 +547,7 @@ class ServedBoard:
             session = 0
         return p.ReadStatusReply(raw.flags, session)
 
-    # ---- the failsafe's owner ----------------------------------------------------------
-
     def client_gone(self, client: str) -> None:
-        self.tags.pop(client, None)
-        self.last_heard.pop(client, None)
+        """A client's liveliness token vanished: it holds no pins any more."""
         self.pins.client_gone(client)
-        if client == self.owner and not self.tripped.is_set():
-            self._starve(f"client {client} vanished")
-        if client == self.streamer:
-            self.streamer = None
-            self.server.start_soon(self._stop_stream_of, client)
-
-    async def _stop_stream_of(self, client: str) -> None:
-        """Nobody reads a vanished client's stream: stop it (after any starving)."""
-        if self.gate is not None:
-            await self.gate.wait()
-        try:
-            await self.link.request(p.StreamStop())
-        except ArduinoIOError as exc:
-            log.info("board 0x%04X: stream of %s not stopped: %s", self.board_id, client, exc)
-        else:
-            log.info(
-                "board 0x%04X: stopped the stream of vanished client %s", self.board_id, client
-            )
-
-    async def _watch_owner(self, client: str, arm: int) -> None:
-        """While ``client`` owns this arming, starve the board once it falls silent."""
-        while (
-            self.arms == arm
-            and self.owner == client
-            and not self.closed
-            and not self.tripped.is_set()
-        ):
-            silent_for = anyio.current_time() - self.last_heard.get(client, 0.0)
-            if silent_for > self.owner_timeout and self.gate is None:
-                self._starve(f"client {client} silent for {silent_for * 1000:.0f} ms")
-                return
-            await anyio.sleep(max(STARVE_TICK, self.owner_timeout - silent_for))
-
-    def _starve(self, reason: str) -> None:
-        if self.gate is not None or self.closed:
-            return
-        log.warning("board 0x%04X: %s; letting its failsafe trip", self.board_id, reason)
-        with self._lock:
-            self.gate = anyio.Event()
-        self.server.start_soon(self._starve_until_tripped, self.gate)
-
-    async def _starve_until_tripped(self, gate: anyio.Event) -> None:
-        give_up = anyio.current_time() + self.owner_timeout + STARVE_MARGIN
-        try:
-            while not self.tripped.is_set() and anyio.current_time() < give_up:
-                # The manager's heartbeat skips a link that sent recently: keep it quiet.
-                self.link.last_send = anyio.current_time()
-                with anyio.move_on_after(STARVE_TICK):
-                    await self.tripped.wait()
-            if not self.tripped.is_set():
-                log.warning("board 0x%04X: no failsafe trip reported", self.board_id)
-        finally:
-            self.owner = None
-            self.gate = None
-            gate.set()
+        super().client_gone(client)

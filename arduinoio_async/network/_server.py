@@ -24,6 +24,7 @@ from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStre
 from ..board import Board
 from ..manager import BoardManager, ManagerEvent
 from ._keys import ALL_CLIENTS, connection_key, undeclare
+from ._limits import LIVE_CLIENTS
 from ._loop import LoopHandle
 from ._served_board import ServedBoard
 
@@ -45,6 +46,9 @@ class BoardServer:
         self.manager = manager
         self.session = session
         self.served: dict[int, ServedBoard] = {}
+        #: Clients whose liveliness token is up (at most LIVE_CLIENTS): their per-client
+        #: records are never forgotten for room (see ._limits).
+        self.live_clients: set[str] = set()
         self._task_group: anyio.abc.TaskGroup | None = None
         self._spawn: MemoryObjectSendStream[_Spawn] | None = None
         self._loop: LoopHandle | None = None
@@ -82,6 +86,7 @@ class BoardServer:
         clients = self.session.liveliness().declare_subscriber(
             ALL_CLIENTS,
             loop.forward(self._on_client),
+            history=True,
         )
         unsubscribe = self.manager.subscribe(self._on_manager_event)
         try:
@@ -133,9 +138,12 @@ class BoardServer:
             log.debug("connection event not published: %s", exc)
 
     def _on_client(self, sample: zenoh.Sample) -> None:
-        if sample.kind != zenoh.SampleKind.DELETE:
-            return
         client = str(sample.key_expr).rsplit("/", 1)[-1]
+        if sample.kind != zenoh.SampleKind.DELETE:
+            if len(self.live_clients) < LIVE_CLIENTS:
+                self.live_clients.add(client)
+            return
+        self.live_clients.discard(client)
         log.info("client %s vanished (its session closed or its lease ran out)", client)
         for served in list(self.served.values()):
             served.client_gone(client)

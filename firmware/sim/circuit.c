@@ -12,6 +12,7 @@
 
 #include "avr_adc.h"
 #include "avr_ioport.h"
+#include "avr_timer.h"
 #include "avr_twi.h"
 #include "sim_io.h"
 #include "sim_irq.h"
@@ -53,6 +54,51 @@ int loop_partner(int p)
 int is_out(int p) { return (sh_ddr[pin_port(p)] >> pin_bit(p)) & 1; }
 int port_bit(int p) { return (sh_port[pin_port(p)] >> pin_bit(p)) & 1; }
 
+/* ------------------------------------------------------------------ compare outputs
+ * On silicon, while a timer's COMnx bits connect its compare output OCnx, the
+ * output drives the pin (if its DDR bit is set) and the PORT bit does not; the
+ * PORT bit drives it again once COMnx is cleared.  simavr 1.6 raises the pin's
+ * IRQ from the compare output, but also from every PORTx write with the PORT
+ * bit, and in a PWM mode it raises the pin at BOTTOM without setting the PORT
+ * bit: writing any other pin of port B (D8-D13) dropped D9 to 0 in the middle
+ * of a servo pulse.  The harness therefore tracks each compare output's level
+ * from the timer's own IRQ and takes a connected pin's level from it: for
+ * capture, for a loopback partner, for the R2R ladders and the `pin` command.
+ * (Not modelled: the PIN register bit the firmware would read, and a level
+ * change at the moment COMnx itself is written; the project firmware switches
+ * its servo outputs only right after a compare match, when both are low.) */
+struct oc_pin {
+	int pin;
+	char timer;
+	int comp;       /* AVR_TIMER_COMPA / COMPB */
+	uint8_t tccr;   /* TCCRnA's data address */
+	int shift;      /* of COMnx1:0 in TCCRnA */
+};
+static const struct oc_pin oc_pins[] = {
+	{6, '0', AVR_TIMER_COMPA, 0x44, 6}, {5, '0', AVR_TIMER_COMPB, 0x44, 4},
+	{9, '1', AVR_TIMER_COMPA, 0x80, 6}, {10, '1', AVR_TIMER_COMPB, 0x80, 4},
+	{11, '2', AVR_TIMER_COMPA, 0xB0, 6}, {3, '2', AVR_TIMER_COMPB, 0xB0, 4},
+};
+#define N_OC_PINS ((int)(sizeof oc_pins / sizeof oc_pins[0]))
+static int oc_of[NPINS];      /* 1 + index in oc_pins, 0: no compare output */
+static int oc_level[NPINS];   /* the compare output's level, connected or not */
+
+/* Whether the timer's compare output drives pin p now (COMnx set, DDR output). */
+static int oc_drives(int p)
+{
+	int k = oc_of[p];
+	if (!k || !avr || !is_out(p))
+		return 0;
+	const struct oc_pin *o = &oc_pins[k - 1];
+	return (avr->data[o->tccr] >> o->shift) & 3;
+}
+
+/* The level an output pin drives: its compare output's or its PORT bit. */
+static int out_level(int p)
+{
+	return oc_drives(p) ? oc_level[p] : port_bit(p);
+}
+
 /* Output of R2R ladder k (mV) from the real (toleranced) resistor network. */
 static double r2r_output(int k)
 {
@@ -63,7 +109,7 @@ static double r2r_output(int k)
 		int p = pins[i];
 		double rbranch = i == 0 ? r2r_res[k][0] : r2r_res[k][3];
 		if (is_out(p)) {
-			g[i] = 1.0 / rbranch; v[i] = port_bit(p) ? vcc : 0.0;
+			g[i] = 1.0 / rbranch; v[i] = out_level(p) ? vcc : 0.0;
 		} else if (drive_level[p] >= 0) {
 			g[i] = 1.0 / rbranch; v[i] = drive_level[p] ? vcc : 0.0;
 		} else if (port_bit(p)) {           /* input with pull-up */
@@ -87,7 +133,7 @@ static int input_level(int p)
 	int q = loop_partner(p);
 	if (q >= 0) {
 		if (is_out(q))
-			return port_bit(q);
+			return out_level(q);
 		if (port_bit(q))
 			return 1;
 	}
@@ -102,7 +148,7 @@ int pin_level(int p)
 {
 	if (p < 2) /* UART pins: report the PIN register */
 		return (avr->data[addr_pin[2]] >> p) & 1;
-	return is_out(p) ? port_bit(p) : input_level(p);
+	return is_out(p) ? out_level(p) : input_level(p);
 }
 
 static int pin_managed(int p)
@@ -186,11 +232,9 @@ static void port_hook(avr_irq_t *irq, uint32_t value, void *param)
 	apply_circuit();
 }
 
-static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
+static void record_level(int p, int level)
 {
-	int p = (int)(intptr_t)param;
 	struct capture *c = &cap[p];
-	int level = value & 1;
 	uint64_t t = avr->cycle;
 	if (level == c->level)
 		return;
@@ -216,6 +260,25 @@ static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
 			c->highs++;
 		}
 		c->falls++;
+	}
+}
+
+/* Every raise of a pin's IRQ: a PORT/DDR write, the circuit, a compare output.
+ * A pin its compare output drives keeps that output's level whatever raised it. */
+static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	int p = (int)(intptr_t)param;
+	record_level(p, oc_drives(p) ? oc_level[p] : (int)(value & 1));
+}
+
+/* A timer's compare output changed (simavr raises it whatever COMnx says). */
+static void oc_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	int p = (int)(intptr_t)param;
+	oc_level[p] = (int)(value & 1);
+	if (oc_drives(p)) {
+		record_level(p, oc_level[p]);
+		apply_circuit(); /* a loopback partner or an R2R ladder sees the new level */
 	}
 }
 
@@ -255,6 +318,14 @@ void circuit_attach(void)
 		pin_irq[p] = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port_names[pin_port(p)]), pin_bit(p));
 		avr_irq_register_notify(pin_irq[p], capture_hook, (void *)(intptr_t)p);
 	}
+	for (int k = 0; k < N_OC_PINS; k++) {
+		const struct oc_pin *o = &oc_pins[k];
+		avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_TIMER_GETIRQ(o->timer), TIMER_IRQ_OUT_COMP + o->comp);
+		if (!irq)
+			continue;
+		oc_of[o->pin] = k + 1;
+		avr_irq_register_notify(irq, oc_hook, (void *)(intptr_t)o->pin);
+	}
 }
 
 void circuit_after_reset(void)
@@ -269,6 +340,8 @@ void circuit_after_reset(void)
 		port_irq_base[pi][IOPORT_IRQ_REG_PORT].value = avr->data[addr_port[pi]];
 	}
 	read_shadows();
+	for (int p = 0; p < NPINS; p++)
+		oc_level[p] = 0; /* OCnx are cleared by a reset */
 	for (int ch = 0; ch < 9; ch++)
 		adc_sent[ch] = -1;
 	apply_circuit();

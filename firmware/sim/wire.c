@@ -88,8 +88,14 @@ unsigned host_rx_queued(void)
 /* Nothing waits to go either way (see link_idle in pacing.c). */
 int wire_idle(void)
 {
-	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&to_pty) && ring_empty(&bridge_buf) &&
-	       ring_empty(&usb_out);
+	return ring_empty(&to_pty) && wire_only_delivering();
+}
+
+/* Nothing on its way but bytes for the host that wait for their due times
+ * (to_pty): the simulation has nothing more to compute for them. */
+int wire_only_delivering(void)
+{
+	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&bridge_buf) && ring_empty(&usb_out);
 }
 
 /* The first tick after t (strictly) of a bridge clock with this period: the

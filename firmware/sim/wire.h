@@ -38,6 +38,7 @@ void wire_unplug(void);
 
 /* for pacing.c */
 int wire_idle(void);
+int wire_only_delivering(void);
 void wire_time_base_reset(void);
 void wire_schedule_events(void);
 int wire_run_events(uint64_t now);

@@ -19,6 +19,13 @@ Each test has an oracle that failed on the harness before the fix:
   jump against the wall when a host byte ends an idle run-ahead, so a request after an
   idle spell met the frame 0.6-1 ms early every time; now the bridge clocks keep wall
   time and the request meets the frame at a random phase.
+* writing another pin of port B (D12) cut the D9 servo pulse short: simavr drives OC1A's
+  pin from the PORTB bit on every PORTB write; on silicon the compare output overrides
+  the port bit while COM1A connects it, and now the harness models the pin that way;
+* under back-to-back requests the simulated clock ran ~8x faster than the wall clock
+  (each request ended an idle run-ahead of up to 2 ms, which the time base then dropped),
+  so a servo gave ~430 pulses per wall second; now the idle run-ahead grows with the
+  idle time and the simulated clock keeps to the wall clock within a few per cent.
 
 Blocking pyserial calls run in worker threads (``anyio.to_thread``).
 """
@@ -36,12 +43,14 @@ import anyio
 import pytest
 import serial
 
+from arduinoio_async import DigitalPin
 from arduinoio_async import protocol as proto
 from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardTimeoutError
 from arduinoio_async.sim import VirtualUno, find_firmware_elf
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from ..e2e.pulses import fresh_pulses
 from .conftest import start_test_board
 
 sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
@@ -344,3 +353,85 @@ async def test_16u2_usb_frames_keep_wall_time_across_idle_spells(
     assert all(0 < w <= 1050 for w in waits_us)
     # uniform over 0-1 ms: fewer than 8 of 40 in the first half has probability ~3e-5
     assert sum(w < 500 for w in waits_us) >= 8
+
+
+@pytest.mark.parametrize("other", [DigitalPin.D12, DigitalPin.D4])
+async def test_writes_to_port_b_leave_the_servo_pulse_alone(
+    virtual_uno_factory: VirtualUnoFactory, other: DigitalPin
+) -> None:
+    """While COM1A connects OC1A, the timer drives D9, not PORTB bit 1: writing D12 (port
+    B) as fast as the link allows must not touch D9's pulses (D4, port D, is the control).
+    32 pulses, each measured by the fixture's capture on D9."""
+    uno = await virtual_uno_factory(board_id=7)
+    async with Board.open(uno.port, baudrate=uno.baud, timeout=2.0) as board:
+        await board.servo(DigitalPin.D9, pulse_us=1500)
+        output = await board.digital_output(other)
+        writes = 0
+
+        async def write_forever() -> None:
+            nonlocal writes
+            while True:
+                await output.write(writes % 2 == 0)
+                writes += 1
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(write_forever)
+            await fresh_pulses(uno, "D9", 1)  # from a whole pulse under the writes
+            stats = await fresh_pulses(uno, "D9", 32, within=10.0)
+            tg.cancel_scope.cancel()
+    widths = stats.high_us[-32:]
+    off = [w for w in widths if abs(w - 1500) > 1]
+    print(f"\n{other.name} writes: {writes}, D9 pulses off-width: {len(off)} of {len(widths)}")
+    assert writes > 100
+    assert not off, widths
+
+
+def _back_to_back(port: str, baud: int, seconds: float) -> int:
+    """READ IDs one after another for ``seconds`` of wall time; returns how many."""
+    link = serial.Serial(port, baud, timeout=1.0)
+    try:
+        request, count = proto.ReadId().encode(), 0
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            link.write(request)
+            if len(link.read(5)) != 5:
+                raise AssertionError("no reply to READ ID")
+            count += 1
+        return count
+    finally:
+        link.close()
+
+
+async def test_the_simulated_clock_keeps_to_the_wall_under_back_to_back_requests(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """A servo gives 50 pulses per *wall* second while the host sends requests back to
+    back.  Each request used to end an idle run-ahead of up to 2 ms, which the time base
+    dropped, so the simulated clock ran ~8x (2x on a loaded machine) faster than the
+    wall: 100-430 pulses a wall second.  The pulses are counted by the fixture's capture
+    on D9 over a window timed on the wall clock.
+
+    Tolerance: at most 6 % above 50/s (the idle run-ahead may gain 1/32 of the wall
+    time, ~3 %, and each request may end up to the answering lead early, measured
+    ~2 % at 1 Mbaud); below, 40/s, as a machine too loaded for the harness to keep up
+    makes it fall behind (``rebases``), which is not what this test is about."""
+    uno = await virtual_uno_factory(baud=1_000_000, board_id=8)
+    async with Board.open(uno.port, baudrate=uno.baud, timeout=2.0) as board:
+        await board.servo(DigitalPin.D9, pulse_us=1500)
+    await fresh_pulses(uno, "D9", 1)
+    before = await uno.status()
+    await uno.clear_pulse_stats("D9")
+    start = time.monotonic()
+    requests = await anyio.to_thread.run_sync(_back_to_back, uno.port, uno.baud, 2.0)
+    wall = time.monotonic() - start
+    pulses = (await uno.pulse_stats("D9")).highs
+    after = await uno.status()
+    gained_ms = (after["runahead_jump_us"] - before["runahead_jump_us"]) / 1000
+    jumps = after["runahead_jumps"] - before["runahead_jumps"]
+    print(
+        f"\n{requests} requests in {wall:.2f} s: {pulses / wall:.1f} servo pulses per wall "
+        f"second; simulated clock gained {gained_ms:.1f} ms in {jumps} jumps, "
+        f"rebases {after['rebases'] - before['rebases']}"
+    )
+    assert requests > 200
+    assert 40 <= pulses / wall <= 50 * 1.06
