@@ -401,7 +401,8 @@ class Board:
 
         If the reply is lost, the write may or may not have happened: the link accepts
         either ID when it resyncs, and this method reads the ID back (within
-        ``deadline``) to settle it; it raises only if the board kept the old one.
+        ``deadline``) to settle it; it raises only if the board kept the old one, or
+        (:class:`BoardTimeoutError`) if it did not answer the read-back in time.
         """
         if not 0 <= board_id <= 0xFFFF:
             raise ValueRangeError("board ID", board_id, "0x0000-0xFFFF")

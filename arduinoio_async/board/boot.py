@@ -56,8 +56,9 @@ async def start_link(
 
 
 async def read_id_retrying(link: Transport, deadline: float) -> int:
-    """The board's ID, asked until it answers within ``deadline`` seconds (TimeoutError)."""
-    with anyio.fail_after(deadline):
+    """The board's ID, asked until it answers within ``deadline`` seconds
+    (BoardTimeoutError: only the library's own exceptions leave it)."""
+    with anyio.move_on_after(deadline):
         while True:
             try:
                 return (await link.request(p.ReadId())).board_id
@@ -65,6 +66,7 @@ async def read_id_retrying(link: Transport, deadline: float) -> int:
                 raise
             except LinkError:
                 await anyio.lowlevel.checkpoint()
+    raise BoardTimeoutError(f"{link.name}: no answer to ReadId within {deadline:g} s")
 
 
 async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: str) -> None:

@@ -1,0 +1,138 @@
+"""Idle failsafe: does a healthy, idle host keep a 100 ms failsafe fed on a faulty line?
+
+A virtual Uno runs under a :class:`BoardManager` (the robot's configuration: the manager's
+keepalive re-arms after a trip and restores the outputs).  D4 is an output held high, armed
+with safe level low and a ``--timeout-ms`` failsafe; then the harness drops, inserts and
+flips board->host bytes with probability ``--fault`` each, and the host does nothing for
+``--seconds`` but keep the board alive.  Every trip is a false one: the host is healthy.
+
+Counted from the fixture (the ground truth, not the library): each fall of D4 is a trip
+(the manager raises it again after re-arming).  Also recorded: the trips the library
+reported, the link's statistics, the injected faults, and the simulated against the wall
+clock (the harness may run ahead of the wall; the failsafe counts simulated time).  At the
+end, with the line clean, the host's event loop is blocked and the board's reaction is
+measured from the host's last byte, as the fixture saw it (the failsafe must still work).
+
+Several fault levels may run at once (one process each); each adds its level to
+``--json`` under ``failsafe_false_trips_detail`` and re-sums ``failsafe_false_trips``
+(read-modify-write of these keys only, under a lock: other benchmarks own other keys)::
+
+    .venv/bin/python benchmarks/idle_failsafe.py --fault 1e-3 --seconds 600 \\
+        --json benchmarks/results/link.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import json
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import anyio
+
+from arduinoio_async import D4
+from arduinoio_async.manager import BoardManager, ManagerEvent
+from arduinoio_async.sim import VirtualUno
+
+BOARD_ID = 0x0028
+#: How often the fixture's D4 capture is read while idling (costs the host nothing).
+CHECK_EVERY = 5.0
+
+
+async def run(args: argparse.Namespace) -> dict[str, Any]:
+    events: list[ManagerEvent] = []
+    async with (
+        VirtualUno(board_id=BOARD_ID, baud=args.baud, seed=args.seed) as uno,
+        BoardManager(ports=[uno.port], usb=False, env=False) as boards,
+    ):
+        boards.subscribe(events.append)
+        board = await boards.get(BOARD_ID, timeout=10)
+        led = await board.digital_output(D4, initial=True)
+        await board.arm_failsafe(args.timeout_ms, {led: False})
+        await uno.clear_pulse_stats("D4")
+        start_status = await uno.status()
+        await uno.set_faults(drop=args.fault, insert=args.fault, flip=args.fault, seed=args.seed)
+        start = time.monotonic()
+        trips_seen = 0
+        while (left := args.seconds - (time.monotonic() - start)) > 0:
+            await anyio.sleep(min(CHECK_EVERY, left))
+            trips_seen = (await uno.pulse_stats("D4")).falls
+            print(f"{time.monotonic() - start:7.1f} s: {trips_seen} trips", file=sys.stderr)
+        elapsed = time.monotonic() - start
+        await uno.set_faults(drop=0, insert=0, flip=0)
+        end_status = await uno.status()
+        d4 = await uno.pulse_stats("D4")
+        stats = board.link.stats.as_dict()
+        reported = sum(1 for e in events if e.kind == "failsafe")
+        resets = sum(1 for e in events if e.kind == "reset")
+        # The host stops (its event loop blocks): the board must still react in time.
+        with anyio.fail_after(5):
+            while (await uno.pin("D4")).level != 1:  # noqa: ASYNC110 - a re-arm may be due
+                await anyio.sleep(0.01)
+        await uno.clear_pulse_stats("D4")
+        time.sleep(args.timeout_ms / 1000 * 3)  # noqa: ASYNC251 - the host stops on purpose
+        silent_from = float((await uno.status())["last_host_byte_us"])
+        edge = (await uno.pulse_stats("D4")).last_edge_us
+        reaction_ms = None if edge is None else round((edge - silent_from) / 1000, 3)
+    sim_s = (end_status["sim_us"] - start_status["sim_us"]) / 1e6
+    wall_s = (end_status["wall_us"] - start_status["wall_us"]) / 1e6
+    return {
+        "fault_probability": args.fault,
+        "timeout_ms": args.timeout_ms,
+        "seconds": round(elapsed, 1),
+        "false_trips": d4.falls,
+        "trips_reported_by_library": reported,
+        "resets_seen": resets,
+        "reaction_when_host_stops_ms": reaction_ms,
+        "sim_over_wall_clock": round(sim_s / wall_s, 4) if wall_s else None,
+        "injected": end_status["faults"],
+        "link_stats": stats,
+        "baud": args.baud,
+        "seed": args.seed,
+        "command": "benchmarks/idle_failsafe.py " + " ".join(args.argv),
+    }
+
+
+@contextmanager
+def locked(path: Path):  # type: ignore[no-untyped-def]
+    with open(path.with_suffix(path.suffix + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def record(path: Path, level: dict[str, Any]) -> None:
+    """Add this level to ``path``'s failsafe keys; every other key is left as it was."""
+    with locked(path):
+        data = json.loads(path.read_text()) if path.exists() else {}
+        detail = data.get("failsafe_false_trips_detail", {})
+        detail[f"{level['fault_probability']:g}"] = level
+        data["failsafe_false_trips_detail"] = detail
+        data["failsafe_false_trips"] = sum(d["false_trips"] for d in detail.values())
+        path.write_text(json.dumps(data, indent=2) + "\n")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--fault", type=float, default=1e-3)
+    parser.add_argument("--seconds", type=float, default=600)
+    parser.add_argument("--timeout-ms", type=int, default=100)
+    parser.add_argument("--baud", type=int, default=1_000_000)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    args.argv = sys.argv[1:]
+    result = anyio.run(run, args)
+    print(json.dumps(result, indent=2))
+    if args.json:
+        record(args.json, result)
+
+
+if __name__ == "__main__":
+    main()
