@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import fcntl
 import json
+import os
 import sys
 import time
 from contextlib import contextmanager
@@ -58,9 +59,11 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         await uno.set_faults(drop=args.fault, insert=args.fault, flip=args.fault, seed=args.seed)
         start = time.monotonic()
         trips_seen = 0
+        loads = [os.getloadavg()[0]]
         while (left := args.seconds - (time.monotonic() - start)) > 0:
             await anyio.sleep(min(CHECK_EVERY, left))
             trips_seen = (await uno.pulse_stats("D4")).falls
+            loads.append(os.getloadavg()[0])
             print(f"{time.monotonic() - start:7.1f} s: {trips_seen} trips", file=sys.stderr)
         elapsed = time.monotonic() - start
         await uno.set_faults(drop=0, insert=0, flip=0)
@@ -89,6 +92,12 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         "resets_seen": resets,
         "reaction_when_host_stops_ms": reaction_ms,
         "sim_over_wall_clock": round(sim_s / wall_s, 4) if wall_s else None,
+        "machine_load_1min": {
+            "min": min(loads),
+            "mean": round(sum(loads) / len(loads), 2),
+            "max": max(loads),
+            "cpus": os.cpu_count(),
+        },
         "injected": end_status["faults"],
         "link_stats": stats,
         "baud": args.baud,
