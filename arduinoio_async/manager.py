@@ -37,6 +37,7 @@ from . import protocol as p
 from .board import READY_TIMEOUT, Board
 from .errors import (
     ArduinoIOError,
+    BoardIdChangedError,
     BoardNotFoundError,
     DuplicateBoardError,
 )
@@ -379,6 +380,7 @@ class BoardManager:
         board = self._boards.get(board_id)
         started = False
         detail = ""
+        rekeyed: str | None = None
         closed = anyio.Event()
         link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
         try:
@@ -387,8 +389,8 @@ class BoardManager:
                 self._emit(ManagerEvent("connected", board_id, link.name))
                 task_status.started()
                 started = True
-                await self._heartbeat(board, link, closed)
-                detail = await self._close_reason(link)
+                rekeyed = await self._heartbeat(board, link, closed)
+                detail = rekeyed or await self._close_reason(link)
         except ArduinoIOError as exc:
             # The port failed mid-handshake or went away: it is forgotten below, so the
             # next scan probes it afresh.
@@ -406,6 +408,9 @@ class BoardManager:
             }
             if board is not None:
                 self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
+            if rekeyed and self._task_group is not None:
+                # Probed afresh at once: attached under the ID it answers to now.
+                self._task_group.start_soon(self.scan)
             if not started:
                 failure = ProbeResult(link.name, board_id, error=detail or "handshake failed")
                 self._failed[link.name] = failure
@@ -421,12 +426,24 @@ class BoardManager:
             return str(exc) or type(exc).__name__
         return "the link closed"
 
-    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
-        """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip."""
+    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> str | None:
+        """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip.
+
+        Returns why the link was given up when the board came back under another ID (it
+        is another board then: the port is probed again and attached under its new ID,
+        and the old board's roles are not replayed on it), else None once the link closed.
+        """
+        rekeyed: list[str] = []
 
         async def restore_after_reset() -> None:
             self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
-            await board.adopt(link)
+            try:
+                await board.adopt(link)
+            except BoardIdChangedError as exc:
+                logger.warning("%s", exc)
+                rekeyed.append(str(exc))
+                await link.aclose()
+                return
             self._wake()  # connected again: wait_connected() returns
 
         async def rearm_after_trip() -> None:
@@ -441,3 +458,4 @@ class BoardManager:
             )
             await closed.wait()
             tg.cancel_scope.cancel()
+        return rekeyed[0] if rekeyed else None

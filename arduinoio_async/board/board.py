@@ -57,7 +57,7 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
-from .boot import READY_TIMEOUT, read_id_retrying, start_link, wait_new_boot
+from .boot import READY_TIMEOUT, check_same_board, read_id_retrying, start_link, wait_new_boot
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
 from .watches import Watches
@@ -186,11 +186,13 @@ class Board:
     async def adopt(self, link: Transport) -> None:
         """Make ``link`` (to a fresh boot of this board) the board's link.
 
-        Used after a replug or a reset: the capabilities are read again, the session is
-        tagged, and every pin role is replayed *before* the link is handed to callers,
-        so handles never see a half-restored board.
+        Used after a replug or a reset: the ID is checked (BoardIdChangedError if the
+        board answers as another one: its roles are not replayed), the capabilities are
+        read again, the session is tagged, and every pin role is replayed *before* the
+        link is handed to callers, so handles never see a half-restored board.
         """
         self._link = None
+        await check_same_board(link, self.board_id)
         self.capabilities = await link.request(p.ReadCapabilities())
         await self._handshake(link)
         await self._restore_on(link)

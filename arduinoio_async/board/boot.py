@@ -17,11 +17,11 @@ import anyio.abc
 import anyio.lowlevel
 
 from .. import protocol as p
-from ..errors import BoardDisconnectedError, BoardTimeoutError, LinkError
+from ..errors import BoardDisconnectedError, BoardIdChangedError, BoardTimeoutError, LinkError
 from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport
 from ..transport._ready import wait_ready
 
-__all__ = ["READY_TIMEOUT", "read_id_retrying", "start_link", "wait_new_boot"]
+__all__ = ["READY_TIMEOUT", "check_same_board", "read_id_retrying", "start_link", "wait_new_boot"]
 
 #: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
 #: opens and answers 1.6-2 s later.
@@ -91,3 +91,16 @@ async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: 
         raise BoardTimeoutError(
             f"{who} did not come back from its reboot within {deadline:g} s"
         ) from None
+
+
+async def check_same_board(link: Transport, board_id: int) -> None:
+    """Raise BoardIdChangedError unless the fresh boot on ``link`` is board ``board_id``.
+
+    An ID can change in place (a raw ``WriteId``, then a reset), so a fresh boot is asked
+    for its ID with any ID accepted; a different answer is asked again before it counts
+    (the 8-bit checksum lets about one damaged frame in 256 through).
+    """
+    link.expected_id = None
+    found = (await link.request(p.ReadId())).board_id
+    if found != board_id and (await link.request(p.ReadId())).board_id == found:
+        raise BoardIdChangedError(link.name, board_id, found)
