@@ -69,6 +69,8 @@ class Failsafe:
         self._news: tuple[float, p.ReadStatusReply] | None = None
         #: Status polls sent (or waiting to be) and not yet answered.
         self._polls = 0
+        #: A session tag not ours that the last poll answer reported (None: it was ours).
+        self._other_session: int | None = None
 
     # ---- trip news ---------------------------------------------------------------------
 
@@ -235,11 +237,18 @@ class Failsafe:
     def _recovery_for(
         self, status: p.ReadStatusReply, on_reset: Recovery | None, on_trip: Recovery | None
     ) -> tuple[Recovery, str] | None:
-        """What a poll's answer calls for: a restore after a reset, a re-arm, or nothing."""
+        """What a poll's answer calls for: a restore after a reset, a re-arm, or nothing.
+
+        A session tag other than ours counts once a second answer repeats it: the 8-bit
+        checksum lets about one damaged frame in 256 through, and a noisy line would
+        otherwise "reset" a board that never did (a real reset shows at the next poll).
+        """
         if status.session != self.board.session:
-            if on_reset is not None:
+            seen, self._other_session = self._other_session, status.session
+            if on_reset is not None and seen == status.session:
                 return on_reset, "the restore after a reset"
             return None
+        self._other_session = None
         if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
             self.notice_trip()
         if self.tripped and on_trip is not None:
