@@ -186,10 +186,10 @@ class Board:
     async def adopt(self, link: Transport) -> None:
         """Make ``link`` (to a fresh boot of this board) the board's link.
 
-        Used after a replug or a reset: the ID is checked (BoardIdChangedError if the
-        board answers as another one: its roles are not replayed), the capabilities are
-        read again, the session is tagged, and every pin role is replayed *before* the
-        link is handed to callers, so handles never see a half-restored board.
+        Used after a replug or a reset: the ID is checked (BoardIdChangedError for another
+        board: nothing is replayed), the capabilities are read again, the session tagged,
+        and every pin role replayed *before* the link is handed to callers (handles never
+        see a half-restored board).
         """
         self._link = None
         await check_same_board(link, self.board_id)
@@ -402,20 +402,18 @@ class Board:
         """Store a new board ID in EEPROM; it survives resets.
 
         If the reply is lost, the write may or may not have happened: the link accepts
-        either ID when it resyncs, and this method reads the ID back (within
-        ``deadline``) to settle it; it raises only if the board kept the old one, or
-        (:class:`BoardTimeoutError`) if it did not answer the read-back in time.
+        either ID when it resyncs, and the ID is read back (within ``deadline``) to settle
+        it; raises if the board kept the old ID, BoardTimeoutError if it never answered.
         """
         if not 0 <= board_id <= 0xFFFF:
             raise ValueRangeError("board ID", board_id, "0x0000-0xFFFF")
         link = self.link
         try:
             await link.request(p.WriteId(board_id))
-        except LinkError as exc:
-            if isinstance(exc, BoardDisconnectedError):
-                raise
-            found = await read_id_retrying(link, deadline)
-            if found != board_id:
+        except BoardDisconnectedError:
+            raise
+        except LinkError:
+            if await read_id_retrying(link, deadline) != board_id:
                 raise
         self.board_id = board_id
         link.expected_id = board_id
