@@ -97,14 +97,17 @@ class Change:
 
     @property
     def rose(self) -> bool:
+        """True for a rising edge (the pin went high)."""
         return self.level
 
     @property
     def fell(self) -> bool:
+        """True for a falling edge (the pin went low)."""
         return not self.level
 
     @classmethod
     def from_event(cls, event: p.GpioChange, host_time: float) -> Change:
+        """The change a ``GpioChange`` event reports, received at ``host_time``."""
         return cls(event.pin, event.level, event.sequence, event.timestamp_us, host_time)
 
 

@@ -35,6 +35,7 @@ __all__ = [
     "LinkResyncError",
     "PinCapabilityError",
     "PinRoleError",
+    "PortBusyError",
     "ProtocolError",
     "ReplyMismatchError",
     "StaleHandleError",

@@ -67,6 +67,7 @@ class PinState(NamedTuple):
 
     @classmethod
     def from_reply(cls, reply: p.GpioReadReply) -> PinState:
+        """The state a ``GpioRead`` reply carries (for code that sends raw requests)."""
         return cls(reply.level, reply.rose, reply.fell)
 
 
@@ -109,6 +110,8 @@ class DigitalOutput(PinHandle):
     ROLE = "digital output"
 
     async def write(self, value: bool) -> None:
+        """Drive the pin high (True) or low (False); the level is recorded, so a reset or
+        a reconnect restores it.  Raises StaleHandleError after the role was released."""
         self.check_usable()
         reply = await self.board.request(p.GpioWrite(self.pin, bool(value)))
         self.board.roles.amend(self, output_setup(self.pin, reply.value))
@@ -198,6 +201,8 @@ class Gpio(_Watchable):
         self.direction: str | None = None
 
     async def write(self, value: bool) -> None:
+        """Drive the pin high (True) or low (False), making it an output first if it is not
+        one (it starts at ``value``, no glitch).  Raises StaleHandleError after a release."""
         self.check_usable()
         if self.direction != "output":
             await self.board.set_up(self, output_setup(self.pin, bool(value)))
@@ -207,6 +212,8 @@ class Gpio(_Watchable):
         self.board.roles.amend(self, output_setup(self.pin, reply.value))
 
     async def read(self) -> PinState:
+        """The level now and the edges latched since the previous read; the first read of
+        an unused pin makes it an input (no pull-up), an output reads the level it drives."""
         self.check_usable()
         if self.direction is None:
             await self.board.set_up(self, input_setup(self.pin, False))
@@ -214,6 +221,8 @@ class Gpio(_Watchable):
         return PinState.from_reply(await self.board.request(p.GpioRead(self.pin)))
 
     async def configure_input(self, *, pull_up: bool = False) -> None:
+        """Make the pin an input now, with the internal pull-up if asked (a button to
+        ground needs it; :meth:`read` alone sets up an input without one)."""
         self.check_usable()
         await self.board.set_up(self, input_setup(self.pin, pull_up))
         self.direction = "input"
@@ -236,11 +245,13 @@ class AnalogInput:
         return f"<AnalogInput {self.pin.name} on {self.board}>"
 
     async def read(self) -> int:
-        """Raw value 0-1023."""
+        """One conversion, raw: 0-1023 (10 bits, 0 V to ``vref``)."""
         reply = await self.board.request(p.AnalogRead(int(self.pin)))
         return reply.value
 
     async def read_volts(self) -> float:
+        """One conversion in volts: the raw value scaled by ``vref`` (5.0 V, the Uno's
+        AVCC, unless the handle was made with another reference)."""
         return await self.read() * self.vref / 1024
 
     def watch(
@@ -338,6 +349,7 @@ class Counter(PinHandle):
     ROLE = "event counter"
 
     async def read(self) -> int:
+        """The edges counted since set-up or the last :meth:`reset` (32 bits, wrapping)."""
         self.check_usable()
         return (await self.board.request(p.CounterRead(self.pin))).count
 

@@ -61,12 +61,16 @@ class Sample:
     counters: tuple[int, int] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
+        """The level of ``pin`` in this sample; raises ValueError when the stream was
+        started without ``levels=True``."""
         if self.levels is None:
             raise ValueError("this stream does not carry digital levels")
         return bool(self.levels >> int(pin) & 1)
 
     @classmethod
     def from_frame(cls, frame: p.StreamSample, host_time: float) -> Sample:
+        """Decode a sample frame's payload (laid out as the stream was configured); the
+        stream calls it, with the host's ``time.monotonic()`` at arrival."""
         data = frame.payload
         pos = 0
 

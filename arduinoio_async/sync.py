@@ -95,53 +95,76 @@ class _Blocking:
 
 
 class _BlockingPin(_Blocking):
+    """A pin handle's blocking twin: the pin and its release, shared by every kind."""
+
     handle: PinHandle
 
     @property
     def pin(self) -> DigitalPin:
+        """The pin this handle holds."""
         return self.handle.pin
 
     def release(self) -> None:
+        """End the pin's role on the board so another role may use it (the handle is stale
+        afterwards)."""
         self._runner.call(self.handle.release)
 
 
 class BlockingGpio(_BlockingPin):
+    """Blocking :class:`~arduinoio_async.handles.Gpio`: an output on its first write, an
+    input on its first read."""
+
     handle: Gpio
 
     def write(self, value: bool) -> None:
+        """Drive the pin high (True) or low (False), making it an output first if needed."""
         self._runner.call(self.handle.write, value)
 
     def read(self) -> PinState:
+        """The level now and the edges latched since the previous read (an unused pin
+        becomes an input; an output reads the level it drives)."""
         return self._runner.call(self.handle.read)
 
     def configure_input(self, *, pull_up: bool = False) -> None:
+        """Make the pin an input now, with the internal pull-up if asked."""
         self._runner.call(lambda: self.handle.configure_input(pull_up=pull_up))
 
 
 class BlockingDigitalOutput(_BlockingPin):
+    """Blocking :class:`~arduinoio_async.handles.DigitalOutput`: a level the board replays."""
+
     handle: DigitalOutput
 
     def write(self, value: bool) -> None:
+        """Drive the pin high (True) or low (False); the level is replayed after a reset."""
         self._runner.call(self.handle.write, value)
 
     def read(self) -> bool:
+        """The level the pin drives now."""
         return self._runner.call(self.handle.read)
 
 
 class BlockingDigitalInput(_BlockingPin):
+    """Blocking :class:`~arduinoio_async.handles.DigitalInput`, with edges latched between reads."""
+
     handle: DigitalInput
 
     def read(self) -> PinState:
+        """The level now and the edges latched since the previous read."""
         return self._runner.call(self.handle.read)
 
 
 class BlockingAnalogInput(_Blocking):
+    """Blocking :class:`~arduinoio_async.handles.AnalogInput` (A0-A5, 10 bits against AVCC)."""
+
     handle: AnalogInput
 
     def read(self) -> int:
+        """One conversion, raw: 0-1023."""
         return self._runner.call(self.handle.read)
 
     def read_volts(self) -> float:
+        """One conversion in volts (0-5 V against the Uno's AVCC)."""
         return self._runner.call(self.handle.read_volts)
 
 
@@ -151,34 +174,48 @@ class BlockingPulseOutput(_BlockingPin):
     handle: PulseOutput
 
     def set_pulse(self, pulse_us: int) -> None:
+        """Send pulses ``pulse_us`` microseconds wide (1000-2000; 0 stops them); raises
+        ValueRangeError outside that range."""
         self._runner.call(self.handle.set_pulse, pulse_us)
 
     def set_angle(
         self, degrees: float, *, min_us: int = p.PULSE_MIN_US, max_us: int = p.PULSE_MAX_US
     ) -> None:
+        """Set a servo to ``degrees`` (0-180), mapped linearly onto ``min_us``-``max_us``."""
         self._runner.call(lambda: self.handle.set_angle(degrees, min_us=min_us, max_us=max_us))
 
     def stop(self) -> None:
+        """Stop the pulses (the line stays low); the pin keeps its role."""
         self._runner.call(self.handle.stop)
 
 
 class BlockingCounter(_BlockingPin):
+    """Blocking :class:`~arduinoio_async.handles.Counter` (D2 or D3)."""
+
     handle: Counter
 
     def read(self) -> int:
+        """The edges counted since set-up or the last :meth:`reset`."""
         return self._runner.call(self.handle.read)
 
     def reset(self) -> int:
+        """Clear the counter; returns the count it had (read and clear are atomic)."""
         return self._runner.call(self.handle.reset)
 
 
 class BlockingI2CBus(_Blocking):
+    """Blocking :class:`~arduinoio_async.handles.I2CBus`: register reads and writes on A4/A5."""
+
     handle: I2CBus
 
     def read(self, address: int, register: int, length: int) -> bytes:
+        """Read ``length`` (1-32) bytes from ``register`` of the device at 7-bit
+        ``address``; raises I2CError on a NACK or a bus timeout."""
         return self._runner.call(self.handle.read, address, register, length)
 
     def write(self, address: int, register: int, data: bytes) -> None:
+        """Write up to 32 bytes to ``register`` of the device at 7-bit ``address``;
+        raises I2CError on a NACK or a bus timeout."""
         self._runner.call(self.handle.write, address, register, data)
 
 
@@ -198,10 +235,12 @@ class BlockingSamples(_Blocking):
 
     @property
     def gaps(self) -> int:
+        """Samples lost on the line or skipped by the board, by their sequence numbers."""
         return self.handle.gaps
 
     @property
     def dropped(self) -> int:
+        """Samples dropped (the oldest) because this code did not read them in time."""
         return self.handle.dropped
 
 
@@ -216,60 +255,80 @@ class BlockingBoard(_Blocking):
 
     @property
     def board_id(self) -> int:
+        """The board's ID, read when the link opened."""
         return self.handle.board_id
 
     # ---- handles ------------------------------------------------------------------------
 
     def gpio(self, pin: DigitalPin) -> BlockingGpio:
+        """A digital pin that sets itself up on first use (output on write, input on
+        read); no request is sent yet."""
         return BlockingGpio(self._runner, self.handle.gpio(pin))
 
     def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> BlockingDigitalOutput:
+        """Make ``pin`` an output starting at ``initial``; raises PinCapabilityError or
+        PinRoleError as :meth:`Board.digital_output
+        <arduinoio_async.board.Board.digital_output>` does."""
         handle = self._runner.call(lambda: self.handle.digital_output(pin, initial=initial))
         return BlockingDigitalOutput(self._runner, handle)
 
     def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> BlockingDigitalInput:
+        """Make ``pin`` an input, with the internal pull-up if asked."""
         handle = self._runner.call(lambda: self.handle.digital_input(pin, pull_up=pull_up))
         return BlockingDigitalInput(self._runner, handle)
 
     def analog(self, pin: AnalogPin) -> BlockingAnalogInput:
+        """An analog input A0-A5 (no set-up needed; A4/A5 are busy while I2C is on)."""
         return BlockingAnalogInput(self._runner, self.handle.analog(pin))
 
     def read_analog_all(self) -> tuple[int, ...]:
+        """All six analog inputs (0-1023 each), A0 first, in one request."""
         return self._runner.call(self.handle.read_analog_all)
 
     def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> BlockingPulseOutput:
+        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
         handle = self._runner.call(lambda: self.handle.servo(pin, pulse_us=pulse_us))
         return BlockingPulseOutput(self._runner, handle)
 
     def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> BlockingPulseOutput:
+        """Software servo PWM on D2-D7 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
         handle = self._runner.call(lambda: self.handle.soft_pwm(pin, pulse_us=pulse_us))
         return BlockingPulseOutput(self._runner, handle)
 
     def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> BlockingCounter:
+        """An event counter on D2 or D3 counting ``edge`` edges, from zero."""
         handle = self._runner.call(lambda: self.handle.counter(pin, edge=edge))
         return BlockingCounter(self._runner, handle)
 
     def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> BlockingI2CBus:
+        """Turn on the I2C bridge on A4/A5 at ``speed`` (100 or 400 kHz)."""
         return BlockingI2CBus(self._runner, self._runner.call(self.handle.i2c, speed))
 
     def release(self, pin: DigitalPin) -> None:
+        """End whatever role ``pin`` has, so another role may use it."""
         self._runner.call(self.handle.release, pin)
 
     # ---- board ----------------------------------------------------------------------------
 
     def read_id(self) -> int:
+        """The board ID stored in the board's EEPROM, read now."""
         return self._runner.call(self.handle.read_id)
 
     def write_id(self, board_id: int) -> None:
+        """Store a new board ID (0x0000-0xFFFF) in EEPROM; it survives resets."""
         self._runner.call(self.handle.write_id, board_id)
 
     def temperature(self) -> float:
+        """The chip's temperature in degrees C (datasheet-typical calibration)."""
         return self._runner.call(self.handle.temperature)
 
     def status(self) -> p.ReadStatusReply:
+        """The board's status flags and session tag (0 after every boot)."""
         return self._runner.call(self.handle.status)
 
     def reset(self, *, restore: bool = False) -> None:
+        """Reset the board through its watchdog and wait until it answers; with
+        ``restore=True`` set the pin roles and watches up again."""
         self._runner.call(lambda: self.handle.reset(restore=restore))
 
     def request(self, request: p.Request[Any], *, timeout: float | None = None) -> Any:
@@ -303,13 +362,18 @@ class BlockingBoard(_Blocking):
         return _wrap_samples(self._runner, samples_cm)
 
     def arm_failsafe(self, timeout_ms: int, safe_states: Mapping[_Blocking, bool | int]) -> None:
+        """Arm the board's link watchdog: when the host is silent for ``timeout_ms`` the
+        outputs in ``safe_states`` (blocking handles) take their safe level or pulse width
+        (us).  The portal's loop feeds it between your calls."""
         states = {blocking.handle: state for blocking, state in safe_states.items()}
         self._runner.call(self.handle.arm_failsafe, timeout_ms, states)
 
     def disarm_failsafe(self) -> None:
+        """Stop the board's link watchdog (before a planned pause of the program)."""
         self._runner.call(self.handle.disarm_failsafe)
 
     def rearm_failsafe(self, *, restore: bool = True) -> None:
+        """After a trip: arm again and (by default) put every output back as it was."""
         self._runner.call(lambda: self.handle.rearm_failsafe(restore=restore))
 
     # ---- closing ------------------------------------------------------------------------------

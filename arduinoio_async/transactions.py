@@ -48,6 +48,7 @@ class Item(Generic[R]):
 
     @property
     def done(self) -> bool:
+        """Whether the item has its outcome (a reply or an error): the transaction ran."""
         return self._reply is not None or self._error is not None
 
     @property

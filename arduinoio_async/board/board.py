@@ -168,6 +168,9 @@ class Board:
     #: Wait for the board on a byte stream and wrap it in a (not yet started) transport
     #: (:func:`~arduinoio_async.board.boot.start_link`).
     start_link = staticmethod(start_link)
+    """Wait for the board on a byte stream and wrap it in a transport that is not started yet
+    (:func:`~arduinoio_async.board.boot.start_link`); a class attribute so that a subclass
+    can open its link another way."""
 
     async def _handshake(self, link: Transport) -> None:
         """Check the protocol version and tag this boot of the board (to detect resets)."""
@@ -216,6 +219,8 @@ class Board:
 
     @property
     def connected(self) -> bool:
+        """Whether the board has a link that is not closed (False after a disconnect, until
+        the manager attaches a new one)."""
         return self._link is not None and self._link.state.value != "closed"
 
     async def request(self, request: p.Request[R], *, timeout: float | None = None) -> R:
@@ -344,11 +349,22 @@ class Board:
         return handle
 
     async def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> DigitalOutput:
+        """Make ``pin`` an output that starts at ``initial`` (no glitch to the other level).
+
+        The role is recorded and replayed after a reset.  Raises PinCapabilityError for a
+        pin that cannot be a digital output, PinRoleError when another handle holds it.
+        """
         handle = self._new_handle(pin, Function.DIGITAL_OUTPUT, DigitalOutput)
         await self.set_up(handle, output_setup(handle.pin, initial))
         return handle
 
     async def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> DigitalInput:
+        """Make ``pin`` an input, with the internal pull-up (20-50 kOhm to 5 V) if asked.
+
+        The board latches rising and falling edges between reads (:meth:`DigitalInput.read
+        <arduinoio_async.handles.DigitalInput.read>`).  Raises PinCapabilityError or
+        PinRoleError as :meth:`digital_output` does.
+        """
         handle = self._new_handle(pin, Function.DIGITAL_INPUT, DigitalInput)
         await self.set_up(handle, input_setup(handle.pin, pull_up))
         return handle
@@ -396,6 +412,8 @@ class Board:
     # ---- misc ------------------------------------------------------------------------------
 
     async def read_id(self) -> int:
+        """The board ID (0x0000-0xFFFF) stored in the board's EEPROM, read from the board
+        now (:attr:`board_id` is the one read when the link opened)."""
         return (await self.request(p.ReadId())).board_id
 
     async def write_id(self, board_id: int, *, deadline: float = READY_TIMEOUT) -> None:
@@ -423,6 +441,8 @@ class Board:
         return (await self.request(p.ReadTemperature())).celsius
 
     async def status(self) -> p.ReadStatusReply:
+        """The board's status flags (failsafe armed or tripped, a stream running) and its
+        session tag, which is 0 after every boot: how a reset is noticed."""
         return await self.request(p.ReadStatus())
 
     async def reset(self, *, restore: bool = False, deadline: float = READY_TIMEOUT) -> None:
@@ -500,6 +520,8 @@ class Board:
         await self._failsafe.arm(timeout_ms, safe_states)
 
     async def disarm_failsafe(self) -> None:
+        """Stop the board's link watchdog: a silent host no longer puts the outputs in
+        their safe states (call it before a planned pause of the program)."""
         await self._failsafe.disarm()
 
     async def rearm_failsafe(self, *, restore: bool = True) -> None:

@@ -150,6 +150,7 @@ class Failsafe:
         self.tripped = False
 
     async def disarm(self) -> None:
+        """Disarm the board's watchdog and forget the armed set-up (and any trip)."""
         await self.board.request(p.FailsafeDisarm())
         self.config = None
         self.tripped = False
@@ -166,6 +167,9 @@ class Failsafe:
     # ---- keepalive ---------------------------------------------------------------------
 
     def heartbeat_interval(self) -> float:
+        """Seconds the link may stay idle before the keepalive sends a status poll:
+        :data:`IDLE_HEARTBEAT`, or a fraction of the armed timeout, so that
+        :data:`HEARTBEATS_PER_TIMEOUT` polls fall within it."""
         if self.config is None:
             return IDLE_HEARTBEAT
         return min(IDLE_HEARTBEAT, self.config.timeout_ms / 1000 / HEARTBEATS_PER_TIMEOUT)

@@ -54,6 +54,7 @@ def is_loopback(host: str) -> bool:
 
 
 def new_token() -> str:
+    """A random access token (144 bits, URL-safe) for a monitor served beyond loopback."""
     return secrets.token_urlsafe(18)
 
 
@@ -68,6 +69,7 @@ class MonitorServer:
 
     @property
     def url(self) -> str:
+        """The page's address to open in a browser, with the token if there is one."""
         host = f"[{self.host}]" if ":" in self.host else self.host
         query = f"?token={self.token}" if self.token else ""
         return f"http://{host}:{self.port}/{query}"

@@ -337,10 +337,13 @@ class NetworkBoardManager(BoardManager):
                 await self.remote.__aexit__(*exc_info)
 
     def present(self) -> dict[int, Board]:
+        """Connected boards by ID, local and remote; a local board wins an ID both have."""
         remote = self.remote.present() if self.remote is not None else {}
         return {**remote, **super().present()}
 
     async def get(self, board_id: int, *, timeout: float | None = None) -> Board:
+        """The board ``board_id`` on a local port or on the network, waiting up to
+        ``timeout`` seconds; BoardNotFoundError says what each way tried found."""
         if self.remote is not None:
             self.remote.check_unique(board_id)
         try:
@@ -355,6 +358,8 @@ class NetworkBoardManager(BoardManager):
             raise BoardNotFoundError(board_id, tried) from None
 
     async def wait_connected(self, board_id: int) -> Board:
+        """Wait (without limit) until the board ``board_id`` is connected, locally or on
+        the network, whichever comes first."""
         local = super().present().get(board_id)
         if local is not None or self.remote is None:
             return await super().wait_connected(board_id)

@@ -119,6 +119,8 @@ class RemoteFault:
 
     @property
     def disconnected(self) -> bool:
+        """Whether the failure means the server lost the board (its port closed or went to
+        another program), not only that this one request failed."""
         return self.error in ("BoardDisconnectedError", "PortBusyError")
 
     def as_error(self, where: str) -> ArduinoIOError:

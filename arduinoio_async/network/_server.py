@@ -51,6 +51,8 @@ class BoardServer:
 
     @property
     def loop(self) -> LoopHandle:
+        """The server's event loop, for Zenoh's callbacks to schedule work in (only while
+        the server runs)."""
         assert self._loop is not None, "the server is not running"
         return self._loop
 

@@ -174,6 +174,8 @@ class RemoteByteStream(anyio.abc.ByteStream):
     # ---- anyio.abc.ByteStream ---------------------------------------------------------
 
     async def receive(self, max_bytes: int = 65536) -> bytes:
+        """The next reply bytes from the server (at most ``max_bytes``); raises the link's
+        error once it broke, ``anyio.ClosedResourceError`` once closed."""
         while not self._chunks:
             if self._closed:
                 raise anyio.ClosedResourceError
@@ -215,12 +217,15 @@ class RemoteByteStream(anyio.abc.ByteStream):
             self._query(bytes(item) if whole else frame.encode())
 
     async def send(self, item: bytes) -> None:
+        """Send request bytes to the board: :meth:`send_nowait` (it never suspends)."""
         self.send_nowait(item)
 
     async def send_eof(self) -> None:
+        """Close the stream: a request link has no half-closed state."""
         await self.aclose()
 
     async def aclose(self) -> None:
+        """Stop querying the server and wake a waiting :meth:`receive`; idempotent."""
         if self._closed:
             return
         self._closed = True

@@ -64,10 +64,12 @@ class InvalidValues(Garbage):
 
     @property
     def class_tag(self) -> int:
+        """The frame's class tag (its first byte): which command class it belongs to."""
         return self.data[0]
 
     @property
     def descriptor(self) -> int:
+        """The frame's descriptor (its second byte): which command within the class."""
         return self.data[1]
 
 

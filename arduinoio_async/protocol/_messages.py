@@ -188,6 +188,7 @@ class ErrorReply(Frame):
     SIZE: ClassVar[int] = 4
 
     def encode(self) -> bytes:
+        """The four bytes on the wire, checksum included (what a board or a fake sends)."""
         body = bytes((ERROR_FLAG | self.class_tag, self.descriptor, self.code))
         return body + bytes((body[0] ^ body[1] ^ body[2],))
 

@@ -216,6 +216,8 @@ class FakeBoard(PeripheralModels):
                 return
 
     def role(self, pin: int) -> str:
+        """What the fake board set ``pin`` (2-13) up as: ``free``, ``input``,
+        ``output``, ``pwm`` or ``counter``, for a test's assertions."""
         return self._pins[pin].role
 
     async def push(self, frame: p.Frame) -> None:
