@@ -109,8 +109,18 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         "link_stats": stats,
         "baud": args.baud,
         "seed": args.seed,
-        "command": "benchmarks/idle_failsafe.py " + " ".join(args.argv),
+        "command": command(args.argv),
     }
+
+
+def command(argv: list[str]) -> str:
+    """The command line that ran this, ``chrt`` included when the host ran real-time."""
+    line = ".venv/bin/python benchmarks/idle_failsafe.py " + " ".join(argv)
+    policy = os.sched_getscheduler(0)
+    if policy in (os.SCHED_RR, os.SCHED_FIFO):
+        flag = "-r" if policy == os.SCHED_RR else "-f"
+        line = f"chrt {flag} {os.sched_getparam(0).sched_priority} {line}"
+    return line
 
 
 def scheduling() -> str:
