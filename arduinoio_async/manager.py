@@ -228,6 +228,7 @@ class BoardManager:
 
     def present(self) -> dict[int, Board]:
         """Boards connected now, by ID."""
+        self._rekey()
         return {bid: board for bid, board in self._boards.items() if board.connected}
 
     def probed(self) -> dict[str, ProbeResult]:
@@ -274,6 +275,7 @@ class BoardManager:
         """Wait (without limit) until the board with ``board_id`` is connected."""
         while True:
             self._raise_duplicate(board_id)
+            self._rekey()
             board = self._boards.get(board_id)
             if board is not None and board.connected:
                 return board
@@ -296,6 +298,17 @@ class BoardManager:
             return results
 
     # ---- internals --------------------------------------------------------------------------
+
+    def _rekey(self) -> None:
+        """File a board whose ID ``Board.write_id`` changed under its new ID (its claim
+        on its port too), so that it is listed, found and restored as what it answers to."""
+        for key, board in list(self._boards.items()):
+            if board.board_id != key and self._boards.get(key) is board:
+                del self._boards[key]
+                self._boards[board.board_id] = board
+                port = self._claims.pop(key, None)
+                if port is not None:
+                    self._claims[board.board_id] = port
 
     def _raise_duplicate(self, board_id: int) -> None:
         ports = self._duplicates.get(board_id)
@@ -345,6 +358,7 @@ class BoardManager:
                 await stream.aclose()
             results[port] = self._remember(ProbeResult(port, error=str(exc)))
             return
+        self._rekey()
         holder = self._claims.get(board_id)
         if holder is not None:
             # Claimed without an await since the check: concurrent probes cannot both win.
@@ -399,15 +413,17 @@ class BoardManager:
             if board is not None:
                 board.detach(link)
             self._known.pop(link.name, None)
-            if self._claims.get(board_id) == link.name:
-                del self._claims[board_id]
+            self._rekey()
+            for key in {board_id, board.board_id if board is not None else board_id}:
+                if self._claims.get(key) == link.name:
+                    del self._claims[key]
             for ports in self._duplicates.values():
                 ports.discard(link.name)
             self._duplicates = {
                 bid: ports for bid, ports in self._duplicates.items() if len(ports) > 1
             }
             if board is not None:
-                self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
+                self._emit(ManagerEvent("disconnected", board.board_id, link.name, detail))
             if rekeyed and self._task_group is not None:
                 # Probed afresh at once: attached under the ID it answers to now.
                 self._task_group.start_soon(self.scan)

@@ -49,3 +49,28 @@ async def test_a_board_whose_id_changed_is_listed_under_the_new_id_without_old_r
         assert not new.roles.setups()
         kinds = [(e.kind, e.board_id) for e in events]
         assert ("disconnected", OLD) in kinds and kinds[-1] == ("connected", NEW), kinds
+
+
+async def test_write_id_rekeys_the_board_in_the_manager(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """``Board.write_id`` changes the ID on purpose: the same board (and its roles) is then
+    listed, found and restored under the new ID."""
+    uno = await virtual_uno_factory(board_id=OLD)
+    events: list[ManagerEvent] = []
+    async with BoardManager(ports=[uno.port], usb=False, env=False) as boards:
+        boards.subscribe(events.append)
+        board = await boards.get(OLD)
+        await board.digital_output(D4, initial=True)
+        await board.write_id(NEW)
+        assert set(boards.present()) == {NEW}
+        assert await boards.get(NEW, timeout=1) is board
+        await uno.reset()
+        with anyio.fail_after(10):
+            while not any(e.kind == "reset" for e in events):  # noqa: ASYNC110
+                await anyio.sleep(0.02)
+            assert await boards.wait_connected(NEW) is board
+            while (await uno.pin("D4")).level != 1:  # noqa: ASYNC110 - the role is replayed
+                await anyio.sleep(0.02)
+        assert await board.read_id() == NEW
+        assert set(boards.present()) == {NEW}
