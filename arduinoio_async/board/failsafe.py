@@ -220,7 +220,6 @@ class Failsafe:
                     # watchdog): one waiting is enough.
                     await anyio.sleep(interval)
                     continue
-                self._polls += 1
                 polled_at = anyio.current_time()
                 tasks.start_soon(self._poll, link)
             tasks.cancel_scope.cancel()
@@ -228,6 +227,7 @@ class Failsafe:
     async def _poll(self, link: Transport) -> None:
         """One status poll; its answer, stamped with when it was asked, is news."""
         asked = anyio.current_time()
+        self._polls += 1  # counted in the task: one cancelled before it ran is never counted
         try:
             status = await link.request(p.ReadStatus())
         except LinkError:
