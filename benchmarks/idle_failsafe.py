@@ -45,15 +45,41 @@ from arduinoio_async.sim import VirtualUno
 BOARD_ID = 0x0028
 #: How often the fixture's D4 capture is read while idling (costs the host nothing).
 CHECK_EVERY = 5.0
+#: The stall watcher's tick, and the lateness it records as a stall of the host process.
+STALL_TICK = 0.005
+STALL = 0.05
+#: A trip the library reports within this long after a host stall of 3/4 of the timeout
+#: (the heartbeat's interval is 1/4) is counted as one the stall explains.
+STALL_TO_TRIP = 1.0
+
+
+async def watch_stalls(stalls: list[tuple[float, float]], stop: anyio.Event) -> None:
+    """Record when (end, monotonic) and how long the host's event loop did not run: the
+    OS (or the hypervisor) not running the process, which no keepalive can cover."""
+    while not stop.is_set():
+        before = time.monotonic()
+        await anyio.sleep(STALL_TICK)
+        now = time.monotonic()
+        if now - before - STALL_TICK >= STALL:
+            stalls.append((now, now - before - STALL_TICK))
 
 
 async def run(args: argparse.Namespace) -> dict[str, Any]:
     events: list[ManagerEvent] = []
+    trip_times: list[float] = []
+    stalls: list[tuple[float, float]] = []
+
+    def on_event(event: ManagerEvent) -> None:
+        events.append(event)
+        if event.kind == "failsafe":
+            trip_times.append(time.monotonic())
+
     async with (
         VirtualUno(board_id=BOARD_ID, baud=args.baud, seed=args.seed) as uno,
         BoardManager(ports=[uno.port], usb=False, env=False) as boards,
+        anyio.create_task_group() as watchers,
     ):
-        boards.subscribe(events.append)
+        boards.subscribe(on_event)
         board = await boards.get(BOARD_ID, timeout=10)
         led = await board.digital_output(D4, initial=True)
         await board.arm_failsafe(args.timeout_ms, {led: False})
@@ -61,6 +87,8 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         start_status = await uno.status()
         await uno.set_faults(drop=args.fault, insert=args.fault, flip=args.fault, seed=args.seed)
         start = time.monotonic()
+        stop_watching = anyio.Event()
+        watchers.start_soon(watch_stalls, stalls, stop_watching)
         trips_seen = 0
         loads = [os.getloadavg()[0]]
         while (left := args.seconds - (time.monotonic() - start)) > 0:
@@ -69,6 +97,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
             loads.append(os.getloadavg()[0])
             print(f"{time.monotonic() - start:7.1f} s: {trips_seen} trips", file=sys.stderr)
         elapsed = time.monotonic() - start
+        stop_watching.set()
         await uno.set_faults(drop=0, insert=0, flip=0)
         end_status = await uno.status()
         d4 = await uno.pulse_stats("D4")
@@ -87,6 +116,12 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         silent_from = float((await uno.status())["last_host_byte_us"])
         edge = (await uno.pulse_stats("D4")).last_edge_us
         reaction_ms = None if edge is None else round((edge - silent_from) / 1000, 3)
+    long_stall = args.timeout_ms / 1000 * 0.75
+    explained = sum(
+        1
+        for trip in trip_times
+        if any(length >= long_stall and 0 <= trip - end <= STALL_TO_TRIP for end, length in stalls)
+    )
     sim_s = (end_status["sim_us"] - start_status["sim_us"]) / 1e6
     wall_s = (end_status["wall_us"] - start_status["wall_us"]) / 1e6
     return {
@@ -96,6 +131,9 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         "false_trips": d4.falls,
         "trips_reported_by_library": reported,
         "resets_seen": resets,
+        "host_stalls_over_50ms": len(stalls),
+        "longest_host_stall_ms": round(max((n for _, n in stalls), default=0.0) * 1000, 1),
+        "trips_right_after_a_host_stall": explained,
         "reaction_when_host_stops_ms": reaction_ms,
         "sim_over_wall_clock": round(sim_s / wall_s, 4) if wall_s else None,
         "host_scheduling": scheduling(),
