@@ -1,12 +1,13 @@
 # Two commands do all set-up from nothing on a fresh Debian machine (as root):
 #   make bench   the main job: build firmware + virtual Uno and run the latency benchmark
-#   make test    lint, type-check, firmware host tests and the whole pytest suite
+#   make test    lint, type-check, firmware host tests and fuzz targets, the whole pytest suite
 #   make package-data   regenerate the firmware images the wheel ships
 #   make bench RECORD=1 also record the results in benchmarks/results/ (tracked)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude make gcc \
+                clang libclang-rt-dev \
                 arduino-core-avr chromium
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
@@ -82,8 +83,11 @@ lint: venv
 docs: venv
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir site
 
+# The fuzz step replays firmware/tests/corpus and fuzzes each target for FUZZ_TIME s (8 s
+# each, about 30 s with the builds); a longer run: make -C firmware fuzz FUZZ_TIME=600.
 test: setup firmware sim bootloader lint docs
 	$(MAKE) -C firmware test
+	$(MAKE) -C firmware fuzz
 	$(BIN)/pytest
 
 # Results go to benchmarks/results/local/ (untracked); RECORD=1 writes the tracked

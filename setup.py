@@ -6,16 +6,24 @@ to edit).  So ``build_py`` copies ``firmware/sim/*.c`` and ``*.h`` into the buil
 package as ``arduinoio_async/_data/sim``, where ``arduinoio_async._resources`` looks
 for them when installed.  The sdist carries ``firmware/sim`` (MANIFEST.in), so a wheel
 built from the sdist gets them the same way.  Everything else is in pyproject.toml.
+
+The package's directory in ``build/lib`` is emptied before each (non-editable) build:
+setuptools copies into it and never deletes, so a module removed from git, or a data
+file an older configuration picked up, would otherwise ship in every later wheel built
+from this clone (``tests/packaging/test_wheel_contents.py`` holds the wheel to an
+allow-list).
 """
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 from setuptools import setup
 from setuptools.command.build_py import build_py
 
 #: Source directory (relative to the project root) -> directory inside the built package.
+PACKAGE = "arduinoio_async"
 HARNESS_SOURCES = Path("firmware", "sim")
 HARNESS_TARGET = Path("arduinoio_async", "_data", "sim")
 
@@ -30,6 +38,8 @@ class BuildPyWithHarness(build_py):
     """``build_py`` plus the harness sources mapped into the package."""
 
     def run(self) -> None:
+        if not self.editable_mode:
+            shutil.rmtree(Path(self.build_lib, PACKAGE), ignore_errors=True)
         super().run()
         if self.editable_mode:
             return  # an editable install runs from the clone, which reads firmware/sim

@@ -25,6 +25,7 @@ __all__ = [
     "BoardError",
     "BoardIdChangedError",
     "BoardNotFoundError",
+    "BoardSilentError",
     "BoardTimeoutError",
     "DuplicateBoardError",
     "FailsafeTrippedError",
@@ -59,13 +60,20 @@ class UsageError(ArduinoIOError, ValueError):
 class PinCapabilityError(UsageError):
     """A pin was asked for a function that Table III does not give it."""
 
-    def __init__(self, pin: str, function: str, capable: Sequence[str]) -> None:
+    def __init__(
+        self, pin: str, function: str, capable: Sequence[str], *, number: bool = False
+    ) -> None:
         self.pin = pin
         self.function = function
         self.capable = tuple(capable)
-        super().__init__(
-            f"{pin} cannot do {function}: {function} is available on {', '.join(capable)}"
-        )
+        where = f"{function} is available on {', '.join(capable)}"
+        if not number:
+            super().__init__(f"{pin} cannot do {function}: {where}")
+            return
+        # A plain number (13 for D13) is the commonest slip: name the pin it meant.
+        meant = [name for name in self.capable if name[1:] == pin]
+        use = f"use {meant[0]} (from arduinoio_async import {meant[0]})" if meant else where
+        super().__init__(f"{pin} is a number, not a pin: {use}")
 
 
 class PinRoleError(UsageError):
@@ -116,7 +124,8 @@ class ProtocolError(ArduinoIOError):
 
 
 def describe_request(request: object) -> str:
-    """``PwmConfig(pin=D3, pulse_us=1500)``: a request as a user wrote it, enums by name."""
+    """``PwmConfig(pin=D3, pulse_us=1500)``: a request as a user wrote it, enums by name
+    (for reprs; messages say it in words, see :func:`request_in_words`)."""
     if not dataclasses.is_dataclass(request) or isinstance(request, type):
         return str(request)
     fields = []
@@ -127,12 +136,40 @@ def describe_request(request: object) -> str:
     return f"{type(request).__name__}({', '.join(fields)})"
 
 
+def request_in_words(request: object) -> str:
+    """ "make D4 a digital output (initially high)": what ``request`` asks, completing "the
+    board refused to ..." (the words live beside the command table)."""
+    from .protocol.commands.descriptions import describe  # the protocol imports this module
+
+    return describe(request)
+
+
 def _pin_name(request: object) -> str:
     pin = getattr(request, "pin", None)
     if isinstance(pin, enum.Enum) and pin.name:
         return pin.name
     return f"D{pin}" if isinstance(pin, int) else "the pin"
 
+
+#: Each error code in words, by name: why the board refused.
+_REFUSAL_REASONS = {
+    "BAD_CHECKSUM": "the frame's checksum was wrong",
+    "UNKNOWN_CLASS": "its firmware does not know this kind of command (older firmware?)",
+    "UNKNOWN_DESCRIPTOR": "its firmware does not know this command (older firmware?)",
+    "INCOMPLETE_FRAME": "the frame arrived incomplete",
+    "RX_OVERFLOW": "its receive buffer overflowed",
+    "PIN_NOT_CAPABLE": "the pin cannot do that",
+    "PIN_NOT_CONFIGURED": "the pin is not set up for that",
+    "PIN_BUSY": "the pin is busy",
+    "VALUE_OUT_OF_RANGE": "a value is out of range",
+    "I2C_NACK_ADDRESS": "no I2C device answered at that address",
+    "I2C_NACK_DATA": "the I2C device refused a data byte",
+    "I2C_TIMEOUT": "the I2C bus timed out",
+    "I2C_NOT_CONFIGURED": "the I2C bus is off",
+    "LINK_CAPACITY": "too much for the link",
+    "FAILSAFE_TRIPPED": "the failsafe has tripped",
+    "EEPROM_FAILED": "its EEPROM did not keep the value",
+}
 
 #: What a refusal means and what to do about it, by error code name.
 _REFUSAL_HINTS = {
@@ -141,15 +178,12 @@ _REFUSAL_HINTS = {
     "or `arduinoio release {pin}`, or reset the board with `arduinoio reset`",
     "PIN_NOT_CONFIGURED": "{pin} does not have the role this request needs on the board: "
     "configure it first (roles end at every reset of the board)",
-    "PIN_NOT_CAPABLE": "{pin} cannot do this (Table III of the paper lists the pins)",
-    "VALUE_OUT_OF_RANGE": "a value lies outside the range the board accepts",
-    "FAILSAFE_TRIPPED": "the failsafe fired and holds the outputs in their safe states: "
-    "re-arm it (board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
-    "I2C_NACK_ADDRESS": "no I2C device acknowledged its address",
-    "I2C_NACK_DATA": "the I2C device refused a data byte",
-    "I2C_TIMEOUT": "the I2C bus did not finish in time (SDA/SCL held low? pull-ups?)",
+    "PIN_NOT_CAPABLE": "Table III of the paper lists what each pin can do",
+    "FAILSAFE_TRIPPED": "it holds the outputs in their safe states: re-arm it "
+    "(board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
+    "I2C_NACK_ADDRESS": "is a device at that address, and powered?",
+    "I2C_TIMEOUT": "SDA/SCL held low? pull-ups?",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
-    "EEPROM_FAILED": "the EEPROM did not read back what was written",
 }
 
 
@@ -157,8 +191,8 @@ class BoardError(ArduinoIOError):
     """The board answered a request with an error reply.
 
     ``code`` is the protocol's :class:`~arduinoio_async.protocol.ErrorCode`; ``request`` the
-    request that was refused.  The message names the request and says in words what the
-    refusal means and how to get past it.
+    request that was refused.  The message says in words what was asked, why the board
+    refused it and how to get past it (code inspects ``code``, not the text).
     """
 
     def __init__(self, code: object, request: object, detail: str = "") -> None:
@@ -166,7 +200,8 @@ class BoardError(ArduinoIOError):
         self.request = request
         name = str(getattr(code, "name", code))
         hint = _REFUSAL_HINTS.get(name, "").format(pin=_pin_name(request))
-        text = f"board refused {describe_request(request)}: {name}"
+        reason = _REFUSAL_REASONS.get(name, f"error {name}")
+        text = f"board refused to {request_in_words(request)}: {reason}"
         extra = "; ".join(part for part in (hint, detail) if part)
         super().__init__(f"{text} ({extra})" if extra else text)
 
@@ -217,7 +252,8 @@ class WatchLostError(ArduinoIOError):
         self.request = request
         self.reason = reason
         super().__init__(
-            f"the board reset and {describe_request(request)} could not be restored: {reason}"
+            f"the board reset and the request to {request_in_words(request)} could not be "
+            f"restored: {reason}"
         )
 
 
@@ -230,6 +266,61 @@ class LinkError(ArduinoIOError):
 
 class BoardTimeoutError(LinkError, TimeoutError):
     """No reply arrived within the request's timeout."""
+
+
+#: Replies of an STK500 bootloader (optiboot, avrdude's ``-c arduino``): STK_INSYNC then
+#: STK_OK, or STK_NOSYNC.
+_STK500_REPLIES = (b"\x14\x10", b"\x15")
+_EITHER = (
+    "either the baud rate is wrong (this firmware runs at 115200, 1000000 or 2000000 baud: "
+    "try --baud) or the board {runs} (`arduinoio flash` installs this firmware)"
+)
+
+
+class BoardSilentError(BoardTimeoutError):
+    """A board did not answer the ID requests sent while waiting for it to boot.
+
+    ``heard`` is what arrived instead (the first bytes), ``baudrate`` the rate the port
+    was opened at, ``bootloader`` what a look at the board's bootloader found (None: not
+    looked or no answer; "empty": the application flash is erased; "program": it holds
+    one).  The message names the likely causes these tell apart: silence is a wrong baud
+    rate or no firmware; STK500 replies, or an erased flash behind the bootloader, are a
+    board that runs only its bootloader.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        heard: bytes,
+        *,
+        baudrate: int | None = None,
+        bootloader: str | None = None,
+    ) -> None:
+        self.port = port
+        self.heard = bytes(heard)
+        self.baudrate = baudrate
+        self.bootloader = bootloader
+        at = f" at {baudrate} baud" if baudrate else ""
+        sent = f"it sent {self.heard[:16].hex(' ')}" if heard else f"it sent nothing{at}"
+        if bootloader == "empty":
+            why = (
+                "this board runs a bootloader only (the bootloader answers, the application "
+                "flash is empty): install the firmware with `arduinoio flash`"
+            )
+        elif any(reply in self.heard for reply in _STK500_REPLIES):
+            why = (
+                f"{sent}, bootloader (STK500) replies: this board runs a bootloader only; "
+                "install the firmware with `arduinoio flash`"
+            )
+        elif bootloader == "program":
+            why = f"{sent}, but its bootloader says it holds a program; "
+            why += _EITHER.format(runs="runs other firmware")
+        elif heard:
+            why = f"{sent}, which is no reply of this firmware; "
+            why += _EITHER.format(runs="runs other firmware")
+        else:
+            why = f"{sent}; " + _EITHER.format(runs="has no firmware yet")
+        super().__init__(f"{port} did not answer an ID request: {why}")
 
 
 class BoardDisconnectedError(LinkError, ConnectionError):
@@ -289,7 +380,8 @@ class BoardNotFoundError(ArduinoIOError, LookupError):
         if not ports:
             super().__init__(
                 f"no board with ID 0x{board_id:04X} found: there are no candidate ports "
-                "(plug in an Uno, or name ports: BoardManager(ports=..., patterns=...), "
+                "(plug in an Uno or start a virtual one with `arduinoio sim`, or name ports: "
+                "BoardManager(ports=..., patterns=...), "
                 "--ports PATH_OR_GLOB on the command line, or ARDUINOIO_PORTS)"
             )
             return

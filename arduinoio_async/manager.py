@@ -3,8 +3,9 @@
 Theory of operation
 -------------------
 The manager owns a task group.  A *scan* collects candidate ports -- USB serial devices
-from pyserial's port listing (by vendor/product ID), explicit paths, glob patterns, and
-the ``ARDUINOIO_PORTS`` environment variable -- and probes every candidate that is not in
+from pyserial's port listing (by vendor/product ID), explicit paths, glob patterns, the
+``ARDUINOIO_PORTS`` environment variable, and the boards local programs announce (a
+running ``arduinoio sim``) -- and probes every candidate that is not in
 use *concurrently*, each with a deadline long enough for a Uno's auto-reset on open.  A
 port that does not answer an ID request is closed at once and not probed again until it
 disappears from the candidates and comes back, so foreign devices are left alone.
@@ -34,6 +35,7 @@ import anyio.abc
 from serial.tools import list_ports
 
 from . import protocol as p
+from ._port_registry import registered_ports
 from .board import READY_TIMEOUT, Board
 from .errors import (
     ArduinoIOError,
@@ -114,9 +116,18 @@ def _usb_ports() -> list[str]:
 
 
 def candidate_ports(
-    ports: Iterable[str] = (), patterns: Iterable[str] = (), *, usb: bool = True, env: bool = True
+    ports: Iterable[str] = (),
+    patterns: Iterable[str] = (),
+    *,
+    usb: bool = True,
+    env: bool = True,
+    registered: bool = True,
 ) -> list[str]:
-    """Ports worth probing, in a stable order without duplicates."""
+    """Ports worth probing, in a stable order without duplicates.
+
+    ``registered``: also the boards programs on this machine announce (a running
+    ``arduinoio sim``, see :mod:`arduinoio_async._port_registry`).
+    """
     seen: dict[str, None] = {}
     for port in ports:
         seen[port] = None
@@ -127,6 +138,9 @@ def candidate_ports(
     if usb:
         for port in _usb_ports():
             seen[port] = None
+    if registered:
+        for entry in registered_ports():
+            seen[entry.port] = None
     return list(seen)
 
 
@@ -169,6 +183,8 @@ class BoardManager:
     patterns: Sequence[str] = ()
     usb: bool = True
     env: bool = True
+    #: Also the boards local programs announce (``arduinoio sim``): see candidate_ports.
+    registered: bool = True
     baudrate: int = p.DEFAULT_BAUD
     timeout: float = DEFAULT_TIMEOUT
     #: Each board's low-latency mode when first attached: see Board.choose_low_latency
@@ -257,7 +273,7 @@ class BoardManager:
         if timeout is None:
             ports = [*self.ports, *self._extra_ports]
             if not self._known and not candidate_ports(
-                ports, self.patterns, usb=self.usb, env=self.env
+                ports, self.patterns, usb=self.usb, env=self.env, registered=self.registered
             ):
                 raise BoardNotFoundError(board_id, {})  # nothing to wait for: say so now
             timeout = self.probe_deadline + (self.rescan_interval or 0.0)
@@ -285,7 +301,11 @@ class BoardManager:
         """Probe every new candidate port concurrently; return what each answered."""
         async with self._scan_lock:
             candidates = candidate_ports(
-                [*self.ports, *self._extra_ports], self.patterns, usb=self.usb, env=self.env
+                [*self.ports, *self._extra_ports],
+                self.patterns,
+                usb=self.usb,
+                env=self.env,
+                registered=self.registered,
             )
             for gone in set(self._known) - set(candidates):
                 if not self._known[gone].held:

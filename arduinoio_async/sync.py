@@ -21,6 +21,14 @@ Notebooks, where a board must stay open across cells, use the explicit pair::
     board.analog(A0).read_volts()        # any later cell
     board.close()                        # when done
 
+A script ends when its main thread ends, whether or not it called ``close()`` (also when
+it raised before): the portal's event loop runs in a daemon thread, and every board that
+is still open when the interpreter exits is closed by an :mod:`atexit` hook, which runs
+after an uncaught exception's traceback is printed and while that thread still runs.
+Without the hook the board's open portal would be torn down during interpreter
+finalization, when its daemon thread can no longer run, and the script would hang there.
+``close()`` (or ``with``) is still the way to let go of a board at a chosen moment.
+
 Why a portal rather than ``asyncio.run`` per call: the link is a long-lived task (its
 reader, its heartbeat), so the loop must outlive each call; and Jupyter already runs an
 event loop in the main thread, which a loop of our own in a worker thread never touches.
@@ -28,7 +36,10 @@ event loop in the main thread, which a loop of our own in a worker thread never 
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import logging
+import weakref
 from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from types import TracebackType
@@ -54,6 +65,8 @@ from .protocol.pins import AnalogPin, CounterPin, DigitalPin, ServoPin, SoftPwmP
 from .streaming import Sample, SampleStream
 
 T = TypeVar("T")
+
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "BlockingAnalogInput",
@@ -380,6 +393,7 @@ class BlockingBoard(_Blocking):
 
     def close(self) -> None:
         """Close the board and stop its event loop (for :func:`connect`; idempotent)."""
+        _open_boards.discard(self)
         if not self._runner.closed:
             self._runner.closed = True
             self._closer.close()
@@ -427,4 +441,20 @@ def connect(port: str, *, backend: str = "asyncio", **options: Any) -> BlockingB
     except BaseException:
         stack.close()
         raise
-    return BlockingBoard(_Runner(portal), board, stack)
+    blocking = BlockingBoard(_Runner(portal), board, stack)
+    _open_boards.add(blocking)
+    return blocking
+
+
+#: Boards opened by :func:`connect` and not closed yet; weak, so a dropped board is not kept.
+_open_boards: weakref.WeakSet[BlockingBoard] = weakref.WeakSet()
+
+
+@atexit.register
+def _close_open_boards() -> None:
+    """Close what a script left open, so that it exits (see the module docstring)."""
+    for board in list(_open_boards):
+        try:
+            board.close()
+        except Exception as exc:  # the script is ending: say why, do not print a traceback
+            _log.warning("closing %r at exit failed: %s", board, exc)

@@ -13,15 +13,25 @@ request's reply, whose :meth:`Item.result` is the reply or raises that item's ow
 
 Items are raw protocol requests: a configuration sent this way is not recorded for the
 replay after a reconnect, as the handles' own configuration is.
+
+Each transaction of a board gets the next ``seq`` number (mod 256), which its reply
+echoes; with at most 64 requests in flight on a link, two transactions in flight never
+share one, so the session can place a transaction's reply after line noise as surely as a
+single reply's.  The session also checks each item's result against its item and a ReadId
+item against the board's ID: a reply that fails is line noise.  A transaction whose reply
+was lost is sent again when all its items may be (docs/protocol.md, "Idempotency and
+retries"); otherwise it fails with a :class:`~arduinoio_async.errors.LinkError`.
 """
 
 from __future__ import annotations
 
+import itertools
+import weakref
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from . import protocol as p
-from .errors import BoardError, ProtocolError, ValueRangeError, describe_request
+from .errors import BoardError, ReplyMismatchError, ValueRangeError, describe_request
 from .protocol._exchange import board_error
 
 if TYPE_CHECKING:
@@ -30,6 +40,16 @@ if TYPE_CHECKING:
 __all__ = ["Item", "Transaction"]
 
 R = TypeVar("R", bound=p.Reply)
+
+#: Each board's transaction numbers (its ``seq`` counter), dropped with the board.
+_SEQ: weakref.WeakKeyDictionary[Board, itertools.count[int]] = weakref.WeakKeyDictionary()
+
+
+def _next_seq(board: Board) -> int:
+    counter = _SEQ.get(board)
+    if counter is None:
+        counter = _SEQ[board] = itertools.count()
+    return next(counter) & 0xFF
 
 
 class Item(Generic[R]):
@@ -94,11 +114,12 @@ class Transaction:
             raise RuntimeError("this transaction has already run")
         self._ran = True
         requests = [item.request for item in self._items]
-        reply = await self.board.request(p.Transaction(p.pack_items(requests)))
-        try:
+        request = p.Transaction(_next_seq(self.board), p.pack_items(requests))
+        reply = await self.board.request(request)
+        try:  # the session delivered it because it answers every item: this cannot fail
             results = p.unpack_results(requests, reply.results)
         except ValueError as exc:
-            raise ProtocolError(f"transaction reply does not answer its items: {exc}") from exc
+            raise ReplyMismatchError(f"transaction reply does not answer its items: {exc}") from exc
         for item, result in zip(self._items, results, strict=True):
             if isinstance(result, p.ErrorReply):
                 item._error = board_error(result, item.request)

@@ -26,6 +26,7 @@ import anyio.to_thread
 from .. import protocol as p
 from ..errors import (
     BoardDisconnectedError,
+    BoardSilentError,
     FailsafeTrippedError,
     LinkError,
     PinRoleError,
@@ -57,7 +58,14 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
-from .boot import READY_TIMEOUT, check_same_board, read_id_retrying, start_link, wait_new_boot
+from .boot import (
+    READY_TIMEOUT,
+    check_same_board,
+    explain_silence,
+    read_id_retrying,
+    start_link,
+    wait_new_boot,
+)
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
 from .watches import Watches
@@ -126,9 +134,13 @@ class Board:
                 yield b
             return
         stream = await open_serial_stream(port, baudrate)
-        async with cls.connect(
-            stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=port
-        ) as board:
+        try:
+            link = await cls.start_link(
+                stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=port
+            )
+        except BoardSilentError as silent:  # say why, as far as the board's bootloader tells
+            raise await explain_silence(port, baudrate, silent) from None
+        async with cls._serving(link) as board:
             await board.choose_low_latency(low_latency)
             yield board
 
@@ -147,6 +159,13 @@ class Board:
         link = await cls.start_link(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=name
         )
+        async with cls._serving(link) as board:
+            yield board
+
+    @classmethod
+    @asynccontextmanager
+    async def _serving(cls, link: Transport) -> AsyncIterator[Board]:
+        """The board on a link that answered: the link runs while the block does."""
         async with link:
             board = await cls.from_link(link)
             # In the transport's own task group: a task group around the caller's body

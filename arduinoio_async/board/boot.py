@@ -17,11 +17,26 @@ import anyio.abc
 import anyio.lowlevel
 
 from .. import protocol as p
-from ..errors import BoardDisconnectedError, BoardIdChangedError, BoardTimeoutError, LinkError
-from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport
+from ..errors import (
+    ArduinoIOError,
+    BoardDisconnectedError,
+    BoardIdChangedError,
+    BoardSilentError,
+    BoardTimeoutError,
+    LinkError,
+)
+from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_stream
 from ..transport._ready import wait_ready
 
-__all__ = ["READY_TIMEOUT", "check_same_board", "read_id_retrying", "start_link", "wait_new_boot"]
+__all__ = [
+    "READY_TIMEOUT",
+    "check_same_board",
+    "explain_silence",
+    "look_at_bootloader",
+    "read_id_retrying",
+    "start_link",
+    "wait_new_boot",
+]
 
 #: How long ``Board.open`` waits for a board to answer: a real Uno resets when its port
 #: opens and answers 1.6-2 s later.
@@ -72,9 +87,13 @@ async def read_id_retrying(link: Transport, deadline: float) -> int:
 async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: str) -> None:
     """Poll until the board on ``link`` reports a session tag other than ``session``: it
     has booted since it was tagged.  BoardTimeoutError names ``who`` after ``deadline``
-    seconds."""
+    seconds.
+
+    The board is silent while it boots, so polls time out and the link resyncs: expected
+    here, so the link logs it as such, not as a lost sync (a real loss stays a warning).
+    """
     try:
-        with anyio.fail_after(deadline):
+        with link.expecting_reboot(), anyio.fail_after(deadline):
             while True:
                 try:
                     status = await link.request(p.ReadStatus(), timeout=0.1)
@@ -104,3 +123,90 @@ async def check_same_board(link: Transport, board_id: int) -> None:
     found = (await link.request(p.ReadId())).board_id
     if found != board_id and (await link.request(p.ReadId())).board_id == found:
         raise BoardIdChangedError(link.name, board_id, found)
+
+
+# ---- a board that stays silent -------------------------------------------------------------
+
+#: The Uno's bootloader (optiboot) speaks STK500 at this rate, whatever the firmware's.
+BOOTLOADER_BAUD = 115200
+#: How long to look for the bootloader after the reset that opening the port causes: it
+#: listens for about 1 s after the reset.
+BOOTLOADER_WINDOW = 2.0
+_STK_INSYNC, _STK_OK = 0x14, 0x10
+
+
+async def _stk(stream: anyio.abc.ByteStream, command: bytes, answer: int, wait: float) -> bytes:
+    """Send an STK500 ``command``; its ``answer`` bytes between INSYNC and OK (TimeoutError
+    after ``wait`` seconds, ValueError on anything else)."""
+    await stream.send(command)
+    got = bytearray()
+    with anyio.fail_after(wait):
+        while len(got) < answer + 2:
+            got += await stream.receive()
+    if got[0] != _STK_INSYNC or got[answer + 1] != _STK_OK:
+        raise ValueError(f"no STK500 answer: {bytes(got).hex(' ')}")
+    return bytes(got[1 : answer + 1])
+
+
+async def _drain(stream: anyio.abc.ByteStream, quiet: float = 0.2, limit: float = 1.0) -> None:
+    """Read until nothing arrived for ``quiet`` seconds (at most ``limit``): late answers
+    to repeated syncs would otherwise meet the next command, or the next program."""
+    with anyio.move_on_after(limit):
+        while True:
+            with anyio.move_on_after(quiet):
+                await stream.receive()
+                continue
+            return
+
+
+async def _sync(stream: anyio.abc.ByteStream) -> None:
+    """avrdude's first step: GET_SYNC until the bootloader answers, then a quiet line.
+
+    Each try waits long enough for its answer (the bootloader answers at once; a busy
+    host reads late), so few tries are outstanding when one is answered."""
+    while True:
+        try:
+            await _stk(stream, b"\x30\x20", 0, 0.25)
+            break
+        except (TimeoutError, ValueError):
+            await anyio.lowlevel.checkpoint()
+    await _drain(stream)
+
+
+async def look_at_bootloader(port: str) -> str | None:
+    """What the bootloader of the board on ``port`` says: "empty" when no application is
+    in its flash, "program" when one is, None when no STK500 bootloader answered.
+
+    Opening the port resets an Uno into its bootloader (DTR, as for avrdude); this asks
+    what avrdude asks first -- sync, then the flash's first word (0xFFFF: erased) -- and
+    leaves the bootloader, which then starts whatever the flash holds.  The line is left
+    quiet for whoever opens the port next (``arduinoio flash``).
+    """
+    try:
+        stream = await open_serial_stream(port, BOOTLOADER_BAUD)
+    except ArduinoIOError:
+        return None
+    found: str | None = None
+    try:
+        try:
+            with anyio.move_on_after(BOOTLOADER_WINDOW):
+                await _sync(stream)
+                await _stk(stream, b"\x55\x00\x00\x20", 0, 0.25)  # LOAD_ADDRESS 0
+                first = await _stk(stream, b"\x74\x00\x02\x46\x20", 2, 0.25)  # READ_PAGE
+                await _stk(stream, b"\x51\x20", 0, 0.25)  # LEAVE_PROGMODE
+                found = "empty" if first == b"\xff\xff" else "program"
+        except (TimeoutError, ValueError):
+            pass  # something answered, but not as a bootloader does
+        await _drain(stream)
+    except (anyio.BrokenResourceError, anyio.EndOfStream):
+        return None
+    finally:
+        with anyio.CancelScope(shield=True):
+            await stream.aclose()
+    return found
+
+
+async def explain_silence(port: str, baudrate: int, silent: BoardSilentError) -> BoardSilentError:
+    """``silent`` again, with what the board's bootloader says (see BoardSilentError)."""
+    found = await look_at_bootloader(port)
+    return BoardSilentError(port, silent.heard, baudrate=baudrate, bootloader=found)

@@ -1,8 +1,11 @@
 """The ``arduinoio`` command: bench checks, discovery, IDs, flashing, simulator, benchmark.
 
 Every sub-command is an ``async def`` taking parsed arguments; :func:`main` takes
-``argv`` and returns the exit code, so tests call it directly.  Errors of the library are
-printed as one line and exit with 1; a missing tool (avrdude, simulator) exits with 2.
+``argv`` and returns the exit code, so tests call it directly.  Every command, the ones
+dispatched to their own modules included, ends through :func:`._entry.run_command`: an
+error is one line on stderr and a documented exit code (1 failed, 2 usage or missing
+tool/extra, 130 Ctrl-C; ``docs/howto/command-line.md``).  Output piped to a file is not
+squeezed to 80 columns (:func:`._entry.make_console`).
 """
 
 from __future__ import annotations
@@ -13,9 +16,9 @@ from collections.abc import Sequence
 
 from rich.console import Console
 
-from ..errors import ArduinoIOError
 from ..transport import run as run_event_loop  # uvloop when installed
 from . import _board_commands, _discovery, _flash
+from ._entry import make_console, run_command
 
 __all__ = ["main", "run"]
 
@@ -48,8 +51,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -> int:
     """Run the command line ``argv``; returns the process exit code."""
     args_list = list(sys.argv[1:] if argv is None else argv)
-    console = console or Console()
-    errors = Console(stderr=True)
+    out = console or make_console()
+    return run_command(lambda: _dispatch(args_list, out), make_console(stderr=True))
+
+
+def _dispatch(args_list: list[str], console: Console) -> int:
     if args_list[:1] == ["sim"]:
         from ..sim.cli import main as sim_main
 
@@ -66,18 +72,8 @@ def main(argv: Sequence[str] | None = None, *, console: Console | None = None) -
         from ..network.cli import main as serve_main
 
         return serve_main(args_list[1:])
-    parser = build_parser()
-    args = parser.parse_args(args_list)
-    try:
-        result: int = run_event_loop(args.handler, args, console)
-    except ArduinoIOError as exc:
-        errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
-        return 1
-    except _flash.ToolMissing as exc:
-        errors.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    args = build_parser().parse_args(args_list)
+    result: int = run_event_loop(args.handler, args, console)
     return result
 
 

@@ -16,6 +16,7 @@ from rich.console import Console
 from .. import protocol as p
 from ..errors import ArduinoIOError, UsageError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, require
+from ._roles import pin_roles
 from ._target import add_target_options, board_id, target_board
 
 
@@ -41,7 +42,10 @@ def byte_value(text: str) -> int:
 
 
 def add_commands(sub: Any) -> None:
-    read = sub.add_parser("read", help="read a digital input (level and edges)")
+    read = sub.add_parser(
+        "read",
+        help="read a digital input (level and edges), or the level an output drives",
+    )
     read.add_argument("pin", type=digital_pin)
     read.add_argument("--pull-up", action="store_true")
     read.set_defaults(handler=read_pin)
@@ -93,8 +97,23 @@ def add_commands(sub: Any) -> None:
 
 
 async def read_pin(args: argparse.Namespace, console: Console) -> int:
+    """An input's level and edges; an output's driven level, leaving it an output.
+
+    Roles outlive the command that gave them, so a pin an earlier ``write`` made an
+    output is still one: the board says so (``ReadPinRoles``) and reads its level as it
+    is, instead of this command turning it into an input.
+    """
     async with target_board(args) as target:
         board = target.board
+        if (await pin_roles(board)).get(args.pin.name) == "digital output":
+            if args.pull_up:
+                raise UsageError(
+                    f"{args.pin.name} is a digital output on the board: --pull-up is for "
+                    f"inputs (free it first with `arduinoio release {args.pin.name}`)"
+                )
+            reply = await board.request(p.GpioRead(args.pin))
+            console.print(f"{args.pin.name}: level {int(reply.level)} (digital output)")
+            return 0
         state = await (await board.digital_input(args.pin, pull_up=args.pull_up)).read()
         console.print(
             f"{args.pin.name}: level {int(state.level)} rose {int(state.rose)} "

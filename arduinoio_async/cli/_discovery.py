@@ -10,6 +10,7 @@ from rich.console import Console
 
 from .. import protocol as p
 from ..board import Board
+from ..network.options import add_remote_options, remote_boards_listing
 from ._output import print_record, print_rows
 from ._roles import pin_roles
 from ._target import (
@@ -27,11 +28,13 @@ def add_commands(sub: Any) -> None:
     listing = sub.add_parser(
         "list",
         help="probe ports and list the boards that answer (exit 1 when none does)",
-        description="Probe every candidate port (USB serial devices of Uno bridges, --ports, "
-        "ARDUINOIO_PORTS) and list what answered. Ports another program holds are skipped "
-        "and listed as busy.",
+        description="Probe every candidate port (USB serial devices of Uno bridges, virtual "
+        "Unos that `arduinoio sim` runs, --ports, ARDUINOIO_PORTS) and list what answered. "
+        "Ports another program holds are skipped and listed as busy. With --remote: the "
+        "boards `arduinoio serve` announces.",
     )
     add_scan_options(listing)
+    add_remote_options(listing, help="list the boards served on the network (arduinoio serve)")
     listing.add_argument("--json", action="store_true", help="machine-readable output")
     listing.set_defaults(handler=list_boards)
     info = sub.add_parser(
@@ -54,10 +57,17 @@ def _features(mask: int) -> list[str]:
 
 
 async def list_boards(args: argparse.Namespace, console: Console) -> int:
+    if args.remote:
+        with console.status("asking the servers..."):
+            rows = await remote_boards_listing(args)
+        if not rows:
+            print("no board is served at the endpoints asked", file=sys.stderr)
+            return 1
+        return _print_listing(console, rows, args.json)
     require_candidates(args)
     with console.status("probing ports..."):
         async with manager_for(args) as boards:
-            rows: list[dict[str, Any]] = []
+            rows = []
             present = {board.port: board for board in boards.present().values()}
             for port, result in sorted(boards.probed().items()):
                 board = present.get(port)
@@ -76,6 +86,11 @@ async def list_boards(args: argparse.Namespace, console: Console) -> int:
                 else:
                     status = result.error or "not answering"
                     rows.append({"port": port, "id": result.board_id, "status": status})
+    return _print_listing(console, rows, args.json)
+
+
+def _print_listing(console: Console, rows: list[dict[str, Any]], as_json: bool) -> int:
+    """The table (or JSON) of ``list``; exit code 1 when no board answered."""
     shown = [
         {**{key: str(value) for key, value in row.items()}, "id": _hex_id(row.get("id"))}
         for row in rows
@@ -88,7 +103,7 @@ async def list_boards(args: argparse.Namespace, console: Console) -> int:
         ("baud", "baud"),
         ("status", "status"),
     ]
-    print_rows(console, "arduinoio boards", columns, rows, as_json=args.json, shown=shown)
+    print_rows(console, "arduinoio boards", columns, rows, as_json=as_json, shown=shown)
     if not any(row["status"] == "ok" for row in rows):
         print(f"no board answered on {len(rows)} port(s)", file=sys.stderr)
         return 1

@@ -23,6 +23,7 @@ from .. import protocol as p
 from ..board import Board
 from ..errors import ArduinoIOError
 from ..manager import candidate_ports
+from ._entry import ToolMissing  # exit code 2 (cli/_entry.py)
 from ._target import board_id
 
 __all__ = ["ToolMissing", "add_commands", "avrdude_command", "flash_firmware"]
@@ -35,10 +36,6 @@ _ERROR_LINE = re.compile(
 )
 #: Harmless on a pseudo-terminal (a virtual Uno): the modem-control ioctls do not exist.
 _HARMLESS = re.compile(r"TIOCM[GS]ET")
-
-
-class ToolMissing(Exception):
-    """A program or file the command needs is not there; the message says what to do."""
 
 
 def add_commands(sub: Any) -> None:
@@ -134,7 +131,9 @@ async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
             raise ToolMissing(str(exc)) from exc
     elif not image.is_file():
         raise ToolMissing(f"{image} does not exist")
-    avrdude = args.avrdude or shutil.which("avrdude")
+    avrdude = shutil.which(args.avrdude or "avrdude")
+    if avrdude is None and args.avrdude:
+        raise ToolMissing(f"--avrdude {args.avrdude}: no such executable program")
     if avrdude is None:
         raise ToolMissing("avrdude is not installed: sudo apt-get install avrdude")
     port = args.port or _only_port()

@@ -33,8 +33,9 @@ __all__ = [
 ]
 
 NO_PORTS_HINT = (
-    "no candidate ports: plug in an Uno (USB), or name ports with --ports PATH_OR_GLOB "
-    "or ARDUINOIO_PORTS (paths or globs separated by ':' or ',')"
+    "no candidate ports: plug in an Uno (USB) or start a virtual one (`arduinoio sim`), "
+    "or name ports with --ports PATH_OR_GLOB or ARDUINOIO_PORTS (paths or globs "
+    "separated by ':' or ',')"
 )
 
 
@@ -135,6 +136,7 @@ class Target:
             ports=others,
             usb=False,
             env=False,
+            registered=False,
             baudrate=self.args.baud,
             probe_deadline=self.args.probe_timeout,
             rescan_interval=None,

@@ -15,6 +15,7 @@ from collections.abc import Set
 from ._constants import TEMP_MV_AT_25C, TEMP_MV_PER_C
 from ._messages import Reply
 from .commands.misc import ReadIdReply, ReadTemperatureReply
+from .commands.transaction import TransactionReply, split_results
 
 __all__ = ["BOUNDED", "TEMPERATURE_RAW_RANGE", "possible"]
 
@@ -28,17 +29,25 @@ TEMPERATURE_RAW_RANGE = range(
 )
 
 #: Reply types :func:`possible` bounds (a set lookup keeps the others' path cheap).
-BOUNDED = frozenset((ReadIdReply, ReadTemperatureReply))
+BOUNDED = frozenset((ReadIdReply, ReadTemperatureReply, TransactionReply))
 
 
 def possible(reply: Reply, expected_id: int | None, candidate_ids: Set[int]) -> bool:
     """Could the board have sent ``reply``?  An ID reply must name the board's ID
     (``expected_id``; None: any) or one a ``WriteId`` in doubt may have set
-    (``candidate_ids``); a temperature must lie in :data:`TEMPERATURE_RAW_RANGE`."""
+    (``candidate_ids``); a temperature must lie in :data:`TEMPERATURE_RAW_RANGE`; a
+    transaction's results must be whole replies, each of them possible."""
     if isinstance(reply, ReadIdReply):
         return (
             expected_id is None or reply.board_id == expected_id or reply.board_id in candidate_ids
         )
     if isinstance(reply, ReadTemperatureReply):
         return reply.raw in TEMPERATURE_RAW_RANGE
+    if isinstance(reply, TransactionReply):
+        results = split_results(reply.results)
+        return results is not None and all(
+            possible(item, expected_id, candidate_ids)
+            for item in results
+            if isinstance(item, Reply)
+        )
     return True

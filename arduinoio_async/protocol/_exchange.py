@@ -50,6 +50,7 @@ class LinkStats:
     """Counters for diagnostics and benchmarks."""
 
     __slots__ = (
+        "ambiguous",
         "dropped_late_replies",
         "events",
         "garbage_bytes",
@@ -77,6 +78,8 @@ class LinkStats:
         self.lost_replies = 0
         #: Re-sends of idempotent requests.
         self.retries = 0
+        #: Frames after noise that could answer more than one request (counted as noise).
+        self.ambiguous = 0
 
     def as_dict(self) -> dict[str, int]:
         return {name: getattr(self, name) for name in self.__slots__}

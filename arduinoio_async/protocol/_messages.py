@@ -77,6 +77,11 @@ class Request(Frame, Generic[R_co]):
             return False
         return all(getattr(self, name) == getattr(reply, name) for name in self.ECHO)
 
+    def parts(self) -> tuple[Request[Any], ...]:
+        """The requests that run on the board when this one is sent: itself, or a
+        transaction's items (what the retry rules of ``session`` look at)."""
+        return (self,)
+
 
 REQUEST_TYPES: dict[tuple[int, int], type[Request[Reply]]] = {}
 REPLY_TYPES: dict[tuple[int, int], type[Reply]] = {}

@@ -146,8 +146,10 @@ def require(pin: object, function: Function) -> None:
     """Raise :class:`PinCapabilityError` unless ``pin`` can do ``function``."""
     pins = TABLE_III[function]
     if not any(pin is p for p in pins):
+        named = isinstance(pin, DigitalPin | AnalogPin)
         name = pin.name if isinstance(pin, DigitalPin | AnalogPin) else repr(pin)
-        raise PinCapabilityError(name, function.value, [p.name for p in pins])
+        number = not named and isinstance(pin, int) and not isinstance(pin, bool)
+        raise PinCapabilityError(name, function.value, [p.name for p in pins], number=number)
 
 
 def pin_mask(function: Function) -> int:

@@ -23,7 +23,9 @@ everything in flight.  The next valid frame tells where the stream is: if it mat
 k-th request in flight, and no later request could have produced the same frame, the
 replies of the k requests before it were lost -- only those fail (with
 :class:`ReplyLostError`), the rest of the in-order stream is still verified.  A frame that
-matches nothing, an ambiguous one, a framing error reported by the board or a request
+could answer several of them (two requests alike in flight) is counted as noise: the one
+it answered lost its reply, and the next frame placed settles it with the others before
+it.  A frame that matches nothing, a framing error reported by the board or a request
 whose deadline passed while in flight make the session *lose sync*: everything in flight
 fails, and the shell drains the line and probes the board with an ID request
 (:meth:`Session.start_probe`) before the queue moves again.
@@ -440,7 +442,12 @@ class Session:
             # keep the positions whose lost replies explain the noise seen.
             matches = [k for k in matches if self._explains_noise(k)]
             if len(matches) != 1:
-                self._lose_sync(f"{type(item).__name__} after line noise is ambiguous", out)
+                # It answers one of several requests and nothing tells which: it counts
+                # as noise, so whichever request it answered has lost its reply.  The
+                # next frame placed (the marker's at the latest) settles the requests
+                # before it; the ones behind stay verified and in sync.
+                self.stats.ambiguous += 1
+                self._dispatch(Garbage(item.encode()), out)
                 return
         retries: list[Exchange] = []
         for _ in range(matches[0]):
@@ -525,18 +532,27 @@ class Session:
         self._finish(exchange, None, error, out)
 
     def _may_retry(self, exchange: Exchange, later: list[Exchange]) -> bool:
-        request = exchange.request
-        if not request.IDEMPOTENT or exchange.attempts >= MAX_ATTEMPTS:
+        """Sending it again must look like sending it once: every part idempotent, and
+        no part's effect observable through a request sent after it.  A transaction's
+        items count one by one; two of its own items acting on one pin (or one acting on
+        no particular pin beside another) would replay a sequence, so it is not retried."""
+        parts = exchange.request.parts()
+        if exchange.attempts >= MAX_ATTEMPTS or not all(r.IDEMPOTENT for r in parts):
             return False
-        if request.READS_ONLY:
+        pins = [getattr(r, "pin", None) for r in parts if not r.READS_ONLY]
+        if not pins:
             return True
-        pin = getattr(request, "pin", None)
+        if len(pins) > 1 and (None in pins or len(set(pins)) != len(pins)):
+            return False
         for other in later:
-            if other.internal or other.request.READS_ONLY:
+            if other.internal:
                 continue
-            other_pin = getattr(other.request, "pin", None)
-            if pin is None or other_pin is None or other_pin == pin:
-                return False
+            for part in other.request.parts():
+                if part.READS_ONLY:
+                    continue
+                other_pin = getattr(part, "pin", None)
+                if None in pins or other_pin is None or other_pin in pins:
+                    return False
         return True
 
     # ---- losing and regaining sync -------------------------------------------------------

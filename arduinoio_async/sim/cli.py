@@ -1,7 +1,9 @@
 """``arduinoio sim``: run virtual Unos until interrupted, printing where to connect.
 
 Each board gets one JSON line on stdout (``{"id": 1, "port": "/dev/pts/5", "control": ...,
-"baud": ...}``) so scripts and the multi-board manager can pick the ports up.  A missing
+"baud": ...}``) so scripts can pick the ports up, and is announced in the port registry
+(:mod:`arduinoio_async._port_registry`) while it runs, so ``arduinoio info`` and
+``BoardManager`` find it without being told the port.  A missing
 simulator is reported in one line on stderr with exit code 2 rather than a traceback,
 because this is the first thing a new user runs.
 """
@@ -17,6 +19,7 @@ from typing import Any
 
 import anyio
 
+from .._port_registry import announce
 from ..protocol import DEFAULT_BAUD, FIRMWARE_BAUDS
 from .harness import SimulatorError, SimulatorNotAvailable
 from .virtual_uno import start_virtual_unos
@@ -90,26 +93,32 @@ async def _run(args: argparse.Namespace) -> None:
     ids: list[int | None] = list(args.ids) if args.ids else [None]
     with anyio.open_signal_receiver(signal.SIGINT, signal.SIGTERM) as signals:
         async with start_virtual_unos(ids, **options) as boards:
-            for board in boards:
-                line = {
+            lines = [
+                {
                     "id": board.board_id,
                     "port": board.port,
                     "control": board.control_path,
                     "baud": board.baud,
                 }
-                print(json.dumps(line), flush=True)
-            async with anyio.create_task_group() as tg:
+                for board in boards
+            ]
+            # Announced while they run (before their lines are printed, so a script that
+            # reads the line finds the board), for `arduinoio info` and BoardManager.
+            with announce(lines):
+                for line in lines:
+                    print(json.dumps(line), flush=True)
+                async with anyio.create_task_group() as tg:
 
-                async def watch(board_index: int) -> None:
-                    board = boards[board_index]
-                    await board.wait_exited()
-                    raise SimulatorError(f"virtual Uno {board.board_id} exited unexpectedly")
+                    async def watch(board_index: int) -> None:
+                        board = boards[board_index]
+                        await board.wait_exited()
+                        raise SimulatorError(f"virtual Uno {board.board_id} exited unexpectedly")
 
-                for i in range(len(boards)):
-                    tg.start_soon(watch, i)
-                async for _ in signals:
-                    tg.cancel_scope.cancel()
-                    break
+                    for i in range(len(boards)):
+                        tg.start_soon(watch, i)
+                    async for _ in signals:
+                        tg.cancel_scope.cancel()
+                        break
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -433,7 +433,7 @@ class FakeBoard(PeripheralModels):
             else:
                 reply = self._answer(item)
             results += reply.encode()[:-1]
-        return p.TransactionReply(bytes(results))
+        return p.TransactionReply(request.seq, bytes(results))
 
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not has(DIGITAL, request.pin):

@@ -65,8 +65,8 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Callable, Coroutine
-from contextlib import AsyncExitStack, suppress
+from collections.abc import Callable, Coroutine, Iterator
+from contextlib import AsyncExitStack, contextmanager, suppress
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any, Literal, TypeVar
@@ -199,6 +199,26 @@ class Transport:
         #: The deadline alarm (asyncio; trio waits with a cancel scope per request).
         self._alarm: DeadlineAlarm | None = None
         self._now: Callable[[], float] = anyio.current_time
+        #: Callers inside :meth:`expecting_reboot` (nested ones count).
+        self._reboots = 0
+
+    @contextmanager
+    def expecting_reboot(self) -> Iterator[None]:
+        """Around a reboot the caller asked for (``Board.reset``): the board is silent
+        while it boots, so requests meanwhile time out and the link resyncs as always,
+        but that is no fault: it is logged at INFO instead of as a warning."""
+        self._reboots += 1
+        try:
+            yield
+        finally:
+            self._reboots -= 1
+
+    def _log_fault(self, message: str, *args: object) -> None:
+        """A warning, or INFO while a reboot is expected (see :meth:`expecting_reboot`)."""
+        if self._reboots:
+            logger.info(message + " (the board is rebooting, as asked)", *args)
+        else:
+            logger.warning(message, *args)
 
     # ---- lifecycle ---------------------------------------------------------------------
 
@@ -554,7 +574,7 @@ class Transport:
             for event in out.events:
                 self._publish(event)
         if out.lost is not None:
-            logger.warning("%s lost sync: %s", self.name, out.lost)
+            self._log_fault("%s lost sync: %s", self.name, out.lost)
             self._lost_at = self._now()
             self._rx_since_loss = False
         if self._watchers or self._session.state is not self._session_state:
@@ -647,7 +667,7 @@ class Transport:
                     unanswered += 1
                     if unanswered & (unanswered - 1) == 0:  # 1, 2, 4, 8...: a silent board
                         # probed every heartbeat (failsafe armed) must not flood the log
-                        logger.warning(
+                        self._log_fault(
                             "%s: no answer to the ID probe (%d in a row)", self.name, unanswered
                         )
                     await anyio.sleep(backoff)

@@ -14,7 +14,7 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
-from ..errors import BoardDisconnectedError, BoardTimeoutError
+from ..errors import BoardDisconnectedError, BoardSilentError
 
 __all__ = ["wait_ready"]
 
@@ -32,7 +32,7 @@ async def wait_ready(
 ) -> int:
     """Poll with ID requests until the board answers; return its ID.
 
-    Raises :class:`BoardTimeoutError` naming what arrived instead when ``deadline``
+    Raises :class:`BoardSilentError` naming what arrived instead when ``deadline``
     (an ``anyio.current_time()`` value) passes, and :class:`BoardDisconnectedError` when
     the port goes away meanwhile.
     """
@@ -51,8 +51,7 @@ async def _wait_ready(
     board_id: int | None = None
     while board_id is None:
         if anyio.current_time() >= deadline:
-            what = f"it sent {bytes(heard[:16]).hex(' ')}" if heard else "it sent nothing"
-            raise BoardTimeoutError(f"{name} did not answer an ID request ({what})")
+            raise BoardSilentError(name, bytes(heard), baudrate=getattr(stream, "baudrate", None))
         await stream.send(request)
         poll_end = min(deadline, anyio.current_time() + poll_interval)
         with anyio.move_on_after(max(0.0, poll_end - anyio.current_time())):

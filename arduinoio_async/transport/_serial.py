@@ -78,6 +78,8 @@ class SerialByteStream(anyio.abc.ByteStream):
         self._serial = port
         self._fd: int = port.fd
         self.port: str = str(port.port or "")
+        #: The rate the port was opened at (named in the error when no board answers).
+        self.baudrate: int = int(port.baudrate)
         self._closed = False
         self._lost: BaseException | None = None
         self._pending = bytearray()
@@ -306,6 +308,7 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
         self._serial = port
         self._serial.timeout = 0.05
         self.port = str(port.port)
+        self.baudrate: int = int(port.baudrate)
         self._closed = False
 
     def _broken(self, exc: BaseException) -> Exception:

@@ -86,7 +86,9 @@ uint8_t i2c_handle(const aio_request_t *rq, aio_reply_t *rp)
         return 0;
     }
 
-    /* WRITE */
+    /* WRITE: the data bytes are the request's own (never past rq->len) */
+    if (rq->len != (uint8_t)(3u + len))
+        return AIO_ERR_VALUE_OUT_OF_RANGE;
     err = begin(addr, reg);
     if (err)
         return err;

@@ -93,6 +93,8 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
             if ((int8_t)i == p->len_pos) /* len_pos < AIO_REQUEST_DATA_MAX */
                 p->left = (uint16_t)(p->left + byte);
             p->idx = (uint8_t)(i + 1u);
+        } else {
+            p->idx = AIO_REQUEST_DATA_MAX + 1u; /* more than a request holds: refused */
         }
         p->sum ^= byte;
         if (--p->left == 0)
@@ -121,6 +123,11 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
     case ST_CS:
         if ((uint8_t)(p->sum ^ byte) != 0)
             return fail(p, p->rq.ct, p->rq.dt, AIO_ERR_BAD_CHECKSUM);
+        if (p->idx > AIO_REQUEST_DATA_MAX) { /* a whole frame, but not a request: no handler sees it */
+            fail(p, p->rq.ct, p->rq.dt, AIO_ERR_VALUE_OUT_OF_RANGE);
+            p->state = ST_IDLE;
+            return PARSER_ERROR;
+        }
         p->rq.len = p->idx;
         p->state = ST_IDLE;
         return PARSER_REQUEST;

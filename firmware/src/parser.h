@@ -2,7 +2,11 @@
  * parser.h - the main frame parser: a state machine fed one byte at a time.
  *
  * CT -> DT -> data (length from the generated request table, plus the
- * variable part announced by a length byte) -> checksum.  Framing errors make
+ * variable part announced by a length byte) -> checksum.  A request it
+ * delivers holds every data byte of its frame (rq.len of them, the fixed
+ * part plus the declared variable part); a frame declaring more than
+ * AIO_REQUEST_DATA_MAX is read to its checksum and refused with
+ * VALUE_OUT_OF_RANGE (no discarding: the line is still in sync).  Framing errors make
  * it report one error and then discard bytes until the line has been quiet
  * for AIO_INTER_BYTE_GAP_MS.  No hardware access: times are passed in as
  * 100 us ticks.
@@ -24,7 +28,7 @@ typedef struct {
     uint8_t state;
     uint8_t fixed;       /* fixed data bytes of the current request */
     int8_t len_pos;      /* index of its length byte, or -1 */
-    uint8_t idx;         /* data bytes received, saturating at AIO_REQUEST_DATA_MAX */
+    uint8_t idx;         /* data bytes kept; AIO_REQUEST_DATA_MAX + 1: more were sent */
     uint16_t left;       /* data bytes still expected */
     uint8_t sum;         /* running XOR */
     uint16_t last_tick;  /* when the last byte was received */

@@ -1,6 +1,10 @@
 /*
  * transaction.c - MISC TRANSACTION (extension, protocol.md 7.5).
  *
+ * Request data: SEQ LEN items; reply data: SEQ LEN results.  SEQ is the host's
+ * number for the transaction, echoed so that the host can tell apart two
+ * transactions in flight with the same items.
+ *
  * The items are request frames without checksums, back to back.  The whole
  * list is checked first (known tags from the parser's table, whole frames, no
  * RESET and no nested TRANSACTION, every possible result fits the reply), so a
@@ -64,13 +68,14 @@ static uint8_t measure(const uint8_t *item, uint8_t left, uint8_t *result)
 
 uint8_t transaction_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
-    const uint8_t *items = rq->data + 1;
-    uint8_t count = rq->data[0], pos, len, result, out;
+    const uint8_t *items = rq->data + 2;
+    uint8_t count = rq->data[1], pos, len, result, out;
     uint16_t need = 0;
     aio_request_t item;
     uint8_t frame[AIO_FRAME_MAX];
 
-    if (count == 0)
+    /* The items are the request's own bytes: never walk past what it holds. */
+    if (count == 0 || count > AIO_MAX_BLOB || rq->len != (uint8_t)(count + 2u))
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     for (pos = 0; pos < count; pos = (uint8_t)(pos + len)) {
         len = measure(items + pos, (uint8_t)(count - pos), &result);
@@ -80,7 +85,7 @@ uint8_t transaction_handle(const aio_request_t *rq, aio_reply_t *rp)
     }
     if (need > AIO_MAX_BLOB)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
-    out = 1;
+    out = 2;
     for (pos = 0; pos < count; pos = (uint8_t)(pos + len)) {
         len = measure(items + pos, (uint8_t)(count - pos), &result);
         item.ct = items[pos];
@@ -91,7 +96,8 @@ uint8_t transaction_handle(const aio_request_t *rq, aio_reply_t *rp)
         memcpy(rp->data + out, frame, result);
         out = (uint8_t)(out + result);
     }
-    rp->data[0] = (uint8_t)(out - 1u);
+    rp->data[0] = rq->data[0];
+    rp->data[1] = (uint8_t)(out - 2u);
     rp->len = out;
     return 0;
 }

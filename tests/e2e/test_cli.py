@@ -210,7 +210,8 @@ async def test_a_busy_pin_is_explained_and_freed_from_the_cli(
     code, _ = await run("servo", "--port", uno.port, "D3", "1500")  # D3: software PWM
     assert code == 1
     err = capsys.readouterr().err
-    assert "PIN_BUSY" in err and "D3 already has another role on the board" in err
+    assert "board refused to make D3 a software PWM output (1500 us pulses): the pin is busy" in err
+    assert "D3 already has another role on the board" in err
     assert "on the board D3 is a digital input" in err  # asked the board, not guessed
     assert "arduinoio release D3" in err and "arduinoio reset" in err
     assert "<DigitalPin" not in err and "DigitalPin." not in err

@@ -7,6 +7,8 @@ virtual Uno is started through a portal of the test's own.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -82,3 +84,38 @@ def test_an_idle_script_still_feeds_an_armed_failsafe() -> None:
         assert not status.flags & p.StatusFlags.FAILSAFE_TRIPPED
         assert led.read() is True
         board.disarm_failsafe()
+
+
+# A script that opens a board with connect() and never calls close(), then ends or raises.
+UNCLOSED_SCRIPT = """
+import sys
+from arduinoio_async import A0
+from arduinoio_async.sync import connect
+
+board = connect(sys.argv[1])
+print(board.analog(A0).read_volts(), flush=True)
+if sys.argv[2] == "raise":
+    raise RuntimeError("the script failed before close()")
+"""
+
+
+@pytest.mark.parametrize("ending", ["return", "raise"])
+def test_a_script_that_never_closes_its_board_still_exits(ending: str) -> None:
+    with virtual_uno(board_id=0x0035) as uno:
+        result = subprocess.run(
+            [sys.executable, "-c", UNCLOSED_SCRIPT, uno.port, ending],
+            capture_output=True,
+            text=True,
+            timeout=60,  # the bound: it hung forever before (killed here, a TimeoutExpired)
+            check=False,
+        )
+        assert 0.0 <= float(result.stdout) <= 5.0, result.stdout  # it did talk to the board
+        if ending == "return":
+            assert result.returncode == 0 and result.stderr == "", result.stderr
+        else:
+            assert result.returncode == 1
+            lines = result.stderr.splitlines()
+            assert lines[0] == "Traceback (most recent call last):", result.stderr
+            assert lines[-1] == "RuntimeError: the script failed before close()", result.stderr
+        with open_board(uno.port) as again:  # the port was released: the board was closed
+            assert again.read_id() == 0x0035

@@ -138,7 +138,7 @@ async def test_a_watch_the_firmware_refuses_to_restore_ends_with_watch_lost_erro
                     async for _change in changes:
                         pytest.fail("an output reports no change")
         assert lost.value.request == p.GpioWatch(D3, True)
-        assert "PIN_NOT_CONFIGURED" in lost.value.reason
+        assert "the pin is not set up for that" in lost.value.reason
         assert (await board.gpio(D3).read()).level is True  # the output role was restored
 
 

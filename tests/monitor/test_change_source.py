@@ -244,7 +244,7 @@ async def test_a_refused_subscription_shows_and_is_retried_until_the_board_takes
         # alone, so D5's subscription works and D6's is refused.
         await board.reset()
         await board.request(p.GpioConfig(5, p.GpioFlags.INPUT))
-        await notified.until(lambda: "PIN_NOT_CONFIGURED" in panel.changes.error)
+        await notified.until(lambda: "the pin is not set up for that" in panel.changes.error)
         assert panel.changes.watched == frozenset()
         assert as_sent(panel.changes.describe())["running"] is False
         await board.restore()

@@ -1,10 +1,7 @@
 """What a pip user gets: the wheel installed into a fresh venv, used from outside the repo.
 
-One venv per module (building the wheel, creating the venv and installing take ~10 s);
-pip installs the dependencies from its configured index or cache, so no network is
-needed where the dev environment could be installed.  Every command runs with the
-temporary directory as its working directory and without the repo's overrides, so
-nothing can come from the clone: the firmware images come from the wheel and the virtual
+The wheel and the venv come from ``conftest.py`` (one of each per session).  Nothing can
+come from the clone: the firmware images come from the wheel and the virtual
 Uno harness is compiled from the C sources in the wheel (mapped there from firmware/sim by
 setup.py, never copied into the package in git) into a fresh per-user cache.
 """
@@ -16,82 +13,19 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import tarfile
 import zipfile
-from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
+from .conftest import Installed, checked
+
 REPO = Path(__file__).resolve().parents[2]
-OPTIBOOT_HEX = REPO / "firmware" / "bootloader" / "build" / "optiboot-1k.hex"
+#: Debian's optiboot source (arduino-core-avr), which docs/howto/flashing.md builds.
+OPTIBOOT_SOURCE = Path("/usr/share/arduino/hardware/arduino/avr/bootloaders/optiboot/optiboot.c")
 
 pytestmark = [pytest.mark.sim, pytest.mark.timeout(300)]
-
-
-@dataclass
-class Installed:
-    """The fresh venv with the wheel installed, and where to run things from."""
-
-    venv: Path
-    workdir: Path
-    env: dict[str, str]
-    wheel: Path
-
-    def exe(self, name: str) -> str:
-        return str(self.venv / "bin" / name)
-
-    def run(self, *argv: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
-        return subprocess.run(
-            argv,
-            cwd=self.workdir,
-            env=self.env,
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-            check=False,
-        )
-
-
-def _checked(result: subprocess.CompletedProcess[str]) -> subprocess.CompletedProcess[str]:
-    assert result.returncode == 0, f"{result.args}:\n{result.stdout}\n{result.stderr}"
-    return result
-
-
-@pytest.fixture(scope="module")
-def installed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Installed]:
-    root = tmp_path_factory.mktemp("wheel")
-    dist = root / "dist"
-    _checked(
-        subprocess.run(
-            [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(dist), str(REPO)],
-            capture_output=True,
-            text=True,
-            timeout=300,
-            check=False,
-        )
-    )
-    (wheel,) = dist.glob("arduinoio_async-*.whl")
-    venv = root / "venv"
-    _checked(
-        subprocess.run(
-            [sys.executable, "-m", "venv", str(venv)], capture_output=True, text=True, check=False
-        )
-    )
-    workdir = root / "work"
-    workdir.mkdir()
-    env = {
-        key: value
-        for key, value in os.environ.items()
-        if not key.startswith(("ARDUINOIO_", "PYTHON", "VIRTUAL_ENV"))
-    }
-    env["ARDUINOIO_CACHE_DIR"] = str(root / "cache")  # the harness gets built afresh
-    env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
-    box = Installed(venv, workdir, env, wheel)
-    _checked(box.run(box.exe("pip"), "install", "-q", str(wheel), timeout=300))
-    yield box
 
 
 def test_public_names_import_from_the_installed_wheel(installed: Installed) -> None:
@@ -102,11 +36,11 @@ def test_public_names_import_from_the_installed_wheel(installed: Installed) -> N
         "print(a.__file__)\n"
         "print(a.__version__)\n"
     )
-    out = _checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
+    out = checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
     assert out[0].startswith(str(installed.venv)), out  # not the clone
     version = (REPO / "arduinoio_async" / "__init__.py").read_text()
     assert f'__version__ = "{out[1]}"' in version
-    help_text = _checked(installed.run(installed.exe("arduinoio"), "flash", "--help")).stdout
+    help_text = checked(installed.run(installed.exe("arduinoio"), "flash", "--help")).stdout
     assert "--dry-run" in help_text and "--baud" in help_text
 
 
@@ -117,7 +51,7 @@ def test_the_wheel_ships_firmware_and_harness_source(installed: Installed) -> No
         "    print(r.firmware_image(baud, 'hex'), r.firmware_image(baud, 'elf'))\n"
         "print(r.harness_source_dir())\n"
     )
-    lines = _checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
+    lines = checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
     assert len(lines) == 4
     for line in lines[:3]:
         for path in line.split():
@@ -169,7 +103,7 @@ def _read_id(installed: Installed, port: str) -> str:
         "        print(await board.read_id())\n"
         "anyio.run(main)\n"
     )
-    return _checked(installed.run(installed.exe("python"), "-c", script, port)).stdout.strip()
+    return checked(installed.run(installed.exe("python"), "-c", script, port)).stdout.strip()
 
 
 def test_arduinoio_sim_from_the_wheel_answers_read_id(installed: Installed) -> None:
@@ -185,15 +119,27 @@ def test_arduinoio_sim_from_the_wheel_answers_read_id(installed: Installed) -> N
         assert _stop_sim(process) == 0
 
 
+def _documented_optiboot_build() -> str:
+    """The shell block of docs/howto/flashing.md that builds optiboot (after its marker)."""
+    page = (REPO / "docs" / "howto" / "flashing.md").read_text()
+    after = page.split("<!-- build-optiboot", 1)[1]
+    block = after.split("```sh\n", 1)[1].split("```", 1)[0]
+    return block
+
+
 def test_arduinoio_flash_from_the_wheel_through_a_bootloader(installed: Installed) -> None:
-    if not OPTIBOOT_HEX.is_file() or shutil.which("avrdude") is None:
+    """The docs' path for a pip user: build optiboot as documented, flash a virtual Uno."""
+    tools = ("avrdude", "avr-gcc", "avr-objcopy")
+    if not OPTIBOOT_SOURCE.is_file() or any(shutil.which(tool) is None for tool in tools):
         if os.environ.get("ARDUINOIO_SIM_REQUIRED"):
-            pytest.fail("needs avrdude and `make bootloader`")
-        pytest.skip("needs avrdude and `make bootloader`")
-    process, info = _start_sim(installed, "--bootloader", str(OPTIBOOT_HEX))
+            pytest.fail("needs avrdude, gcc-avr and arduino-core-avr")
+        pytest.skip("needs avrdude, gcc-avr and arduino-core-avr")
+    checked(installed.run("bash", "-e", "-c", _documented_optiboot_build()))
+    hex_file = installed.workdir / "optiboot.hex"  # what the docs tell the user to pass
+    process, info = _start_sim(installed, "--bootloader", str(hex_file))
     try:
         port = str(info["port"])
-        flashed = _checked(
+        flashed = checked(
             installed.run(installed.exe("arduinoio"), "flash", "--port", port, "--id", "7")
         )
         print(flashed.stdout)
@@ -204,10 +150,10 @@ def test_arduinoio_flash_from_the_wheel_through_a_bootloader(installed: Installe
 
 
 def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> None:
-    _checked(installed.run(installed.exe("pip"), "install", "-q", "build", "setuptools>=77"))
+    checked(installed.run(installed.exe("pip"), "install", "-q", "build", "setuptools>=77"))
     # Without --sdist/--wheel, build makes the sdist and then the wheel FROM the sdist: the
     # harness sources must reach the wheel from the sdist's firmware/sim as well.
-    _checked(
+    checked(
         installed.run(
             installed.exe("python"),
             "-m",
@@ -246,6 +192,7 @@ def test_sdist_holds_the_whole_project(installed: Installed, tmp_path: Path) -> 
         assert required in names, required
     assert not any(name.startswith(("firmware/build/", "firmware/sim/build/")) for name in names)
     assert not any(name.startswith("arduinoio_async/_data/sim") for name in names)  # no copy
+    assert not any("node_modules" in name for name in names)  # npm's install, not the project
     (wheel,) = tmp_path.glob("arduinoio_async-*.whl")
     with zipfile.ZipFile(wheel) as archive:
         shipped = sorted(

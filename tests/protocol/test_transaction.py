@@ -26,7 +26,7 @@ def test_packed_items_split_back_into_the_same_frames(requests: list[p.Request[p
         results = sum(p.result_size(r) for r in requests)
         assert sizes > p.MAX_BLOB or results > p.MAX_BLOB
         return
-    frame = p.Transaction(packed)
+    frame = p.Transaction(7, packed)
     assert p.Decoder.from_host().feed(frame.encode()) == [frame]
     assert _split_items(packed) == [r.encode()[:-1] for r in requests]
 

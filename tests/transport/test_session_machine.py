@@ -54,6 +54,9 @@ def answer(request: p.Request[Any]) -> p.Frame:
         return p.GpioWriteReply(request.pin, request.value)
     if isinstance(request, p.GpioRead):
         return p.GpioReadReply(request.pin, p.GpioState(0))
+    if isinstance(request, p.Transaction):
+        results = b"".join(answer(item).encode()[:-1] for item in p.item_requests(request.items))
+        return p.TransactionReply(request.seq, results)
     raise AssertionError(request)
 
 
@@ -68,6 +71,7 @@ class SessionMachine(RuleBasedStateMachine):
         self.cancelled: set[int] = set()
         self.seen: set[int] = set()
         self.faults = 0
+        self.seq = 0
 
     # ---- plumbing ----------------------------------------------------------------------
 
@@ -97,6 +101,16 @@ class SessionMachine(RuleBasedStateMachine):
             self.seen.add(id(exchange))
         if data:
             self.wire(data)
+
+    @rule(items=st.lists(requests, min_size=1, max_size=3))
+    def send_transaction(self, items: list[p.Request[Any]]) -> None:
+        """As the client numbers them: no two transactions in flight share a SEQ."""
+        try:
+            packed = p.pack_items(items)
+        except ValueError:
+            return
+        self.seq = (self.seq + 1) & 0xFF
+        self.send(p.Transaction(self.seq, packed))
 
     @rule(index=st.integers(0, 50))
     def cancel(self, index: int) -> None:

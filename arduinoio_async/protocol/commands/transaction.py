@@ -7,38 +7,88 @@ checksum, in the same order.  The board checks the whole list before it runs any
 (known tags, whole frames, no RESET or nested TRANSACTION, every possible reply fits
 the reply), so an item list it refuses has changed nothing; then it runs the items back
 to back, and an item the board refuses does not stop the ones after it.
+
+A reply proves it answers its transaction as a single reply does: it echoes the
+transaction's ``seq`` byte (the host numbers its transactions, so two in flight never
+share one) and every item's result echoes its item (:meth:`Transaction.matches`).  The
+session checks both before it hands a reply out, so a reply damaged past the 8-bit
+checksum, or one that answers another transaction, is line noise, not a wrong value.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 from typing import Annotated, Any
 
 from .._constants import ERROR_FLAG, MAX_BLOB, ClassTag, ErrorCode
-from .._layout import Blob, checksum
-from .._messages import ErrorReply, Reply, Request, reply_frame, request_frame
+from .._layout import U8, Blob, checksum
+from .._messages import (
+    REPLY_TYPES,
+    REQUEST_TYPES,
+    ErrorReply,
+    Reply,
+    Request,
+    echo,
+    reply_frame,
+    request_frame,
+)
 from .i2c import I2CRead
 from .misc import Reset
 
-__all__ = ["Transaction", "TransactionReply", "pack_items", "result_size", "unpack_results"]
+__all__ = [
+    "Transaction",
+    "TransactionReply",
+    "item_requests",
+    "pack_items",
+    "result_size",
+    "split_results",
+    "unpack_results",
+]
+
+
+@echo
+class _Seq:
+    """The host's number for a transaction, which its reply repeats: what tells apart two
+    transactions in flight with the same items (their tags alone cannot)."""
+
+    seq: Annotated[int, U8]
 
 
 @reply_frame(ClassTag.MISC, 0x09)
-class TransactionReply(Reply):
+class TransactionReply(_Seq, Reply):
     """Every item's reply frame (or error reply) without its checksum, in item order."""
 
     results: Annotated[bytes, Blob(MAX_BLOB)]
 
 
 @request_frame(TransactionReply, extension=True)
-class Transaction(Request[TransactionReply]):
+class Transaction(_Seq, Request[TransactionReply]):
     """Several requests run back to back on the board, one reply with every result.
 
     ``items`` holds the request frames without their checksums (docs/protocol.md 7.5);
-    build it with :func:`~arduinoio_async.protocol.pack_items`.
+    build it with :func:`~arduinoio_async.protocol.pack_items`.  ``seq`` is echoed by the
+    reply; the host gives each transaction in flight its own.
     """
 
     items: Annotated[bytes, Blob(MAX_BLOB)]
+
+    def matches(self, reply: Reply) -> bool:
+        """The reply echoes ``seq`` and each item's result answers its item."""
+        if type(reply) is not TransactionReply or reply.seq != self.seq:
+            return False
+        try:
+            unpack_results(item_requests(self.items), reply.results)
+        except ValueError:
+            return False
+        return True
+
+    def parts(self) -> tuple[Request[Any], ...]:
+        """The items: what runs on the board, for the retry rules."""
+        try:
+            return item_requests(self.items)
+        except ValueError:
+            return (self,)
 
 
 #: Requests a transaction cannot carry: RESET restarts the board mid-list, and a
@@ -72,6 +122,64 @@ def pack_items(requests: Sequence[Request[Any]]) -> bytes:
     if results > MAX_BLOB:
         raise ValueError(f"the replies would take {results} bytes; a transaction holds {MAX_BLOB}")
     return items
+
+
+@lru_cache(maxsize=512)
+def item_requests(items: bytes) -> tuple[Request[Any], ...]:
+    """The requests packed in ``items`` (the inverse of :func:`pack_items`); ValueError
+    when they are not whole, known request frames."""
+    out: list[Request[Any]] = []
+    pos = 0
+    while pos < len(items):
+        cls = REQUEST_TYPES.get((items[pos], items[pos + 1])) if pos + 1 < len(items) else None
+        if cls is None:
+            raise ValueError(f"no request at byte {pos} of the items")
+        layout = cls.LAYOUT
+        size = layout.base_size - 1
+        if layout.length_offset >= 0 and pos + layout.length_offset < len(items):
+            size += items[pos + layout.length_offset]
+        raw = items[pos : pos + size]
+        if len(raw) != size:
+            raise ValueError(f"the items end inside a {cls.__name__}")
+        request = layout.decode(raw + bytes((checksum(raw),)))
+        assert isinstance(request, Request)
+        out.append(request)
+        pos += size
+    return tuple(out)
+
+
+def split_results(results: bytes) -> tuple[Reply | ErrorReply, ...] | None:
+    """The item results read by their own tags, without the requests; None when they are
+    not whole reply frames (what a board cannot send: line noise)."""
+    out: list[Reply | ErrorReply] = []
+    pos = 0
+    try:
+        while pos < len(results):
+            first = results[pos]
+            if first & ERROR_FLAG:
+                raw = results[pos : pos + ErrorReply.SIZE - 1]
+                if len(raw) != ErrorReply.SIZE - 1:
+                    return None
+                out.append(ErrorReply(raw[0] & ~ERROR_FLAG, raw[1], ErrorCode(raw[2])))
+                pos += len(raw)
+                continue
+            cls = REPLY_TYPES.get((first, results[pos + 1])) if pos + 1 < len(results) else None
+            if cls is None:
+                return None
+            layout = cls.LAYOUT
+            size = layout.base_size - 1
+            if layout.length_offset >= 0 and pos + layout.length_offset < len(results):
+                size += results[pos + layout.length_offset]
+            raw = results[pos : pos + size]
+            if len(raw) != size:
+                return None
+            reply = layout.decode(raw + bytes((checksum(raw),)))
+            assert isinstance(reply, Reply)
+            out.append(reply)
+            pos += size
+    except ValueError:
+        return None
+    return tuple(out)
 
 
 def unpack_results(
