@@ -9,6 +9,7 @@ that only want the pin names or the error classes, and no import cycle can form.
 from __future__ import annotations
 
 import importlib
+import logging
 from typing import TYPE_CHECKING, Any
 
 from . import errors, protocol
@@ -56,6 +57,11 @@ from .protocol.pins import (
     AnalogPin,
     DigitalPin,
 )
+
+# A library logs and never prints: without this, Python's last-resort handler writes the
+# library's warnings to stderr when the application configured no logging.  The
+# application's handlers (``logging.basicConfig`` and the like) still see every record.
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 if TYPE_CHECKING:
     from .board import Board, FailsafeConfig

@@ -23,6 +23,7 @@ __all__ = [
     "ArduinoIOError",
     "BoardDisconnectedError",
     "BoardError",
+    "BoardIdChangedError",
     "BoardNotFoundError",
     "BoardSilentError",
     "BoardTimeoutError",
@@ -337,6 +338,24 @@ class PortBusyError(BoardDisconnectedError):
         self.detail = detail
         super().__init__(
             f"port {port} is in use by another process" + (f" ({detail})" if detail else "")
+        )
+
+
+class BoardIdChangedError(BoardDisconnectedError):
+    """The board on a link answers with another ID than the one it was known by.
+
+    Its ID was rewritten behind the library's back (a raw ``WriteId``, another program):
+    by the library's rule -- a board is its ID -- it is another board now, so the old
+    board's pin roles, watches and failsafe are not replayed on it.
+    """
+
+    def __init__(self, port: str, old_id: int, new_id: int) -> None:
+        self.port = port
+        self.old_id = old_id
+        self.new_id = new_id
+        super().__init__(
+            f"{port}: board 0x{old_id:04X} now answers as 0x{new_id:04X}; "
+            f"not restored under its old ID"
         )
 
 

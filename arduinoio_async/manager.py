@@ -42,6 +42,7 @@ from ._port_registry import registered_ports
 from .board import READY_TIMEOUT, Board
 from .errors import (
     ArduinoIOError,
+    BoardIdChangedError,
     BoardNotFoundError,
     DuplicateBoardError,
 )
@@ -248,6 +249,7 @@ class BoardManager:
 
     def present(self) -> dict[int, Board]:
         """Boards connected now, by ID."""
+        self._rekey()
         return {bid: board for bid, board in self._boards.items() if board.connected}
 
     def probed(self) -> dict[str, ProbeResult]:
@@ -294,6 +296,7 @@ class BoardManager:
         """Wait (without limit) until the board with ``board_id`` is connected."""
         while True:
             self._raise_duplicate(board_id)
+            self._rekey()
             board = self._boards.get(board_id)
             if board is not None and board.connected:
                 return board
@@ -323,6 +326,17 @@ class BoardManager:
             return results
 
     # ---- internals --------------------------------------------------------------------------
+
+    def _rekey(self) -> None:
+        """File a board whose ID ``Board.write_id`` changed under its new ID (its claim
+        on its port too), so that it is listed, found and restored as what it answers to."""
+        for key, board in list(self._boards.items()):
+            if board.board_id != key and self._boards.get(key) is board:
+                del self._boards[key]
+                self._boards[board.board_id] = board
+                port = self._claims.pop(key, None)
+                if port is not None:
+                    self._claims[board.board_id] = port
 
     def _raise_duplicate(self, board_id: int) -> None:
         ports = self._duplicates.get(board_id)
@@ -378,6 +392,7 @@ class BoardManager:
                 await stream.aclose()
             results[port] = self._remember(ProbeResult(port, error=str(exc)))
             return
+        self._rekey()
         holder = self._claims.get(board_id)
         if holder is not None:
             # Claimed without an await since the check: concurrent probes cannot both win.
@@ -413,6 +428,7 @@ class BoardManager:
         board = self._boards.get(board_id)
         started = False
         detail = ""
+        rekeyed: str | None = None
         closed = anyio.Event()
         link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
         try:
@@ -421,8 +437,8 @@ class BoardManager:
                 self._emit(ManagerEvent("connected", board_id, link.name))
                 task_status.started()
                 started = True
-                await self._heartbeat(board, link, closed)
-                detail = await self._close_reason(link)
+                rekeyed = await self._heartbeat(board, link, closed)
+                detail = rekeyed or await self._close_reason(link)
         except ArduinoIOError as exc:
             # The port failed mid-handshake or went away: it is forgotten below, so the
             # next scan probes it afresh.
@@ -431,15 +447,20 @@ class BoardManager:
             if board is not None:
                 board.detach(link)
             self._known.pop(link.name, None)
-            if self._claims.get(board_id) == link.name:
-                del self._claims[board_id]
+            self._rekey()
+            for key in {board_id, board.board_id if board is not None else board_id}:
+                if self._claims.get(key) == link.name:
+                    del self._claims[key]
             for ports in self._duplicates.values():
                 ports.discard(link.name)
             self._duplicates = {
                 bid: ports for bid, ports in self._duplicates.items() if len(ports) > 1
             }
             if board is not None:
-                self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
+                self._emit(ManagerEvent("disconnected", board.board_id, link.name, detail))
+            if rekeyed and self._task_group is not None:
+                # Probed afresh at once: attached under the ID it answers to now.
+                self._task_group.start_soon(self.scan)
             if not started:
                 failure = ProbeResult(link.name, board_id, error=detail or "handshake failed")
                 self._failed[link.name] = failure
@@ -455,12 +476,24 @@ class BoardManager:
             return str(exc) or type(exc).__name__
         return "the link closed"
 
-    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
-        """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip."""
+    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> str | None:
+        """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip.
+
+        Returns why the link was given up when the board came back under another ID (it
+        is another board then: the port is probed again and attached under its new ID,
+        and the old board's roles are not replayed on it), else None once the link closed.
+        """
+        rekeyed: list[str] = []
 
         async def restore_after_reset() -> None:
             self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
-            await board.adopt(link)
+            try:
+                await board.adopt(link)
+            except BoardIdChangedError as exc:
+                logger.warning("%s", exc)
+                rekeyed.append(str(exc))
+                await link.aclose()
+                return
             self._wake()  # connected again: wait_connected() returns
 
         async def rearm_after_trip() -> None:
@@ -479,3 +512,4 @@ class BoardManager:
             )
             await closed.wait()
             tg.cancel_scope.cancel()
+        return rekeyed[0] if rekeyed else None

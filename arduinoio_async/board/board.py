@@ -58,7 +58,14 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
-from .boot import READY_TIMEOUT, explain_silence, read_id_retrying, start_link, wait_new_boot
+from .boot import (
+    READY_TIMEOUT,
+    check_same_board,
+    explain_silence,
+    read_id_retrying,
+    start_link,
+    wait_new_boot,
+)
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
 from .watches import Watches
@@ -201,14 +208,16 @@ class Board:
     async def adopt(self, link: Transport) -> None:
         """Make ``link`` (to a fresh boot of this board) the board's link.
 
-        Used after a replug or a reset: the capabilities are read again, the session is
-        tagged, and every pin role is replayed *before* the link is handed to callers,
-        so handles never see a half-restored board.  A failsafe this board armed is armed
-        again *first*: a board that did not reboot may still be tripped (its host -- or,
-        remotely, the server -- died while it stayed powered), and a tripped board refuses
-        every output set-up until it is armed again; armed, it also guards the restore.
+        Used after a replug or a reset: the ID is checked (BoardIdChangedError for another
+        board: nothing is replayed), the capabilities are read again, the session tagged,
+        and every pin role replayed *before* the link is handed to callers (handles never
+        see a half-restored board).  A failsafe this board armed is armed again *first*: a
+        board that did not reboot may still be tripped (its host -- or, remotely, the
+        server -- died while it stayed powered), and a tripped board refuses every output
+        set-up until it is armed again; armed, it also guards the restore.
         """
         self._link = None
+        await check_same_board(link, self.board_id)
         self.capabilities = await link.request(p.ReadCapabilities())
         await self._handshake(link)
         await self._failsafe.arm_on(link)
@@ -433,19 +442,18 @@ class Board:
         """Store a new board ID in EEPROM; it survives resets.
 
         If the reply is lost, the write may or may not have happened: the link accepts
-        either ID when it resyncs, and this method reads the ID back (within
-        ``deadline``) to settle it; it raises only if the board kept the old one.
+        either ID when it resyncs, and the ID is read back (within ``deadline``) to settle
+        it; raises if the board kept the old ID, BoardTimeoutError if it never answered.
         """
         if not 0 <= board_id <= 0xFFFF:
             raise ValueRangeError("board ID", board_id, "0x0000-0xFFFF")
         link = self.link
         try:
             await link.request(p.WriteId(board_id))
-        except LinkError as exc:
-            if isinstance(exc, BoardDisconnectedError):
-                raise
-            found = await read_id_retrying(link, deadline)
-            if found != board_id:
+        except BoardDisconnectedError:
+            raise
+        except LinkError:
+            if await read_id_retrying(link, deadline) != board_id:
                 raise
         self.board_id = board_id
         link.expected_id = board_id

@@ -20,6 +20,7 @@ from .. import protocol as p
 from ..errors import (
     ArduinoIOError,
     BoardDisconnectedError,
+    BoardIdChangedError,
     BoardSilentError,
     BoardTimeoutError,
     LinkError,
@@ -29,6 +30,7 @@ from ..transport._ready import wait_ready
 
 __all__ = [
     "READY_TIMEOUT",
+    "check_same_board",
     "explain_silence",
     "look_at_bootloader",
     "read_id_retrying",
@@ -69,8 +71,9 @@ async def start_link(
 
 
 async def read_id_retrying(link: Transport, deadline: float) -> int:
-    """The board's ID, asked until it answers within ``deadline`` seconds (TimeoutError)."""
-    with anyio.fail_after(deadline):
+    """The board's ID, asked until it answers within ``deadline`` seconds
+    (BoardTimeoutError: only the library's own exceptions leave it)."""
+    with anyio.move_on_after(deadline):
         while True:
             try:
                 return (await link.request(p.ReadId())).board_id
@@ -78,6 +81,7 @@ async def read_id_retrying(link: Transport, deadline: float) -> int:
                 raise
             except LinkError:
                 await anyio.lowlevel.checkpoint()
+    raise BoardTimeoutError(f"{link.name}: no answer to ReadId within {deadline:g} s")
 
 
 async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: str) -> None:
@@ -106,6 +110,19 @@ async def wait_new_boot(link: Transport, session: int, *, deadline: float, who: 
         raise BoardTimeoutError(
             f"{who} did not come back from its reboot within {deadline:g} s"
         ) from None
+
+
+async def check_same_board(link: Transport, board_id: int) -> None:
+    """Raise BoardIdChangedError unless the fresh boot on ``link`` is board ``board_id``.
+
+    An ID can change in place (a raw ``WriteId``, then a reset), so a fresh boot is asked
+    for its ID with any ID accepted; a different answer is asked again before it counts
+    (the 8-bit checksum lets about one damaged frame in 256 through).
+    """
+    link.expected_id = None
+    found = (await link.request(p.ReadId())).board_id
+    if found != board_id and (await link.request(p.ReadId())).board_id == found:
+        raise BoardIdChangedError(link.name, board_id, found)
 
 
 # ---- a board that stays silent -------------------------------------------------------------

@@ -13,6 +13,7 @@ over to it.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -36,6 +37,9 @@ logger = logging.getLogger(__name__)
 IDLE_HEARTBEAT = 0.25
 #: With the failsafe armed the host polls this many times per timeout while idle.
 HEARTBEATS_PER_TIMEOUT = 4
+#: Status polls of the keepalive waiting for their replies at most (a bound for a board
+#: that stopped answering: each poll ends at its timeout).
+MAX_POLLS = 16
 
 #: What the keepalive runs when the board reset by itself or its failsafe fired.
 Recovery = Callable[[], Awaitable[None]]
@@ -59,7 +63,14 @@ class Failsafe:
         self.tripped = False
         self._listeners: list[Callable[[Board], None]] = []
         self._unsubscribe: Callable[[], None] | None = None
-        self._heartbeat_changed = anyio.Event()
+        #: Wakes the keepalive: the failsafe was armed, a poll brought news, a recovery ended.
+        self._wake = anyio.Event()
+        #: The newest poll answer not looked at yet, with the time its poll was sent.
+        self._news: tuple[float, p.ReadStatusReply] | None = None
+        #: Status polls sent (or waiting to be) and not yet answered.
+        self._polls = 0
+        #: A session tag not ours that the last poll answer reported (None: it was ours).
+        self._other_session: int | None = None
 
     # ---- trip news ---------------------------------------------------------------------
 
@@ -127,7 +138,7 @@ class Failsafe:
         """Check, keep and arm; the heartbeat speeds up at once (see ``Board.arm_failsafe``)."""
         self.config = self.checked_config(timeout_ms, safe_states)
         await self.arm_on(self.board.link)
-        self._heartbeat_changed.set()
+        self._wake.set()
 
     async def arm_on(self, link: Transport) -> None:
         """Send the kept safe states and arm, on ``link`` (a fresh boot's, when adopting)."""
@@ -170,31 +181,85 @@ class Failsafe:
 
         Feeds the failsafe, notices a trip that no event reported, and (with
         ``on_reset``) a board that has reset by itself.
-        """
-        while link.state is not LinkState.CLOSED:
-            interval = self.heartbeat_interval()
-            wake = self._heartbeat_changed
-            with anyio.move_on_after(max(0.0, link.last_send + interval - anyio.current_time())):
-                await wake.wait()  # arming the failsafe shortens the interval at once
-            if wake.is_set():
-                self._heartbeat_changed = anyio.Event()
-            if anyio.current_time() - link.last_send < interval * 0.9:
-                continue  # other traffic fed the watchdog
-            try:
-                status = await link.request(p.ReadStatus())
-            except LinkError:
-                await anyio.lowlevel.checkpoint()
-                continue
-            if status.session != self.board.session:
-                if on_reset is not None:
-                    await self._recover(on_reset, "the restore after a reset")
-                continue
-            if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
-                self.notice_trip()
-            if self.tripped and on_trip is not None:
-                await self._recover(on_trip, "re-arming after a failsafe trip")
 
-    async def _recover(self, action: Recovery, what: str) -> None:
+        The polls go out on the heartbeat's schedule whatever an earlier poll still waits
+        for: each poll runs in a task of its own, so a poll whose reply was lost waits
+        out its timeout beside the next ones instead of silencing the host for that long
+        (a 0.5 s silence tripped a 100 ms failsafe on every lost reply).  What the polls
+        learn is handled here, one recovery at a time, and a recovery runs in a task of
+        its own too: its requests may lose replies as well, and the heartbeat goes on.
+        """
+        self._news = None
+        recovery: anyio.Event | None = None  # set when the running recovery ended
+        recovered_at = -math.inf  # news from polls sent before this is stale
+        polled_at = -math.inf  # when the last poll was started (it may wait to be sent)
+        async with anyio.create_task_group() as tasks:
+            while link.state is not LinkState.CLOSED:
+                interval = self.heartbeat_interval()
+                # A resync waits for its probe's answer no longer than a heartbeat either.
+                link.max_silence = None if self.config is None else interval
+                wake = self._wake
+                if self._news is None:
+                    due = max(link.last_send, polled_at) + interval
+                    with anyio.move_on_after(due - anyio.current_time()):
+                        await wake.wait()  # arming shortens the interval; news comes in
+                if wake.is_set():
+                    self._wake = anyio.Event()
+                if recovery is not None and recovery.is_set():
+                    recovery, recovered_at = None, anyio.current_time()
+                news, self._news = self._news, None
+                if news is not None and recovery is None and news[0] > recovered_at:
+                    action = self._recovery_for(news[1], on_reset, on_trip)
+                    if action is not None:
+                        recovery = anyio.Event()
+                        tasks.start_soon(self._recover, *action, recovery)
+                if anyio.current_time() - max(link.last_send, polled_at) < interval * 0.9:
+                    continue  # other traffic fed the watchdog
+                if self._polls >= MAX_POLLS or (self._polls and link.state is not LinkState.READY):
+                    # Polls wait unsent while the link resyncs (whose probes feed the
+                    # watchdog): one waiting is enough.
+                    await anyio.sleep(interval)
+                    continue
+                polled_at = anyio.current_time()
+                tasks.start_soon(self._poll, link)
+            tasks.cancel_scope.cancel()
+
+    async def _poll(self, link: Transport) -> None:
+        """One status poll; its answer, stamped with when it was asked, is news."""
+        asked = anyio.current_time()
+        self._polls += 1  # counted in the task: one cancelled before it ran is never counted
+        try:
+            status = await link.request(p.ReadStatus())
+        except LinkError:
+            return
+        finally:
+            self._polls -= 1
+        if self._news is None or self._news[0] < asked:
+            self._news = (asked, status)
+            self._wake.set()
+
+    def _recovery_for(
+        self, status: p.ReadStatusReply, on_reset: Recovery | None, on_trip: Recovery | None
+    ) -> tuple[Recovery, str] | None:
+        """What a poll's answer calls for: a restore after a reset, a re-arm, or nothing.
+
+        A session tag other than ours counts once a second answer repeats it: the 8-bit
+        checksum lets about one damaged frame in 256 through, and a noisy line would
+        otherwise "reset" a board that never did (a real reset shows at the next poll).
+        """
+        if status.session != self.board.session:
+            seen, self._other_session = self._other_session, status.session
+            if on_reset is not None and seen == status.session:
+                return on_reset, "the restore after a reset"
+            return None
+        self._other_session = None
+        if status.flags & p.StatusFlags.FAILSAFE_TRIPPED:
+            self.notice_trip()
+        if self.tripped and on_trip is not None:
+            return on_trip, "re-arming after a failsafe trip"
+        return None
+
+    async def _recover(self, action: Recovery, what: str, done: anyio.Event) -> None:
         """Run a recovery; a board or link failure during it is logged, never raised.
 
         The keepalive runs next to other boards' tasks: a restore that fails because the
@@ -207,3 +272,6 @@ class Failsafe:
         except ArduinoIOError as exc:
             logger.warning("%r: %s failed: %s", self.board, what, exc)
             await anyio.lowlevel.checkpoint()
+        finally:
+            done.set()
+            self._wake.set()

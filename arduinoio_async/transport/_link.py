@@ -162,6 +162,11 @@ class Transport:
         self.stream = stream
         self.timeout = timeout
         self.quiet_time = quiet_time
+        #: The longest the resync may leave the line silent while it waits for a probe's
+        #: answer or backs off (None: no limit).  A board whose failsafe is armed must
+        #: hear a frame well within its timeout, and a probe's lost answer would otherwise
+        #: silence the host for the whole ``timeout``; the keepalive sets it.
+        self.max_silence: float | None = None
         self.name = name or getattr(stream, "port", "") or "link"
         self._session = Session(
             window_bytes=window_bytes, max_in_flight=MAX_IN_FLIGHT, name=self.name
@@ -640,6 +645,7 @@ class Transport:
             if session.state is SessionState.CLOSED:
                 return
             backoff = self.quiet_time
+            unanswered = 0
             while session.state is SessionState.DRAINING:
                 await self._drain()
                 if session.state is not SessionState.DRAINING:
@@ -649,15 +655,23 @@ class Transport:
                     self._sync_state()
                     self.last_send = self._now()
                     self._write(probe)
-                give_up = self._now() + self.timeout
+                patience = self.timeout
+                if self.max_silence is not None:
+                    patience = min(patience, self.max_silence)
+                give_up = self._now() + patience
                 while session.state is SessionState.PROBING and self._now() < give_up:
                     await self._wait_changed(give_up)
                 if session.state is SessionState.PROBING:
                     with self._lock:
                         session.probe_failed("no answer to the ID probe")
-                    self._log_fault("%s: no answer to the ID probe", self.name)
+                    unanswered += 1
+                    if unanswered & (unanswered - 1) == 0:  # 1, 2, 4, 8...: a silent board
+                        # probed every heartbeat (failsafe armed) must not flood the log
+                        self._log_fault(
+                            "%s: no answer to the ID probe (%d in a row)", self.name, unanswered
+                        )
                     await anyio.sleep(backoff)
-                    backoff = min(backoff * 2, MAX_PROBE_BACKOFF)
+                    backoff = min(backoff * 2, MAX_PROBE_BACKOFF, self.max_silence or math.inf)
                 elif session.state is SessionState.DRAINING:
                     logger.info(
                         "%s: probe failed (%s); draining again", self.name, session.last_loss
