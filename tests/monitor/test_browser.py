@@ -156,7 +156,7 @@ async def test_monitor_page_drives_and_follows_a_virtual_uno(
         await form.locator(".i2c-read").click()
         message = section.locator(".message")
         await expect(message).to_have_attribute("data-error", "true")
-        await expect(message).to_contain_text("I2C_NACK_ADDRESS")
+        await expect(message).to_contain_text("no I2C device answered at that address")
         await form.locator('input[name="address"]').fill("0x50")
 
         # Reset from the page: the board reboots, the monitor puts every role back and the

@@ -183,7 +183,7 @@ async def test_the_monitor_shows_another_clients_pin_and_cannot_take_it(
             result = await hub.perform(
                 {"id": 1, "board": "b0", "op": "role", "pin": "D6", "role": "input"}
             )
-            assert not result["ok"] and "PIN_BUSY" in str(result["error"]), result
+            assert not result["ok"] and "the pin is busy" in str(result["error"]), result
             await led.write(False)  # still the controller's
             assert (await served.unos[7].pin("D6")).level == 0
             tg.cancel_scope.cancel()
