@@ -67,10 +67,12 @@ async def test_the_callback_form_and_two_channels_with_a_shared_sequence(
 ) -> None:
     uno = await virtual_uno_factory(board_id=1)
     seen: list[AnalogMove] = []
+    first_arrived = anyio.Event()
     arrived = anyio.Event()
 
     def on_move(move: AnalogMove) -> None:
         seen.append(move)
+        first_arrived.set()
         if len(seen) == 2:
             arrived.set()
 
@@ -80,6 +82,10 @@ async def test_the_callback_form_and_two_channels_with_a_shared_sequence(
             board.analog(A1).watch(deadband=50) as a1_moves,
         ):
             await uno.set_analog(0, mv(100))
+            # A0's move is reported before A1 is moved: the board scans the channels in
+            # turn, so two moves made together may be reported in either order.
+            with anyio.fail_after(5):
+                await first_arrived.wait()
             await uno.set_analog(1, mv(900))
             a1 = await next_move(a1_moves)
             await uno.set_analog(0, mv(300))
