@@ -30,6 +30,7 @@ from .errors import (
     ProtocolError,
     ReplyMismatchError,
     StaleHandleError,
+    TimerBusyError,
     UsageError,
     ValueRangeError,
     WatchLostError,
@@ -72,6 +73,7 @@ if TYPE_CHECKING:
         SoftPwm,
     )
     from .manager import BoardManager, ManagerEvent, ProbeResult
+    from .motors import DutyPwm, Motor
     from .protocol import I2CSpeed
     from .sim import VirtualUno
     from .streaming import Sample, SampleStream
@@ -95,6 +97,8 @@ _LAZY = {
     "Servo": ".handles",
     "SoftPwm": ".handles",
     "BoardManager": ".manager",
+    "DutyPwm": ".motors",
+    "Motor": ".motors",
     "ManagerEvent": ".manager",
     "ProbeResult": ".manager",
     "I2CSpeed": ".protocol",
@@ -151,6 +155,7 @@ __all__ = [
     "DigitalOutput",
     "DigitalPin",
     "DuplicateBoardError",
+    "DutyPwm",
     "FailsafeConfig",
     "FailsafeTrippedError",
     "FakeBoard",
@@ -162,6 +167,7 @@ __all__ = [
     "LinkError",
     "LinkResyncError",
     "ManagerEvent",
+    "Motor",
     "PinCapabilityError",
     "PinRoleError",
     "PinState",
@@ -175,6 +181,7 @@ __all__ = [
     "Servo",
     "SoftPwm",
     "StaleHandleError",
+    "TimerBusyError",
     "UsageError",
     "ValueRangeError",
     "VirtualUno",

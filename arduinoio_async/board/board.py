@@ -46,6 +46,7 @@ from ..handles import (
     input_setup,
     output_setup,
 )
+from ..motors import Motor, check_timer
 from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
 from ..protocol.pins import require as require_capable
 from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
@@ -57,6 +58,7 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
+from ._motor_methods import MotorMethods
 from .boot import READY_TIMEOUT, read_id_retrying, start_link, wait_new_boot
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .roles import PinRoles
@@ -71,7 +73,7 @@ H = TypeVar("H", bound=PinHandle)
 PO = TypeVar("PO", bound=PulseOutput)
 
 
-class Board:
+class Board(MotorMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -378,21 +380,48 @@ class Board:
         return (await self.request(p.AnalogReadAll())).values
 
     async def _pulse_output(
-        self, pin: DigitalPin, function: Function, cls: type[PO], pulse_us: int
+        self,
+        pin: DigitalPin,
+        function: Function,
+        cls: type[PO],
+        pulse_us: int,
+        limits: tuple[int, int],
     ) -> PO:
         handle = self._new_handle(pin, function, cls)
-        pulse_us = cls.check_pulse(pulse_us)
+        check_timer(self, handle.pin, cls.ROLE)  # duty PWM may hold the timer it needs
+        handle.set_limits(*limits)
+        pulse_us = handle.check_pulse(pulse_us)
         await self.set_up(handle, p.PwmConfig(handle.pin, pulse_us))
         handle.pulse_us = pulse_us
         return handle
 
-    async def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> Servo:
-        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
-        return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us)
+    async def servo(
+        self,
+        pin: ServoPin,
+        *,
+        pulse_us: int = 0,
+        min_us: int = p.SERVO_DEFAULT_MIN_US,
+        max_us: int = p.SERVO_DEFAULT_MAX_US,
+    ) -> Servo:
+        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet.
 
-    async def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> SoftPwm:
-        """Software servo PWM on D2-D7 (1 us resolution)."""
-        return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us)
+        ``min_us``-``max_us`` are this servo's limits (1,000-2,000 us unless widened, up
+        to 500-2,500 us): wider widths are refused, ``set_angle`` maps onto them.
+        """
+        limits = (min_us, max_us)
+        return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us, limits)
+
+    async def soft_pwm(
+        self,
+        pin: SoftPwmPin,
+        *,
+        pulse_us: int = 0,
+        min_us: int = p.SERVO_DEFAULT_MIN_US,
+        max_us: int = p.SERVO_DEFAULT_MAX_US,
+    ) -> SoftPwm:
+        """Software servo PWM on D2-D7 (1 us resolution); limits as for :meth:`servo`."""
+        limits = (min_us, max_us)
+        return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us, limits)
 
     async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
         """An event counter on D2/D3 counting rising or falling edges, from zero."""
@@ -507,14 +536,16 @@ class Board:
         return self._failsafe.on_trip(callback)
 
     async def arm_failsafe(
-        self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]
+        self, timeout_ms: int, safe_states: Mapping[PinHandle | Motor, bool | float]
     ) -> None:
         """Arm the board's link watchdog.
 
         ``safe_states`` maps output handles to what they do when the host falls silent for
         ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no pulses)
-        for servo and soft-PWM outputs.  The keepalive feeds the watchdog while this
-        process runs; a killed process, a pulled cable or a blocked event loop lets it fire.
+        for servo and soft-PWM outputs, a duty 0.0-1.0 for duty PWM; a :class:`Motor`'s
+        safe state is stopped (every PWM pin it has at duty 0) whatever its value.  The
+        keepalive feeds the watchdog while this process runs; a killed process, a pulled
+        cable or a blocked event loop lets it fire.
         """
         await self._failsafe.arm(timeout_ms, safe_states)
 

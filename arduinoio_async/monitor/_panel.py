@@ -25,6 +25,7 @@ import anyio
 from .. import protocol as p
 from ..errors import ArduinoIOError, PinRoleError, UsageError
 from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
+from ..motors import Motor
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -400,7 +401,7 @@ class BoardPanel:
 
     async def _failsafe_arm(self, args: Mapping[str, Any]) -> None:
         """Arm with every output's safe state off (low, no pulses)."""
-        outputs: dict[PinHandle, bool | int] = {
+        outputs: dict[PinHandle | Motor, bool | float] = {
             role.handle: 0
             for role in self.pin_roles().values()
             if isinstance(role.handle, DigitalOutput | Gpio | PulseOutput)

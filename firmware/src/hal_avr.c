@@ -476,14 +476,21 @@ void hal_duty_output(uint8_t pin, uint8_t how, uint16_t ocr)
 /*
  * Timer0 counts at 0.5 us while an alarm runs; an alarm is its compare unit
  * plus a count of half timer periods still to wait: a delay d is a first
- * step of 1-128 counts (OCR0x += step) and then WRAPS(d) steps of 128, so
+ * step (FIRST, below 256 counts; OCR0x += step) and then WRAPS(d) steps of 128, so
  * OCR0x always changes (simavr 1.6 fires at once when OCR0x is rewritten
  * with the count it holds).  The compare pins stay disconnected (COM0x = 0).
  */
 #define HALF 128u
 /* The first step of a delay of d >= 1 counts, and the 128-count steps after it. */
-#define FIRST(d) ((uint8_t)((((d) - 1u) & (HALF - 1u)) + 1u))
-#define WRAPS(d) ((uint16_t)(((d) - 1u) >> 7)) /* d up to 120,000 (60 ms) */
+#define FIRST(d) ((uint8_t)(SHORT_FIRST(d) < MIN_FIRST && (d) > HALF ? SHORT_FIRST(d) + HALF : SHORT_FIRST(d)))
+#define WRAPS(d) ((uint16_t)(((d) - FIRST(d)) >> 7)) /* d up to 120,000 (60 ms) */
+#define SHORT_FIRST(d) ((((d) - 1u) & (HALF - 1u)) + 1u)
+/* A first step is written after the interrupt's entry and the edge's work: one
+ * shorter than this may already have passed when OCR0x is written, and its match
+ * would come a whole timer period (128 us) late.  So a delay with wraps starts
+ * with a step of MIN_FIRST to HALF + MIN_FIRST - 1 counts (below 256: the 8-bit
+ * OCR0x still tells it apart); a short delay alone is spun for (SPIN_COUNTS). */
+#define MIN_FIRST 64u
 /* An edge due this close to the running alarm is waited for in it (the
  * interrupt's exit and entry take about that long) ... */
 #define SPIN_COUNTS 12u
