@@ -7,15 +7,21 @@ counter (firmware/sim, pulse capture), never a register or the library's own ans
 
 from __future__ import annotations
 
+import io
+import json
+import socket
 import statistics
 import time
+from typing import Any
 
 import anyio
 import pytest
+from rich.console import Console
 
 from arduinoio_async import D3, D4, D5, D6, D7, D8, D9, D10
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.motors import DutyPwm
 from arduinoio_async.protocol.pins import DutyPwmPin
 from arduinoio_async.protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, timer_setting
@@ -32,6 +38,12 @@ SWEEP_PINS: dict[Timer, DutyPwmPin] = {Timer.TIMER0: D5, Timer.TIMER1: D9, Timer
 
 #: The fixture reports times in us with 3 decimals (firmware/sim/control.c).
 REPORTED_US = 0.0005
+#: simavr runs its timer events between instructions, so a compare-output edge is stamped
+#: at the end of the instruction (or interrupt entry) it fell in: up to 4 cycles late
+#: (firmware/sim/README.md, "Pulse capture"). Below the resolution of a clk/1 timer, so a
+#: single high time is checked within one timer tick plus that, their median within one
+#: timer tick.
+EDGE_STAMP_US = 4 / 16
 
 
 def tick_us(handle: DutyPwm) -> float:
@@ -63,12 +75,15 @@ async def check_duty(uno: VirtualUno, handle: DutyPwm, duty: float) -> tuple[flo
         assert level == (1 if duty else 0), (pin, duty, level)
         return (period if level else 0.0), period
     stats = await measured(uno, pin)
-    highs, periods = stats.high_us[-6:], stats.period_us[-6:]
+    highs, periods = stats.high_us[-7:], stats.period_us[-7:]
     want = expected_high_us(handle, duty)
     tick = tick_us(handle)
-    assert all(abs(h - want) <= tick for h in highs), (pin, duty, want, highs)
-    assert all(abs(t - period) <= tick for t in periods), (pin, period, periods)
-    return statistics.median(highs), statistics.median(periods)
+    high, whole = statistics.median(highs), statistics.median(periods)
+    assert abs(high - want) <= tick, (pin, duty, want, highs)
+    assert abs(whole - period) <= tick, (pin, period, periods)
+    assert all(abs(h - want) <= tick + EDGE_STAMP_US for h in highs), (pin, duty, want, highs)
+    assert all(abs(t - period) <= tick + EDGE_STAMP_US for t in periods), (pin, periods)
+    return high, whole
 
 
 async def test_duty_0_1_37_50_100_percent_on_every_timer(
@@ -113,6 +128,19 @@ async def test_two_pins_of_one_timer_share_its_frequency(
         await check_duty(uno, d10, 0.75)
 
 
+def status_now(uno: VirtualUno) -> dict[str, Any]:
+    """The fixture's status, read without the event loop (which the caller blocks)."""
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+        sock.settimeout(5)
+        sock.connect(uno.control_path)
+        sock.sendall(b'{"cmd": "status"}\n')
+        reply = b""
+        while not reply.endswith(b"\n"):
+            reply += sock.recv(65536)
+    status: dict[str, Any] = json.loads(reply)
+    return status
+
+
 async def pin_level(uno: VirtualUno, pin: str) -> int:
     return (await uno.pin(pin)).level
 
@@ -129,7 +157,8 @@ async def test_motor_direction_brake_and_coast(virtual_uno_factory: VirtualUnoFa
         await motor.set_speed(-0.25)
         assert (await pin_level(uno, "D7"), await pin_level(uno, "D8")) == (0, 1)
         stats = await measured(uno, "D9")
-        assert all(abs(h - expected_high_us(pwm, 0.25)) <= tick_us(pwm) for h in stats.high_us)
+        want = expected_high_us(pwm, 0.25)
+        assert all(abs(h - want) <= tick_us(pwm) + EDGE_STAMP_US for h in stats.high_us)
         await motor.brake()  # IN1 = IN2 = high, enable full on: terminals shorted
         assert (await pin_level(uno, "D7"), await pin_level(uno, "D8")) == (1, 1)
         assert await steady_level(uno, "D9", 500) == 1
@@ -151,7 +180,8 @@ async def test_two_pwm_motor_drives_one_input_at_a_time(
         await motor.set_speed(-0.3)
         assert await steady_level(uno, "D9", 500) == 0
         stats = await measured(uno, "D10")
-        assert all(abs(h - expected_high_us(in2, 0.3)) <= tick_us(in2) for h in stats.high_us)
+        want = expected_high_us(in2, 0.3)
+        assert all(abs(h - want) <= tick_us(in2) + EDGE_STAMP_US for h in stats.high_us)
         await motor.brake()
         assert await steady_level(uno, "D9", 500) == 1
         assert await steady_level(uno, "D10", 500) == 1
@@ -186,7 +216,8 @@ async def test_the_failsafe_stops_pwm_within_its_timeout(
         await motor.set_speed(0.7)
         await board.arm_failsafe(timeout_ms, {motor: 0, fan: 0.0})
         time.sleep(0.3)  # noqa: ASYNC251 - the host's event loop is stuck: no heartbeat
-        silent_from = float((await uno.status())["last_host_byte_us"])
+        # read while the loop is still stuck: once it runs, the keepalive polls again
+        silent_from = float(status_now(uno)["last_host_byte_us"])
         for pin in ("D9", "D6"):
             stats = await uno.pulse_stats(pin)  # the last fall: where the pin stopped
             assert stats.last_edge_us is not None and stats.level == 0, (pin, stats)
@@ -199,3 +230,38 @@ async def test_the_failsafe_stops_pwm_within_its_timeout(
 
 def test_each_sweep_pin_is_on_the_timer_it_stands_for() -> None:
     assert all(TIMER_OF[pin] is timer for timer, pin in SWEEP_PINS.items())
+
+
+# ---- the command line ----------------------------------------------------------------------
+
+
+async def run_cli(*argv: str) -> tuple[int, str]:
+    """Run ``arduinoio`` in a worker thread (it starts its own event loop)."""
+    buffer = io.StringIO()
+    console = Console(file=buffer, width=200)
+    code = await anyio.to_thread.run_sync(lambda: cli_main(list(argv), console=console))
+    return code, buffer.getvalue()
+
+
+async def test_cli_pwm_motor_and_the_wide_servo(
+    virtual_uno_factory: VirtualUnoFactory, capsys: pytest.CaptureFixture[str]
+) -> None:
+    uno = await virtual_uno_factory(baud=1_000_000)
+    code, out = await run_cli("pwm", "--port", uno.port, "D9", "0.4", "--freq", "31k")
+    assert code == 0 and "31250 Hz" in out, out
+    stats = await measured(uno, "D9")
+    assert abs(statistics.median(stats.high_us) - 0.4 * 32) <= 1 / 16 + REPORTED_US
+    code, _ = await run_cli("pwm", "--port", uno.port, "D5", "0.4", "--freq", "31k")
+    assert code == 1 and "62500 Hz, 7812 Hz" in capsys.readouterr().err  # Timer0 has no 31k
+    code, _ = await run_cli("release", "--port", uno.port, "D9")
+    code, _ = await run_cli("servo", "--port", uno.port, "D9", "2400")
+    assert code == 1 and "1000-2000" in capsys.readouterr().err  # the safe default
+    code, _ = await run_cli("servo", "--port", uno.port, "D9", "2400", "--max-us", "2500")
+    assert code == 0
+    stats = await fresh_pulses(uno, "D9", 3)
+    assert abs(stats.high_us[-1] - 2400) <= 1
+    code, out = await run_cli("motor", "--port", uno.port, "D6", "D7", "D8", "--speed", "-0.5")
+    assert code == 0 and "running -0.50" in out, out
+    assert (await pin_level(uno, "D7"), await pin_level(uno, "D8")) == (0, 1)
+    stats = await measured(uno, "D6")
+    assert all(abs(h - 0.5 * 1024) <= 4 + REPORTED_US for h in stats.high_us[-6:])  # 976 Hz
