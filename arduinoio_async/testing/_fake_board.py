@@ -479,7 +479,7 @@ class FakeBoard(PeripheralModels):
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
         error = self.stream.check(request, self.baud, self.i2c_speed is not None)
-        if error is None and self.duty_timer_busy(Timer.TIMER0):
+        if error is None and self._duty_timer_busy(Timer.TIMER0):
             error = E.PIN_BUSY  # duty PWM on D5/D6 holds the alarm timer
         if error is None and request.analog_mask and self._analog_watches:
             error = E.PIN_BUSY  # the ADC samples watched channels

@@ -108,7 +108,7 @@ class PeripheralModels:
         if isinstance(request, p.PwmConfig):
             if state.role not in ("free", "pwm"):
                 return self._error(request, E.PIN_BUSY)
-            if self.duty_timer_busy(Timer.TIMER0 if soft else Timer.TIMER1):
+            if self._duty_timer_busy(Timer.TIMER0 if soft else Timer.TIMER1):
                 return self._error(request, E.PIN_BUSY)  # duty PWM holds the timer
         elif state.role != "pwm":
             return self._error(request, E.PIN_NOT_CONFIGURED)
@@ -121,7 +121,7 @@ class PeripheralModels:
             return p.PwmConfigReply(pin, pulse)
         return p.PwmSetReply(pin, pulse)
 
-    def duty_timer_busy(self, timer: Timer) -> bool:
+    def _duty_timer_busy(self, timer: Timer) -> bool:
         """Duty-cycle PWM holds ``timer`` (the firmware's duty_timer_busy)."""
         return any(
             self._pins[pin].role == "duty" and TIMER_OF[DigitalPin(pin)] is timer
