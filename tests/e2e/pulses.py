@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import socket
+from typing import Any
+
 import anyio
 
 from arduinoio_async.sim import PulseStats, VirtualUno
@@ -35,3 +39,18 @@ async def steady_level(uno: VirtualUno, pin: str, periods_us: float, within: flo
             stats = await uno.pulse_stats(pin)
             if stats.count == 0 and stats.falls == 0:
                 return stats.level
+
+
+def control_now(uno: VirtualUno, cmd: str, **params: object) -> dict[str, Any]:
+    """One control command sent without an event loop: for a test that blocks its loop on
+    purpose, or a plain-thread (blocking API) test."""
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+        sock.settimeout(5)
+        sock.connect(uno.control_path)
+        sock.sendall(json.dumps({"cmd": cmd, **params}).encode() + b"\n")
+        reply = b""
+        while not reply.endswith(b"\n"):
+            reply += sock.recv(65536)
+    answer: dict[str, Any] = json.loads(reply)
+    assert answer.get("ok"), answer
+    return answer

@@ -8,11 +8,8 @@ counter (firmware/sim, pulse capture), never a register or the library's own ans
 from __future__ import annotations
 
 import io
-import json
-import socket
 import statistics
 import time
-from typing import Any
 
 import anyio
 import pytest
@@ -28,7 +25,7 @@ from arduinoio_async.protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, t
 from arduinoio_async.sim import PulseStats, VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
-from .pulses import fresh_pulses, steady_level
+from .pulses import control_now, fresh_pulses, steady_level
 
 pytestmark = pytest.mark.sim
 
@@ -128,19 +125,6 @@ async def test_two_pins_of_one_timer_share_its_frequency(
         await check_duty(uno, d10, 0.75)
 
 
-def status_now(uno: VirtualUno) -> dict[str, Any]:
-    """The fixture's status, read without the event loop (which the caller blocks)."""
-    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
-        sock.settimeout(5)
-        sock.connect(uno.control_path)
-        sock.sendall(b'{"cmd": "status"}\n')
-        reply = b""
-        while not reply.endswith(b"\n"):
-            reply += sock.recv(65536)
-    status: dict[str, Any] = json.loads(reply)
-    return status
-
-
 async def pin_level(uno: VirtualUno, pin: str) -> int:
     return (await uno.pin(pin)).level
 
@@ -217,7 +201,7 @@ async def test_the_failsafe_stops_pwm_within_its_timeout(
         await board.arm_failsafe(timeout_ms, {motor: 0, fan: 0.0})
         time.sleep(0.3)  # noqa: ASYNC251 - the host's event loop is stuck: no heartbeat
         # read while the loop is still stuck: once it runs, the keepalive polls again
-        silent_from = float(status_now(uno)["last_host_byte_us"])
+        silent_from = float(control_now(uno, "status")["last_host_byte_us"])
         for pin in ("D9", "D6"):
             stats = await uno.pulse_stats(pin)  # the last fall: where the pin stopped
             assert stats.last_edge_us is not None and stats.level == 0, (pin, stats)
