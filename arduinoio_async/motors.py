@@ -28,7 +28,14 @@ from .protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, duty_steps
 if TYPE_CHECKING:
     from .board import Board
 
-__all__ = ["DEFAULT_FREQUENCY", "DutyPwm", "Motor", "check_timer", "resolve_frequency"]
+__all__ = [
+    "DEFAULT_FREQUENCY",
+    "DutyPwm",
+    "Motor",
+    "check_stream",
+    "check_timer",
+    "resolve_frequency",
+]
 
 #: The frequency a duty PWM pin gets unless told: Arduino's ``analogWrite`` ones on
 #: Timer0 (976 Hz) and Timer1 (490 Hz), the board tick's on Timer2.
@@ -93,6 +100,14 @@ def check_timer(board: Board, pin: DigitalPin, wanted: str, frequency_hz: int = 
     """
     timer = TIMER_OF.get(pin)
     at = f" at {frequency_hz} Hz" if frequency_hz else ""
+    if wanted == DutyPwm.ROLE and timer is Timer.TIMER0 and _streaming(board):
+        raise TimerBusyError(
+            pin.name,
+            "stream sampling",
+            wanted,
+            f"{pin.name} is on Timer0, whose alarms time the stream that runs: {pin.name} "
+            f"cannot take {wanted} until the stream ends",
+        )
     for other, claim in board.roles.items():
         holder = claim.handle
         if other == pin:
@@ -135,6 +150,25 @@ def check_timer(board: Board, pin: DigitalPin, wanted: str, frequency_hz: int = 
                 wanted,
                 f"{wanted} needs {holder.timer}, which {other.name} holds for {holder.ROLE} "
                 f"at {holder.frequency_hz} Hz, so {pin.name} cannot take {wanted}",
+            )
+
+
+def _streaming(board: Board) -> bool:
+    return any(isinstance(r, p.StreamStart) for r in board.watches.requests())
+
+
+def check_stream(board: Board) -> None:
+    """Raise :class:`TimerBusyError` if duty PWM holds Timer0, whose alarms time a stream's
+    samples (the firmware refuses STREAM_START then with PIN_BUSY)."""
+    for pin, claim in board.roles.items():
+        holder = claim.handle
+        if isinstance(holder, DutyPwm) and holder.timer is Timer.TIMER0:
+            raise TimerBusyError(
+                pin.name,
+                f"{holder.ROLE} on {pin.name}",
+                "stream sampling",
+                f"a stream's samples are timed by Timer0, which {pin.name} holds for "
+                f"{holder.ROLE} at {holder.frequency_hz} Hz: release it first",
             )
 
 

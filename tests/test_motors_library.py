@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from arduinoio_async import D2, D3, D5, D6, D7, D8, D9, D10, D11
+from arduinoio_async import A0, D2, D3, D5, D6, D7, D8, D9, D10, D11
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.errors import (
@@ -139,3 +139,16 @@ def test_mypy_refuses_pwm_on_a_pin_without_a_hardware_timer(tmp_path: Path) -> N
     )
     errors = [line for line in result.stdout.splitlines() if ": error:" in line]
     assert [e.split(":")[1] for e in errors] == ["7", "8", "9"], result.stdout
+
+
+async def test_a_stream_and_timer0_duty_pwm_refuse_each_other_before_sending() -> None:
+    async with connected() as (board, fake):
+        async with board.stream(analog=[A0], period_ms=10):
+            with pytest.raises(TimerBusyError, match="Timer0, whose alarms time the stream"):
+                await board.pwm(D6)
+        assert fake.role(6) == "free"
+        await board.pwm(D6, 0.5)
+        with pytest.raises(TimerBusyError, match="D6 holds for duty-cycle PWM"):
+            async with board.stream(analog=[A0], period_ms=10):
+                pass
+        assert not fake.stream.running

@@ -1,4 +1,5 @@
-"""The board's duty-cycle PWM and motor methods (issue 26), mixed into :class:`Board`.
+"""The board's actuator methods (servos, duty-cycle PWM, motors; issue 26), mixed into
+:class:`Board`.
 
 Kept apart from ``board.py`` by idea: they only combine the board's pin-role machinery
 (``_new_handle``, ``set_up``, ``roles``) with :mod:`arduinoio_async.motors`.
@@ -6,18 +7,29 @@ Kept apart from ``board.py`` by idea: they only combine the board's pin-role mac
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, TypeVar, cast
 
 from .. import protocol as p
 from ..errors import PinCapabilityError
+from ..handles import PulseOutput, Servo, SoftPwm
 from ..motors import DutyPwm, Motor, check_timer, resolve_frequency
-from ..protocol.pins import D11, DigitalPin, DutyPwmPin, Function, capable_pins
+from ..protocol.pins import (
+    D11,
+    DigitalPin,
+    DutyPwmPin,
+    Function,
+    ServoPin,
+    SoftPwmPin,
+    capable_pins,
+)
 from ..protocol.timers import TIMER_OF
 
 if TYPE_CHECKING:
     from .board import Board
 
 __all__ = ["MotorMethods"]
+
+PO = TypeVar("PO", bound=PulseOutput)
 
 #: Why D11, a PWM pin on Arduino's pinout, is not one here.
 D11_REASON = (
@@ -27,7 +39,53 @@ D11_REASON = (
 
 
 class MotorMethods:
-    """``board.pwm()``, ``board.motor()`` and ``board.motor_2pwm()``."""
+    """``board.servo()``, ``board.soft_pwm()``, ``board.pwm()``, ``board.motor()`` and
+    ``board.motor_2pwm()``: the board's actuator outputs."""
+
+    async def _pulse_output(
+        self,
+        pin: DigitalPin,
+        function: Function,
+        cls: type[PO],
+        pulse_us: int,
+        limits: tuple[int, int],
+    ) -> PO:
+        board = cast("Board", self)
+        handle = board._new_handle(pin, function, cls)
+        check_timer(board, handle.pin, cls.ROLE)  # duty PWM may hold the timer it needs
+        handle.set_limits(*limits)
+        pulse_us = handle.check_pulse(pulse_us)
+        await board.set_up(handle, p.PwmConfig(handle.pin, pulse_us))
+        handle.pulse_us = pulse_us
+        return handle
+
+    async def servo(
+        self,
+        pin: ServoPin,
+        *,
+        pulse_us: int = 0,
+        min_us: int = p.SERVO_DEFAULT_MIN_US,
+        max_us: int = p.SERVO_DEFAULT_MAX_US,
+    ) -> Servo:
+        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet.
+
+        ``min_us``-``max_us`` are this servo's limits (1,000-2,000 us unless widened, up
+        to 500-2,500 us): wider widths are refused, ``set_angle`` maps onto them.
+        """
+        limits = (min_us, max_us)
+        return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us, limits)
+
+    async def soft_pwm(
+        self,
+        pin: SoftPwmPin,
+        *,
+        pulse_us: int = 0,
+        min_us: int = p.SERVO_DEFAULT_MIN_US,
+        max_us: int = p.SERVO_DEFAULT_MAX_US,
+    ) -> SoftPwm:
+        """Software servo PWM on D2-D7 (1 us resolution); limits as for :meth:`servo`."""
+        limits = (min_us, max_us)
+        return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us, limits)
 
     async def pwm(
         self, pin: DutyPwmPin, duty: float = 0.0, *, frequency_hz: int | None = None

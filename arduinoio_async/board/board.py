@@ -40,14 +40,11 @@ from ..handles import (
     Gpio,
     I2CBus,
     PinHandle,
-    PulseOutput,
-    Servo,
-    SoftPwm,
     input_setup,
     output_setup,
 )
-from ..motors import Motor, check_timer
-from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
+from ..motors import Motor, check_stream
+from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function
 from ..protocol.pins import require as require_capable
 from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 from ..transactions import Transaction
@@ -70,7 +67,6 @@ __all__ = ["READY_TIMEOUT", "Board"]
 
 R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
-PO = TypeVar("PO", bound=PulseOutput)
 
 
 class Board(MotorMethods):
@@ -379,50 +375,6 @@ class Board(MotorMethods):
         """All six analog inputs, A0 first, in one request."""
         return (await self.request(p.AnalogReadAll())).values
 
-    async def _pulse_output(
-        self,
-        pin: DigitalPin,
-        function: Function,
-        cls: type[PO],
-        pulse_us: int,
-        limits: tuple[int, int],
-    ) -> PO:
-        handle = self._new_handle(pin, function, cls)
-        check_timer(self, handle.pin, cls.ROLE)  # duty PWM may hold the timer it needs
-        handle.set_limits(*limits)
-        pulse_us = handle.check_pulse(pulse_us)
-        await self.set_up(handle, p.PwmConfig(handle.pin, pulse_us))
-        handle.pulse_us = pulse_us
-        return handle
-
-    async def servo(
-        self,
-        pin: ServoPin,
-        *,
-        pulse_us: int = 0,
-        min_us: int = p.SERVO_DEFAULT_MIN_US,
-        max_us: int = p.SERVO_DEFAULT_MAX_US,
-    ) -> Servo:
-        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet.
-
-        ``min_us``-``max_us`` are this servo's limits (1,000-2,000 us unless widened, up
-        to 500-2,500 us): wider widths are refused, ``set_angle`` maps onto them.
-        """
-        limits = (min_us, max_us)
-        return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us, limits)
-
-    async def soft_pwm(
-        self,
-        pin: SoftPwmPin,
-        *,
-        pulse_us: int = 0,
-        min_us: int = p.SERVO_DEFAULT_MIN_US,
-        max_us: int = p.SERVO_DEFAULT_MAX_US,
-    ) -> SoftPwm:
-        """Software servo PWM on D2-D7 (1 us resolution); limits as for :meth:`servo`."""
-        limits = (min_us, max_us)
-        return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us, limits)
-
     async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
         """An event counter on D2/D3 counting rising or falling edges, from zero."""
         handle = self._new_handle(pin, Function.COUNTER, Counter)
@@ -512,6 +464,7 @@ class Board(MotorMethods):
         :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms)
+        check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
         async with run_stream(self, request, buffer) as samples:
             yield samples
 
