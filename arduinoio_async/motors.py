@@ -225,13 +225,14 @@ class Motor:
         return self.speed_pins
 
     async def _directions(self, *levels: bool) -> None:
-        """Set the direction inputs (only those that change), the drive already off if
-        the direction reverses."""
+        """Set the direction inputs (only those that change) with the enable at duty 0:
+        never a reversal under drive, nor full power on the way out of a brake."""
         levels = levels[: len(self.directions)]
         if levels == self._levels:
             return
-        if self.state == "running":
-            await self.speed_pins[0].set_duty(0.0)  # never reverse under drive
+        if self.state != "coast":  # running or braking (enable full on): drive off first
+            await self.speed_pins[0].set_duty(0.0)
+            self.state = "coast"
         for handle, old, new in zip(self.directions, self._levels, levels, strict=True):
             if old != new:
                 await handle.write(new)

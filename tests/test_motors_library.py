@@ -152,3 +152,20 @@ async def test_a_stream_and_timer0_duty_pwm_refuse_each_other_before_sending() -
             async with board.stream(analog=[A0], period_ms=10):
                 pass
         assert not fake.stream.running
+
+
+async def test_leaving_the_brake_never_drives_at_full_duty_on_the_way() -> None:
+    """From brake (enable full on, IN1 = IN2 high) to a speed: the enable must drop to 0
+    before a direction input changes, or the motor gets full power for a round trip."""
+    sent: list[p.Frame] = []
+    async with FakeBoard() as fake:
+        trace = lambda record: sent.append(record.item) if record.direction == "tx" else None  # noqa: E731
+        async with Board.connect(fake.host_stream, trace=trace) as board:
+            motor = await board.motor(D9, D7, D8, frequency_hz=20000)
+            await motor.brake()
+            sent.clear()
+            await motor.set_speed(0.5)
+    writes = [f for f in sent if isinstance(f, p.GpioWrite | p.PwmDutySet)]
+    first_direction = next(i for i, f in enumerate(writes) if isinstance(f, p.GpioWrite))
+    assert writes[0] == p.PwmDutySet(9, 0), writes  # the drive is off first
+    assert first_direction > 0
