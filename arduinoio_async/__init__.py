@@ -31,6 +31,7 @@ from .errors import (
     ProtocolError,
     ReplyMismatchError,
     StaleHandleError,
+    TimerBusyError,
     UsageError,
     ValueRangeError,
     WatchLostError,
@@ -78,6 +79,7 @@ if TYPE_CHECKING:
         SoftPwm,
     )
     from .manager import BoardManager, ManagerEvent, ProbeResult
+    from .motors import DutyPwm, Motor
     from .protocol import I2CSpeed
     from .sim import VirtualUno
     from .streaming import Sample, SampleStream
@@ -101,6 +103,8 @@ _LAZY = {
     "Servo": ".handles",
     "SoftPwm": ".handles",
     "BoardManager": ".manager",
+    "DutyPwm": ".motors",
+    "Motor": ".motors",
     "ManagerEvent": ".manager",
     "ProbeResult": ".manager",
     "I2CSpeed": ".protocol",
@@ -157,6 +161,7 @@ __all__ = [
     "DigitalOutput",
     "DigitalPin",
     "DuplicateBoardError",
+    "DutyPwm",
     "FailsafeConfig",
     "FailsafeTrippedError",
     "FakeBoard",
@@ -168,6 +173,7 @@ __all__ = [
     "LinkError",
     "LinkResyncError",
     "ManagerEvent",
+    "Motor",
     "PinCapabilityError",
     "PinRoleError",
     "PinState",
@@ -181,6 +187,7 @@ __all__ = [
     "Servo",
     "SoftPwm",
     "StaleHandleError",
+    "TimerBusyError",
     "UsageError",
     "ValueRangeError",
     "VirtualUno",

@@ -40,6 +40,7 @@ __all__ = [
     "ProtocolError",
     "ReplyMismatchError",
     "StaleHandleError",
+    "TimerBusyError",
     "UsageError",
     "ValueRangeError",
     "WatchLostError",
@@ -84,6 +85,21 @@ class PinRoleError(UsageError):
         self.current = current
         self.requested = requested
         super().__init__(f"{pin} is in use as {current}; release it before using it as {requested}")
+
+
+class TimerBusyError(PinRoleError):
+    """A pin's hardware timer serves another user (docs/motors.md, "Timers and pins").
+
+    Raised before anything is sent; the message names the timer, the other user and its
+    pin, e.g. "D9 and D10 share Timer1: D10 is servo PWM, so D9 cannot take duty-cycle PWM
+    at 31250 Hz".
+    """
+
+    def __init__(self, pin: str, current: str, requested: str, message: str) -> None:
+        UsageError.__init__(self, message)
+        self.pin = pin
+        self.current = current
+        self.requested = requested
 
 
 class StaleHandleError(UsageError):

@@ -284,26 +284,52 @@ class AnalogInput:
 
 
 class PulseOutput(PinHandle):
-    """Servo pulses every 20 ms; subclasses fix the pins and the resolution."""
+    """Servo pulses every 20 ms; subclasses fix the pins and the resolution.
+
+    Each output has its own pulse limits, :attr:`min_us`-:attr:`max_us`: 1,000-2,000 us
+    unless set up with others (``board.servo(D9, min_us=500, max_us=2500)``), because
+    every hobby servo takes that range, while a wider one drives many into their end
+    stops.  The board accepts 500-2,500 us; widths outside the limits are refused here.
+    """
 
     STEP_US = 1
 
     def __init__(self, board: Board, pin: DigitalPin) -> None:
         super().__init__(board, pin)
         self.pulse_us: int = 0
+        #: The narrowest and widest pulse this output sends (set_angle's 0 and 180 degrees).
+        self.min_us: int = p.SERVO_DEFAULT_MIN_US
+        self.max_us: int = p.SERVO_DEFAULT_MAX_US
 
-    @classmethod
-    def check_pulse(cls, pulse_us: int) -> int:
-        """Validate a pulse width (0 = no pulses) before it is sent."""
+    def set_limits(self, min_us: int, max_us: int) -> None:
+        """Allow widths ``min_us``-``max_us`` (within the board's 500-2,500 us)."""
+        if not p.PULSE_MIN_US <= min_us < max_us <= p.PULSE_MAX_US:
+            raise ValueRangeError(
+                "servo pulse limits (us)",
+                (min_us, max_us),
+                f"min < max, both within {p.PULSE_MIN_US}-{p.PULSE_MAX_US}",
+            )
+        self.min_us, self.max_us = int(min_us), int(max_us)
+
+    def check_pulse(self, pulse_us: int) -> int:
+        """Validate a pulse width (0 = no pulses) against this output's limits before it
+        is sent."""
         if pulse_us == 0:
             return 0
-        if not p.PULSE_MIN_US <= pulse_us <= p.PULSE_MAX_US:
-            raise ValueRangeError(
-                "pulse width (us)", pulse_us, f"0 (off) or {p.PULSE_MIN_US}-{p.PULSE_MAX_US}"
+        if not self.min_us <= pulse_us <= self.max_us:
+            wider = (
+                f" (set_limits or min_us/max_us widen it up to {p.PULSE_MIN_US}-{p.PULSE_MAX_US})"
+                if (self.min_us, self.max_us) != (p.PULSE_MIN_US, p.PULSE_MAX_US)
+                else ""
             )
-        if pulse_us % cls.STEP_US:
             raise ValueRangeError(
-                "pulse width (us)", pulse_us, f"a multiple of {cls.STEP_US} us on {cls.ROLE}"
+                f"pulse width (us) on {self.pin.name}",
+                pulse_us,
+                f"0 (off) or {self.min_us}-{self.max_us}{wider}",
+            )
+        if pulse_us % self.STEP_US:
+            raise ValueRangeError(
+                "pulse width (us)", pulse_us, f"a multiple of {self.STEP_US} us on {self.ROLE}"
             )
         return pulse_us
 
@@ -316,11 +342,14 @@ class PulseOutput(PinHandle):
         self.board.roles.amend(self, p.PwmConfig(self.pin, reply.pulse_us))
 
     async def set_angle(
-        self, degrees: float, *, min_us: int = p.PULSE_MIN_US, max_us: int = p.PULSE_MAX_US
+        self, degrees: float, *, min_us: int | None = None, max_us: int | None = None
     ) -> None:
-        """0-180 degrees mapped linearly onto ``min_us``-``max_us``."""
+        """0-180 degrees mapped linearly onto ``min_us``-``max_us`` (by default the
+        output's limits, :attr:`min_us`-:attr:`max_us`)."""
         if not 0 <= degrees <= 180:
             raise ValueRangeError("servo angle (degrees)", degrees, "0-180")
+        min_us = self.min_us if min_us is None else min_us
+        max_us = self.max_us if max_us is None else max_us
         pulse = min_us + (max_us - min_us) * degrees / 180
         await self.set_pulse(round(pulse / self.STEP_US) * self.STEP_US)
 

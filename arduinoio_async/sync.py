@@ -61,7 +61,8 @@ from .handles import (
     PinState,
     PulseOutput,
 )
-from .protocol.pins import AnalogPin, CounterPin, DigitalPin, ServoPin, SoftPwmPin
+from .motors import DutyPwm, Motor
+from .protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin, SoftPwmPin
 from .streaming import Sample, SampleStream
 
 T = TypeVar("T")
@@ -74,8 +75,10 @@ __all__ = [
     "BlockingCounter",
     "BlockingDigitalInput",
     "BlockingDigitalOutput",
+    "BlockingDutyPwm",
     "BlockingGpio",
     "BlockingI2CBus",
+    "BlockingMotor",
     "BlockingPulseOutput",
     "BlockingSamples",
     "connect",
@@ -192,14 +195,43 @@ class BlockingPulseOutput(_BlockingPin):
         self._runner.call(self.handle.set_pulse, pulse_us)
 
     def set_angle(
-        self, degrees: float, *, min_us: int = p.PULSE_MIN_US, max_us: int = p.PULSE_MAX_US
+        self, degrees: float, *, min_us: int | None = None, max_us: int | None = None
     ) -> None:
-        """Set a servo to ``degrees`` (0-180), mapped linearly onto ``min_us``-``max_us``."""
+        """Set a servo to ``degrees`` (0-180), mapped linearly onto ``min_us``-``max_us``
+        (by default the servo's limits)."""
         self._runner.call(lambda: self.handle.set_angle(degrees, min_us=min_us, max_us=max_us))
 
     def stop(self) -> None:
         """Stop the pulses (the line stays low); the pin keeps its role."""
         self._runner.call(self.handle.stop)
+
+
+class BlockingDutyPwm(_BlockingPin):
+    """Blocking :class:`~arduinoio_async.motors.DutyPwm` (D3, D5, D6, D9, D10)."""
+
+    handle: DutyPwm
+
+    def set_duty(self, duty: float) -> None:
+        """High for ``duty`` (0.0-1.0) of every period, from the next period on."""
+        self._runner.call(self.handle.set_duty, duty)
+
+
+class BlockingMotor(_Blocking):
+    """Blocking :class:`~arduinoio_async.motors.Motor`: signed speed, brake, coast."""
+
+    handle: Motor
+
+    def set_speed(self, speed: float) -> None:
+        """Signed speed -1.0..1.0 (negative = reverse)."""
+        self._runner.call(self.handle.set_speed, speed)
+
+    def brake(self) -> None:
+        """Short the motor's terminals: it stops fast."""
+        self._runner.call(self.handle.brake)
+
+    def coast(self) -> None:
+        """Open the motor's terminals: it spins down by itself."""
+        self._runner.call(self.handle.coast)
 
 
 class BlockingCounter(_BlockingPin):
@@ -298,15 +330,52 @@ class BlockingBoard(_Blocking):
         """All six analog inputs (0-1023 each), A0 first, in one request."""
         return self._runner.call(self.handle.read_analog_all)
 
-    def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> BlockingPulseOutput:
-        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
-        handle = self._runner.call(lambda: self.handle.servo(pin, pulse_us=pulse_us))
+    def servo(
+        self, pin: ServoPin, *, pulse_us: int = 0, min_us: int = 1000, max_us: int = 2000
+    ) -> BlockingPulseOutput:
+        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet;
+        limits ``min_us``-``max_us`` (widen up to 500-2500 us for servos that travel so)."""
+        limits = {"pulse_us": pulse_us, "min_us": min_us, "max_us": max_us}
+        handle = self._runner.call(lambda: self.handle.servo(pin, **limits))
         return BlockingPulseOutput(self._runner, handle)
 
-    def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> BlockingPulseOutput:
-        """Software servo PWM on D2-D7 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
-        handle = self._runner.call(lambda: self.handle.soft_pwm(pin, pulse_us=pulse_us))
+    def soft_pwm(
+        self, pin: SoftPwmPin, *, pulse_us: int = 0, min_us: int = 1000, max_us: int = 2000
+    ) -> BlockingPulseOutput:
+        """Software servo PWM on D2-D7 (1 us resolution); limits as for :meth:`servo`."""
+        limits = {"pulse_us": pulse_us, "min_us": min_us, "max_us": max_us}
+        handle = self._runner.call(lambda: self.handle.soft_pwm(pin, **limits))
         return BlockingPulseOutput(self._runner, handle)
+
+    def pwm(
+        self, pin: DutyPwmPin, duty: float = 0.0, *, frequency_hz: int | None = None
+    ) -> BlockingDutyPwm:
+        """Duty-cycle PWM (``analogWrite``) on D3, D5, D6, D9 or D10 (see ``Board.pwm``)."""
+        handle = self._runner.call(lambda: self.handle.pwm(pin, duty, frequency_hz=frequency_hz))
+        return BlockingDutyPwm(self._runner, handle)
+
+    def motor(
+        self,
+        pwm: DutyPwmPin,
+        direction: DigitalPin,
+        direction2: DigitalPin | None = None,
+        *,
+        frequency_hz: int | None = None,
+    ) -> BlockingMotor:
+        """A motor behind an EN/PWM + IN1 [+ IN2] driver (see ``Board.motor``)."""
+        handle = self._runner.call(
+            lambda: self.handle.motor(pwm, direction, direction2, frequency_hz=frequency_hz)
+        )
+        return BlockingMotor(self._runner, handle)
+
+    def motor_2pwm(
+        self, in1: DutyPwmPin, in2: DutyPwmPin, *, frequency_hz: int | None = None
+    ) -> BlockingMotor:
+        """A motor behind a two-PWM driver such as the DRV8833 (see ``Board.motor_2pwm``)."""
+        handle = self._runner.call(
+            lambda: self.handle.motor_2pwm(in1, in2, frequency_hz=frequency_hz)
+        )
+        return BlockingMotor(self._runner, handle)
 
     def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> BlockingCounter:
         """An event counter on D2 or D3 counting ``edge`` edges, from zero."""
@@ -374,7 +443,7 @@ class BlockingBoard(_Blocking):
         samples_cm = self._runner.portal.wrap_async_context_manager(async_cm)
         return _wrap_samples(self._runner, samples_cm)
 
-    def arm_failsafe(self, timeout_ms: int, safe_states: Mapping[_Blocking, bool | int]) -> None:
+    def arm_failsafe(self, timeout_ms: int, safe_states: Mapping[_Blocking, bool | float]) -> None:
         """Arm the board's link watchdog: when the host is silent for ``timeout_ms`` the
         outputs in ``safe_states`` (blocking handles) take their safe level or pulse width
         (us).  The portal's loop feeds it between your calls."""

@@ -23,10 +23,10 @@ async def main() -> None:
     parser = example_arguments(__doc__)
     args = parser.parse_args()
     async with example_board(args, fixture="open") as board:
-        step = (p.PULSE_MAX_US - p.PULSE_MIN_US) // (len(PINS) - 1)
+        step = (p.SERVO_DEFAULT_MAX_US - p.SERVO_DEFAULT_MIN_US) // (len(PINS) - 1)
         joints = []
         for n, pin in enumerate(PINS):
-            width = p.PULSE_MIN_US + n * step
+            width = p.SERVO_DEFAULT_MIN_US + n * step
             width -= width % p.SOFT_PWM_STEP_US
             joints.append(await board.soft_pwm(pin, pulse_us=width))
         for joint in joints:

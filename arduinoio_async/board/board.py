@@ -41,13 +41,11 @@ from ..handles import (
     Gpio,
     I2CBus,
     PinHandle,
-    PulseOutput,
-    Servo,
-    SoftPwm,
     input_setup,
     output_setup,
 )
-from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function, ServoPin, SoftPwmPin
+from ..motors import Motor, check_stream
+from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function
 from ..protocol.pins import require as require_capable
 from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 from ..transactions import Transaction
@@ -58,6 +56,7 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
+from ._motor_methods import MotorMethods
 from .boot import (
     READY_TIMEOUT,
     check_same_board,
@@ -76,10 +75,9 @@ __all__ = ["READY_TIMEOUT", "Board"]
 
 R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
-PO = TypeVar("PO", bound=PulseOutput)
 
 
-class Board:
+class Board(MotorMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -401,23 +399,6 @@ class Board:
         """All six analog inputs, A0 first, in one request."""
         return (await self.request(p.AnalogReadAll())).values
 
-    async def _pulse_output(
-        self, pin: DigitalPin, function: Function, cls: type[PO], pulse_us: int
-    ) -> PO:
-        handle = self._new_handle(pin, function, cls)
-        pulse_us = cls.check_pulse(pulse_us)
-        await self.set_up(handle, p.PwmConfig(handle.pin, pulse_us))
-        handle.pulse_us = pulse_us
-        return handle
-
-    async def servo(self, pin: ServoPin, *, pulse_us: int = 0) -> Servo:
-        """Hardware servo PWM on D9/D10 (1 us resolution); ``pulse_us`` 0 = no pulses yet."""
-        return await self._pulse_output(pin, Function.SERVO_PWM, Servo, pulse_us)
-
-    async def soft_pwm(self, pin: SoftPwmPin, *, pulse_us: int = 0) -> SoftPwm:
-        """Software servo PWM on D2-D7 (1 us resolution)."""
-        return await self._pulse_output(pin, Function.SOFT_PWM, SoftPwm, pulse_us)
-
     async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
         """An event counter on D2/D3 counting rising or falling edges, from zero."""
         handle = self._new_handle(pin, Function.COUNTER, Counter)
@@ -506,6 +487,7 @@ class Board:
         :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms)
+        check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
         async with run_stream(self, request, buffer) as samples:
             yield samples
 
@@ -530,14 +512,16 @@ class Board:
         return self._failsafe.on_trip(callback)
 
     async def arm_failsafe(
-        self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]
+        self, timeout_ms: int, safe_states: Mapping[PinHandle | Motor, bool | float]
     ) -> None:
         """Arm the board's link watchdog.
 
         ``safe_states`` maps output handles to what they do when the host falls silent for
         ``timeout_ms``: a level for digital outputs, a pulse width in us (0 = no pulses)
-        for servo and soft-PWM outputs.  The keepalive feeds the watchdog while this
-        process runs; a killed process, a pulled cable or a blocked event loop lets it fire.
+        for servo and soft-PWM outputs, a duty 0.0-1.0 for duty PWM; a :class:`Motor`'s
+        safe state is stopped (every PWM pin it has at duty 0) whatever its value.  The
+        keepalive feeds the watchdog while this process runs; a killed process, a pulled
+        cable or a blocked event loop lets it fire.
         """
         await self._failsafe.arm(timeout_ms, safe_states)
 

@@ -24,6 +24,7 @@ import anyio.lowlevel
 from .. import protocol as p
 from ..errors import ArduinoIOError, LinkError, PinRoleError, StaleHandleError, ValueRangeError
 from ..handles import DigitalOutput, Gpio, PinHandle, PulseOutput
+from ..motors import DutyPwm, Motor
 from ..transport import LinkState, Transport
 
 if TYPE_CHECKING:
@@ -104,7 +105,7 @@ class Failsafe:
     # ---- arming ------------------------------------------------------------------------
 
     def checked_config(
-        self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]
+        self, timeout_ms: int, safe_states: Mapping[PinHandle | Motor, bool | float]
     ) -> FailsafeConfig:
         """The failsafe ``timeout_ms`` and ``safe_states`` describe, checked before use."""
         if (
@@ -119,13 +120,22 @@ class Failsafe:
             )
         board = self.board
         requests = []
-        for handle, state in safe_states.items():
+        items: list[tuple[PinHandle, bool | float]] = []
+        for key, state in safe_states.items():
+            if isinstance(key, Motor):  # a motor's safe state is stopped: duty 0 on its PWM
+                items += [(h, 0.0) for h in key.pwm_handles]
+            else:
+                items.append((key, state))
+        for handle, state in items:
             if getattr(handle, "board", None) is not board:
                 raise StaleHandleError(
                     repr(handle), f"belongs to another board, not to {board!r}; its pin is not ours"
                 )
             handle.check_usable()
-            if isinstance(handle, PulseOutput):
+            if isinstance(handle, DutyPwm):
+                duty = handle.check_duty(float(state))
+                requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.DUTY, duty))
+            elif isinstance(handle, PulseOutput):
                 pulse = handle.check_pulse(int(state))
                 requests.append(p.FailsafeSafeState(handle.pin, p.SafeKind.PULSE, pulse))
             elif isinstance(handle, DigitalOutput | Gpio):
@@ -134,7 +144,9 @@ class Failsafe:
                 raise PinRoleError(handle.pin.name, handle.ROLE, "failsafe output")
         return FailsafeConfig(timeout_ms, tuple(requests))
 
-    async def arm(self, timeout_ms: int, safe_states: Mapping[PinHandle, bool | int]) -> None:
+    async def arm(
+        self, timeout_ms: int, safe_states: Mapping[PinHandle | Motor, bool | float]
+    ) -> None:
         """Check, keep and arm; the heartbeat speeds up at once (see ``Board.arm_failsafe``)."""
         self.config = self.checked_config(timeout_ms, safe_states)
         await self.arm_on(self.board.link)

@@ -56,6 +56,8 @@ def add_commands(sub: Any) -> None:
     servo = sub.add_parser("servo", help="servo pulse in us (D9/D10 hardware, D2-D7 software)")
     servo.add_argument("pin", type=digital_pin)
     servo.add_argument("pulse_us", type=int)
+    servo.add_argument("--min-us", type=int, default=p.SERVO_DEFAULT_MIN_US, help="limit (500+)")
+    servo.add_argument("--max-us", type=int, default=p.SERVO_DEFAULT_MAX_US, help="limit (-2500)")
     servo.set_defaults(handler=set_servo)
     analog = sub.add_parser("analog", help="read one analog input or all six")
     analog.add_argument("pin", type=analog_pin, nargs="?")
@@ -134,11 +136,12 @@ async def set_servo(args: argparse.Namespace, console: Console) -> int:
     pin = args.pin
     async with target_board(args) as target:
         board = target.board
+        limits = {"min_us": args.min_us, "max_us": args.max_us}
         if pin in (DigitalPin.D9, DigitalPin.D10):
-            await board.servo(pin, pulse_us=args.pulse_us)
+            await board.servo(pin, pulse_us=args.pulse_us, **limits)
         else:
             require(pin, Function.SOFT_PWM)
-            await board.soft_pwm(pin, pulse_us=args.pulse_us)
+            await board.soft_pwm(pin, pulse_us=args.pulse_us, **limits)
         console.print(f"{pin.name}: {args.pulse_us} us every 20 ms")
     return 0
 

@@ -32,6 +32,7 @@ import anyio
 from .. import protocol as p
 from ..errors import ArduinoIOError, PinRoleError, UsageError
 from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
+from ..motors import DutyPwm, Motor
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -58,6 +59,7 @@ ROLES: Mapping[str, Function | None] = {
     "output": Function.DIGITAL_OUTPUT,
     "soft_pwm": Function.SOFT_PWM,
     "servo": Function.SERVO_PWM,
+    "duty": Function.DUTY_PWM,
     "counter_rising": Function.COUNTER,
     "counter_falling": Function.COUNTER,
 }
@@ -76,7 +78,7 @@ class PinRole:
     """A pin's role as read back from the board's records, with its setting."""
 
     role: str = "free"
-    #: Output level, or pulse width in us, or None.
+    #: Output level, or pulse width in us, or duty in 0.1 % (0-1000), or None.
     value: int | None = None
     handle: PinHandle | None = None
     #: The board's role in words when it was set up elsewhere (``role`` is "elsewhere").
@@ -92,6 +94,8 @@ def _role_of(handle: PinHandle, config: p.Request[Any]) -> PinRole:
     if isinstance(config, p.PwmConfig):
         kind = "servo" if config.pin in (DigitalPin.D9, DigitalPin.D10) else "soft_pwm"
         return PinRole(kind, config.pulse_us, handle)
+    if isinstance(config, p.PwmDutyConfig):
+        return PinRole("duty", round(config.duty * 1000 / p.DUTY_FULL), handle)
     if isinstance(config, p.CounterConfig):
         edge = "rising" if config.edge == p.Edge.RISING else "falling"
         return PinRole(f"counter_{edge}", None, handle)
@@ -335,6 +339,7 @@ class BoardPanel:
             "role": self._set_role,
             "write": self._write,
             "pulse": self._pulse,
+            "duty": self._duty,
             "counter_reset": self._counter_reset,
             "i2c_read": self._i2c_read,
             "i2c_write": self._i2c_write,
@@ -379,6 +384,8 @@ class BoardPanel:
             await board.soft_pwm(pin)  # type: ignore[arg-type]  # checked by roles_for
         elif role == "servo":
             await board.servo(pin)  # type: ignore[arg-type]
+        elif role == "duty":
+            await board.pwm(pin)  # type: ignore[arg-type]  # the timer's default frequency
         elif role.startswith("counter_"):
             edge = p.Edge.RISING if role == "counter_rising" else p.Edge.FALLING
             await board.counter(pin, edge=edge)  # type: ignore[arg-type]
@@ -392,6 +399,12 @@ class BoardPanel:
         pin = _pin(args)
         handle: PulseOutput = self._handle(pin, (PulseOutput,), "servo or software PWM")
         await handle.set_pulse(int(args["us"]))
+
+    async def _duty(self, args: Mapping[str, Any]) -> None:
+        """The duty slider: ``permille`` 0-1000 of the period."""
+        pin = _pin(args)
+        handle: DutyPwm = self._handle(pin, (DutyPwm,), "duty-cycle PWM")
+        await handle.set_duty(int(args["permille"]) / 1000)
 
     async def _counter_reset(self, args: Mapping[str, Any]) -> int:
         pin = _pin(args)
@@ -437,11 +450,11 @@ class BoardPanel:
 
     async def _failsafe_arm(self, args: Mapping[str, Any]) -> None:
         """Arm with every output's safe state off (low, no pulses)."""
-        outputs: dict[PinHandle, bool | int] = {
+        outputs: dict[PinHandle | Motor, bool | float] = {
             role.handle: 0
             for role in self.pin_roles().values()
-            if isinstance(role.handle, DigitalOutput | Gpio | PulseOutput)
-            and role.role in ("output", "servo", "soft_pwm")
+            if isinstance(role.handle, DigitalOutput | Gpio | PulseOutput | DutyPwm)
+            and role.role in ("output", "servo", "soft_pwm", "duty")
         }
         await self.board.arm_failsafe(int(args["timeout_ms"]), outputs)
 

@@ -114,6 +114,9 @@ class SafeKind(IntEnum):
     NONE = 0
     LEVEL = 1
     PULSE = 2
+    #: A duty-cycle PWM output's duty (0-65535 of the period; 0 = stopped: a motor's safe
+    #: state).
+    DUTY = 3
 
 
 class StatusFlags(IntFlag):
@@ -149,6 +152,8 @@ class Feature(IntFlag):
     ANALOG_CHANGES = 0x2000
     #: SET_LOW_LATENCY and filler bytes after replies (extension, docs/protocol.md 7.6).
     LOW_LATENCY = 0x4000
+    #: PWM DUTY_CONFIG/DUTY_SET: duty-cycle PWM on the timers' pins (extension, issue 26).
+    DUTY_PWM = 0x8000
 
 
 #: Low-latency mode (extension): after the last reply of a burst the board sends filler
@@ -175,8 +180,17 @@ I2C_MAX_LENGTH: Final = 32
 RX_FIFO_SIZE: Final = 128
 TX_BUFFER_SIZE: Final = 192
 
-PULSE_MIN_US: Final = 1000
-PULSE_MAX_US: Final = 2000
+#: The widths the board accepts (hobby servos travel over 500-2,500 us); a servo handle
+#: keeps its own, narrower limits (by default SERVO_DEFAULT_MIN_US-SERVO_DEFAULT_MAX_US).
+PULSE_MIN_US: Final = 500
+PULSE_MAX_US: Final = 2500
+#: A servo handle's limits unless it is given others: every hobby servo takes these
+#: without hitting its end stops.
+SERVO_DEFAULT_MIN_US: Final = 1000
+SERVO_DEFAULT_MAX_US: Final = 2000
+#: Duty-cycle PWM: the duty on the wire is 0-DUTY_FULL of the period (0 = always low,
+#: DUTY_FULL = always high); the board rounds it to its timer's counts.
+DUTY_FULL: Final = 0xFFFF
 #: Software PWM widths (D2-D7) are set in steps of this many microseconds; each edge is a
 #: timer compare match on the board (protocol extension: the paper's firmware had 100).
 SOFT_PWM_STEP_US: Final = 1

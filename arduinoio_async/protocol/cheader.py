@@ -92,6 +92,7 @@ def render() -> str:
         "PULSE_MAX_US",
         "SOFT_PWM_STEP_US",
         "SERVO_PERIOD_US",
+        "DUTY_FULL",
         "ANALOG_MAX",
         "ANALOG_CHANNELS",
         "STREAM_MIN_PERIOD_US",

@@ -37,6 +37,7 @@ __all__ = [
     "AnalogPin",
     "CounterPin",
     "DigitalPin",
+    "DutyPwmPin",
     "Function",
     "Pin",
     "PwmPin",
@@ -109,6 +110,9 @@ SoftPwmPin = Literal[
 ]
 PwmPin = ServoPin | SoftPwmPin
 CounterPin = Literal[DigitalPin.D2, DigitalPin.D3]
+#: Pins with a hardware timer's output compare unit free for duty-cycle PWM (D11's OC2A
+#: is not: its compare register sets the board tick's period; docs/motors.md).
+DutyPwmPin = Literal[DigitalPin.D3, DigitalPin.D5, DigitalPin.D6, DigitalPin.D9, DigitalPin.D10]
 
 
 class Function(Enum):
@@ -121,6 +125,7 @@ class Function(Enum):
     SERVO_PWM = "servo PWM"
     I2C = "I2C"
     COUNTER = "event counter"
+    DUTY_PWM = "duty-cycle PWM"
 
 
 _DIGITAL = tuple(DigitalPin)
@@ -134,6 +139,7 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.SERVO_PWM: (D9, D10),
     Function.I2C: (A4, A5),
     Function.COUNTER: (D2, D3),
+    Function.DUTY_PWM: (D3, D5, D6, D9, D10),
 }
 
 

@@ -17,10 +17,12 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
+from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._faults import Faults, corrupt
 from ._peripherals import (
     DIGITAL,
+    DUTY,
     INPUT,
     PULSE,
     PeripheralModels,
@@ -52,6 +54,8 @@ class FakeBoard(PeripheralModels):
     #: Edges counted on D2 and D3 (only the edge each counter was configured for).
     counters: dict[int, int] = field(default_factory=lambda: {2: 0, 3: 0})
     pulses: dict[int, int] = field(default_factory=dict)
+    #: Duty-cycle PWM pins: pin -> (frequency in Hz, duty 0-DUTY_FULL).
+    duties: dict[int, tuple[int, int]] = field(default_factory=dict)
     #: 7-bit I2C address -> 256 registers.
     i2c_devices: dict[int, bytearray] = field(default_factory=lambda: {0x50: bytearray(256)})
     requests_seen: int = 0
@@ -112,6 +116,8 @@ class FakeBoard(PeripheralModels):
             p.I2CWrite: self._i2c_write,
             p.PwmConfig: self._pwm,
             p.PwmSet: self._pwm,
+            p.PwmDutyConfig: self._duty,
+            p.PwmDutySet: self._duty,
             p.CounterConfig: self._counter_config,
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
@@ -315,6 +321,7 @@ class FakeBoard(PeripheralModels):
             while True:  # events still in the transmit buffer never leave it
                 self._changes_out.receive_nowait()
         self.pulses.clear()
+        self.duties.clear()
         self.i2c_speed = None
         self.session = 0
         self.low_latency = False
@@ -348,7 +355,8 @@ class FakeBoard(PeripheralModels):
         def mask(role: str) -> int:
             return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
 
-        return p.ReadPinRolesReply(mask("input"), mask("output"), mask("pwm"), mask("counter"))
+        pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
+        return p.ReadPinRolesReply(mask("input"), mask("output"), pwm, mask("counter"))
 
     def _set_low_latency(self, request: p.SetLowLatency) -> p.Frame:
         self.low_latency = request.enabled
@@ -440,6 +448,7 @@ class FakeBoard(PeripheralModels):
             return self._error(request, E.PIN_NOT_CAPABLE)
         self._pins[request.pin] = PinModel()
         self.pulses.pop(request.pin, None)
+        self.duties.pop(request.pin, None)
         return p.PinReleaseReply(request.pin)
 
     def _analog_read(self, request: p.AnalogRead) -> p.Frame:
@@ -470,6 +479,8 @@ class FakeBoard(PeripheralModels):
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
         error = self.stream.check(request, self.baud, self.i2c_speed is not None)
+        if error is None and self._duty_timer_busy(Timer.TIMER0):
+            error = E.PIN_BUSY  # duty PWM on D5/D6 holds the alarm timer
         if error is None and request.analog_mask and self._analog_watches:
             error = E.PIN_BUSY  # the ADC samples watched channels
         if error is not None:
@@ -516,6 +527,7 @@ class FakeBoard(PeripheralModels):
             digital=has(DIGITAL, pin),
             pulse_capable=has(PULSE, pin),
             check_pulse=check_pulse,
+            duty_capable=has(DUTY, pin),
         )
         if error is not None:
             return self._error(request, error)
@@ -545,6 +557,8 @@ class FakeBoard(PeripheralModels):
                 self.levels[pin] = bool(value)
             elif kind is p.SafeKind.PULSE and role == "pwm":
                 self.pulses[pin] = value
+            elif kind is p.SafeKind.DUTY and role == "duty":
+                self.duties[pin] = (self.duties[pin][0], value)
         self.failsafe.armed, self.failsafe.tripped = False, True
         with contextlib.suppress(anyio.BrokenResourceError, anyio.ClosedResourceError):
             await self._send(self._board_stream, p.FailsafeTripped().encode())

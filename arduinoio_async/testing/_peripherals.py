@@ -10,11 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .. import protocol as p
-from ..protocol.pins import Function, pin_mask
+from ..protocol.pins import DigitalPin, Function, pin_mask
+from ..protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer
 
 __all__ = [
     "COUNTER",
     "DIGITAL",
+    "DUTY",
     "INPUT",
     "PULSE",
     "SERVO",
@@ -32,6 +34,7 @@ SOFT_PWM = pin_mask(Function.SOFT_PWM)
 SERVO = pin_mask(Function.SERVO_PWM)
 PULSE = SOFT_PWM | SERVO
 COUNTER = pin_mask(Function.COUNTER)
+DUTY = pin_mask(Function.DUTY_PWM)
 INPUT = pin_mask(Function.DIGITAL_INPUT)
 
 
@@ -43,7 +46,7 @@ def has(mask: int, pin: int) -> bool:
 class PinModel:
     """One digital pin as the firmware keeps it (a reset makes a fresh one)."""
 
-    role: str = "free"  # free | input | output | pwm | counter
+    role: str = "free"  # free | input | output | pwm | counter | duty
     pull_up: bool = False
     rose: bool = False
     fell: bool = False
@@ -58,6 +61,7 @@ class PeripheralModels:
 
     _pins: dict[int, PinModel]
     pulses: dict[int, int]
+    duties: dict[int, tuple[int, int]]
     counters: dict[int, int]
     i2c_speed: p.I2CSpeed | None
     i2c_devices: dict[int, bytearray]
@@ -104,6 +108,8 @@ class PeripheralModels:
         if isinstance(request, p.PwmConfig):
             if state.role not in ("free", "pwm"):
                 return self._error(request, E.PIN_BUSY)
+            if self._duty_timer_busy(Timer.TIMER0 if soft else Timer.TIMER1):
+                return self._error(request, E.PIN_BUSY)  # duty PWM holds the timer
         elif state.role != "pwm":
             return self._error(request, E.PIN_NOT_CONFIGURED)
         error = check_pulse(pin, pulse)
@@ -114,6 +120,49 @@ class PeripheralModels:
         if isinstance(request, p.PwmConfig):
             return p.PwmConfigReply(pin, pulse)
         return p.PwmSetReply(pin, pulse)
+
+    def _duty_timer_busy(self, timer: Timer) -> bool:
+        """Duty-cycle PWM holds ``timer`` (the firmware's duty_timer_busy)."""
+        return any(
+            self._pins[pin].role == "duty" and TIMER_OF[DigitalPin(pin)] is timer
+            for pin in self.duties
+        )
+
+    def _timer_taken(self, pin: int, timer: Timer, hz: int) -> bool:
+        """Another user holds ``pin``'s timer (the firmware's timer_taken)."""
+        for other, (other_hz, _duty) in self.duties.items():
+            same_timer = TIMER_OF[DigitalPin(other)] is timer
+            if other != pin and same_timer and other_hz != hz and self._pins[other].role == "duty":
+                return True
+        if timer is Timer.TIMER1 and self._pins[19 - pin].role == "pwm":
+            return True  # servo PWM on the other Timer1 pin
+        if timer is Timer.TIMER0:
+            stream = getattr(self, "stream", None)
+            if stream is not None and stream.running:
+                return True
+            return any(self._pins[n].role == "pwm" for n in range(2, 8))
+        return False
+
+    def _duty(self, request: p.PwmDutyConfig | p.PwmDutySet) -> p.Frame:
+        pin = request.pin
+        if not has(DUTY, pin):
+            return self._error(request, E.PIN_NOT_CAPABLE)
+        state = self._pins[pin]
+        if isinstance(request, p.PwmDutySet):
+            if state.role != "duty":
+                return self._error(request, E.PIN_NOT_CONFIGURED)
+            self.duties[pin] = (self.duties[pin][0], request.duty)
+            return p.PwmDutySetReply(pin, request.duty)
+        if state.role not in ("free", "duty"):
+            return self._error(request, E.PIN_BUSY)
+        timer = TIMER_OF[DigitalPin(pin)]
+        if request.frequency_hz not in DUTY_FREQUENCIES[timer]:
+            return self._error(request, E.VALUE_OUT_OF_RANGE)
+        if self._timer_taken(pin, timer, request.frequency_hz):
+            return self._error(request, E.PIN_BUSY)
+        state.role = "duty"
+        self.duties[pin] = (request.frequency_hz, request.duty)
+        return p.PwmDutyConfigReply(pin, request.frequency_hz, request.duty)
 
     def _counter_config(self, request: p.CounterConfig) -> p.Frame:
         if not has(COUNTER, request.pin):

@@ -127,12 +127,13 @@ class FailsafeModel:
         digital: bool,
         pulse_capable: bool,
         check_pulse: Callable[[int, int], p.ErrorCode | None],
+        duty_capable: bool = False,
     ) -> p.ErrorCode | None:
         """The firmware's checks of a SAFE_STATE request, in its order."""
         if not digital:
             return E.PIN_NOT_CAPABLE
         kind = int(request.kind)
-        if kind > p.SafeKind.PULSE or (kind == p.SafeKind.LEVEL and request.value > 1):
+        if kind > p.SafeKind.DUTY or (kind == p.SafeKind.LEVEL and request.value > 1):
             return E.VALUE_OUT_OF_RANGE
         if kind == p.SafeKind.PULSE:
             if not pulse_capable:
@@ -140,6 +141,8 @@ class FailsafeModel:
             error = check_pulse(request.pin, request.value)
             if error is not None:
                 return error
+        if kind == p.SafeKind.DUTY and not duty_capable:
+            return E.PIN_NOT_CAPABLE
         self.safe[request.pin] = (p.SafeKind(kind), request.value)
         return None
 

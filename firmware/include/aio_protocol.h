@@ -44,6 +44,8 @@
 #define AIO_DT_I2C_WRITE 0x03u
 #define AIO_DT_PWM_CONFIG 0x01u
 #define AIO_DT_PWM_SET 0x02u
+#define AIO_DT_PWM_DUTY_CONFIG 0x03u
+#define AIO_DT_PWM_DUTY_SET 0x04u
 #define AIO_DT_COUNTER_CONFIG 0x01u
 #define AIO_DT_COUNTER_READ 0x02u
 #define AIO_DT_COUNTER_RESET 0x03u
@@ -94,6 +96,7 @@
 #define AIO_SAFE_NONE 0x00u
 #define AIO_SAFE_LEVEL 0x01u
 #define AIO_SAFE_PULSE 0x02u
+#define AIO_SAFE_DUTY 0x03u
 #define AIO_STATUS_FAILSAFE_ARMED 0x01u
 #define AIO_STATUS_FAILSAFE_TRIPPED 0x02u
 #define AIO_STATUS_STREAMING 0x04u
@@ -112,6 +115,7 @@
 #define AIO_FEATURE_COUNTER_REPORTS 0x1000u
 #define AIO_FEATURE_ANALOG_CHANGES 0x2000u
 #define AIO_FEATURE_LOW_LATENCY 0x4000u
+#define AIO_FEATURE_DUTY_PWM 0x8000u
 
 /* Limits. */
 #define AIO_INTER_BYTE_GAP_MS 10u
@@ -119,10 +123,11 @@
 #define AIO_I2C_MAX_LENGTH 32u
 #define AIO_RX_FIFO_SIZE 128u
 #define AIO_TX_BUFFER_SIZE 192u
-#define AIO_PULSE_MIN_US 1000u
-#define AIO_PULSE_MAX_US 2000u
+#define AIO_PULSE_MIN_US 500u
+#define AIO_PULSE_MAX_US 2500u
 #define AIO_SOFT_PWM_STEP_US 1u
 #define AIO_SERVO_PERIOD_US 20000u
+#define AIO_DUTY_FULL 65535u
 #define AIO_ANALOG_MAX 1023u
 #define AIO_ANALOG_CHANNELS 6u
 #define AIO_STREAM_MIN_PERIOD_US 250u
@@ -145,6 +150,7 @@
 #define AIO_PINS_SERVO_PWM 0x0600u
 #define AIO_PINS_I2C 0x0030u
 #define AIO_PINS_COUNTER 0x000Cu
+#define AIO_PINS_DUTY_PWM 0x0668u
 
 /* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.
  * data_len: data bytes between DT and CS without the variable part;
@@ -174,6 +180,8 @@
     X(I2C, WRITE, 0x04u, 0x03u, 3, 2) \
     X(PWM, CONFIG, 0x05u, 0x01u, 3, -1) \
     X(PWM, SET, 0x05u, 0x02u, 3, -1) \
+    X(PWM, DUTY_CONFIG, 0x05u, 0x03u, 5, -1) \
+    X(PWM, DUTY_SET, 0x05u, 0x04u, 3, -1) \
     X(COUNTER, CONFIG, 0x06u, 0x01u, 2, -1) \
     X(COUNTER, READ, 0x06u, 0x02u, 1, -1) \
     X(COUNTER, RESET, 0x06u, 0x03u, 1, -1) \
@@ -208,6 +216,8 @@
 #define AIO_REPLY_LEN_I2C_WRITE 3u
 #define AIO_REPLY_LEN_PWM_CONFIG 3u
 #define AIO_REPLY_LEN_PWM_SET 3u
+#define AIO_REPLY_LEN_PWM_DUTY_CONFIG 5u
+#define AIO_REPLY_LEN_PWM_DUTY_SET 3u
 #define AIO_REPLY_LEN_COUNTER_CONFIG 2u
 #define AIO_REPLY_LEN_COUNTER_READ 5u
 #define AIO_REPLY_LEN_COUNTER_RESET 5u

@@ -20,6 +20,7 @@
 #include "analog.h"
 
 #include "counter.h"
+#include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
 #include "gpio.h"
@@ -66,6 +67,7 @@ void app_init(void)
     gpio_init();
     i2c_init();
     pwm_init();
+    duty_init();
     counter_init();
     stream_init();
     analog_init();

@@ -5,6 +5,7 @@
 
 #include "hal.h"
 #include "pins.h"
+#include "duty.h"
 #include "pwm.h"
 
 typedef struct {
@@ -61,6 +62,8 @@ void failsafe_tick(void)
             hal_pin_write(pin, (uint8_t)safe[pin].value);
         else if (safe[pin].kind == AIO_SAFE_PULSE && pins_role[pin] == ROLE_PWM)
             pwm_set_pulse(pin, safe[pin].value);
+        else if (safe[pin].kind == AIO_SAFE_DUTY && pins_role[pin] == ROLE_DUTY)
+            duty_set(pin, safe[pin].value);
     }
     failsafe_is_armed = 0;
     tripped = 1;
@@ -97,7 +100,7 @@ uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp)
         v = aio_be16(rq->data + 2);
         if (!pins_capable(pin, AIO_PINS_DIGITAL_OUTPUT))
             return AIO_ERR_PIN_NOT_CAPABLE;
-        if (kind > AIO_SAFE_PULSE)
+        if (kind > AIO_SAFE_DUTY)
             return AIO_ERR_VALUE_OUT_OF_RANGE;
         if (kind == AIO_SAFE_LEVEL && v > 1u)
             return AIO_ERR_VALUE_OUT_OF_RANGE;
@@ -108,6 +111,8 @@ uint8_t failsafe_handle(const aio_request_t *rq, aio_reply_t *rp)
             if (err)
                 return err;
         }
+        if (kind == AIO_SAFE_DUTY && !pins_capable(pin, AIO_PINS_DUTY_PWM))
+            return AIO_ERR_PIN_NOT_CAPABLE;
         s = hal_irq_save();
         safe[pin].kind = kind;
         safe[pin].value = v;

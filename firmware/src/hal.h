@@ -89,6 +89,17 @@ void hal_servo_attach(uint8_t pin, uint16_t pulse_us);
 void hal_servo_set(uint8_t pin, uint16_t pulse_us);
 void hal_servo_detach(uint8_t pin);
 
+/* ---- duty-cycle PWM on the timers' compare pins (duty.c) ---- */
+enum { HAL_DUTY_LOW = 0, HAL_DUTY_HIGH = 1, HAL_DUTY_PWM = 2 };
+/* Timer 0, 1 or 2 into fast PWM with clock select `cs` and TOP `top` (Timer0:
+ * 0xFF; Timer2: the tick's, so only its mode changes); cs 0 gives it back to
+ * its other job (Timer0 stopped for the alarms, Timer1 stopped for servo PWM,
+ * Timer2 the plain tick). */
+void hal_duty_timer(uint8_t timer, uint8_t cs, uint16_t top);
+/* A duty pin held low or high (compare output off), or high from BOTTOM to
+ * `ocr` every period (HAL_DUTY_PWM). */
+void hal_duty_output(uint8_t pin, uint8_t how, uint16_t ocr);
+
 /* ---- fine alarms: Timer0, 0.5 us a count, running while an alarm does ---- */
 #define HAL_FINE_PER_US 2u
 /* Software PWM on D2-D7 (port D bits): `delay` counts from now (at least 16)

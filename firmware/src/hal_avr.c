@@ -384,18 +384,113 @@ ISR(TIMER1_COMPB_vect)
     TIMSK1 &= (uint8_t)~_BV(OCIE1B);
 }
 
+/* ---------------------------------------------------------------- duty PWM */
+/*
+ * Duty-cycle PWM (duty.c): fast PWM, the output high from BOTTOM to the
+ * compare match.  Timer0 mode 3 (TOP 0xFF), Timer1 mode 14 (TOP ICR1),
+ * Timer2 mode 7 (TOP OCR2A = the tick's 199: clock.c keeps counting its
+ * ticks, the compare A match is at the same count in both modes).
+ *
+ * simavr 1.6 reads OCR1x in mode 14 only when Timer1 is (re)configured
+ * (see Timer1 servo above): after a new OCR1x the clock is stopped and
+ * restarted and TCNT1 written back, which re-phases simavr's period.  On
+ * silicon the counter loses a few counts once (a phase step of under 1 us,
+ * the duty is unchanged).
+ */
+#define DUTY1_STOP (_BV(WGM13) | _BV(WGM12))
+#define DUTY1_FIX 10u /* cycles (= counts at clk/1) from the TCNT1 read to its write */
+
+void hal_duty_timer(uint8_t timer, uint8_t cs, uint16_t top)
+{
+    uint8_t s = hal_irq_save();
+    if (timer == 0u) {
+        TCCR0A = cs ? (uint8_t)(_BV(WGM01) | _BV(WGM00)) : 0u;
+        TCCR0B = cs;
+    } else if (timer == 1u) {
+        TCCR1B = 0;
+        TCCR1A = 0;
+        TIMSK1 = 0;
+        if (cs) {
+            ICR1 = top;
+            TCNT1 = 0;
+            TCCR1A = _BV(WGM11);
+            TCCR1B = (uint8_t)(DUTY1_STOP | cs);
+        }
+    } else if (cs) {
+        TCCR2A = (uint8_t)(_BV(WGM21) | _BV(WGM20));
+        TCCR2B = (uint8_t)(_BV(WGM22) | _BV(CS21));
+    } else {
+        TCCR2A = _BV(WGM21);
+        TCCR2B = _BV(CS21);
+        OCR2B = 0xFFu; /* see clock_init */
+    }
+    hal_irq_restore(s);
+}
+
+static void duty1_rephase(void)
+{
+    uint16_t n = TCNT1, top = ICR1;
+    uint8_t run = TCCR1B;
+    TCCR1B = DUTY1_STOP;
+    TCCR1B = run;
+    n = (uint16_t)(n + DUTY1_FIX);
+    if (n > top || n < DUTY1_FIX)
+        n = (uint16_t)(n - top - 1u);
+    TCNT1 = n;
+}
+
+void hal_duty_output(uint8_t pin, uint8_t how, uint16_t ocr)
+{
+    volatile uint8_t *tccra = pin == 5u || pin == 6u ? &TCCR0A : pin == 3u ? &TCCR2A : &TCCR1A;
+    uint8_t com = pin == 6u ? _BV(COM0A1)
+                  : pin == 5u ? _BV(COM0B1)
+                  : pin == 9u ? _BV(COM1A1)
+                  : pin == 10u ? _BV(COM1B1)
+                               : _BV(COM2B1);
+    uint8_t s = hal_irq_save();
+    if (how == HAL_DUTY_PWM) {
+        if (pin == 6u)
+            OCR0A = (uint8_t)ocr;
+        else if (pin == 5u)
+            OCR0B = (uint8_t)ocr;
+        else if (pin == 3u)
+            OCR2B = (uint8_t)ocr;
+        else {
+            if (pin == 9u)
+                OCR1A = ocr;
+            else
+                OCR1B = ocr;
+            duty1_rephase();
+        }
+        *tccra |= com;
+    } else {
+        hal_pin_write(pin, how == HAL_DUTY_HIGH);
+        *tccra &= (uint8_t)~com;
+        if (pin == 3u)
+            OCR2B = 0xFFu; /* see clock_init */
+    }
+    hal_irq_restore(s);
+}
+
 /* ---------------------------------------------------------------- Timer0 alarms */
 /*
  * Timer0 counts at 0.5 us while an alarm runs; an alarm is its compare unit
  * plus a count of half timer periods still to wait: a delay d is a first
- * step of 1-128 counts (OCR0x += step) and then WRAPS(d) steps of 128, so
+ * step (FIRST, below 256 counts; OCR0x += step) and then WRAPS(d) steps of 128, so
  * OCR0x always changes (simavr 1.6 fires at once when OCR0x is rewritten
  * with the count it holds).  The compare pins stay disconnected (COM0x = 0).
  */
 #define HALF 128u
 /* The first step of a delay of d >= 1 counts, and the 128-count steps after it. */
-#define FIRST(d) ((uint8_t)((((d) - 1u) & (HALF - 1u)) + 1u))
-#define WRAPS(d) ((uint16_t)(((d) - 1u) >> 7)) /* d up to 120,000 (60 ms) */
+#define FIRST(d) ((uint8_t)(SHORT_FIRST(d) < MIN_FIRST && (d) > HALF ? SHORT_FIRST(d) + HALF : SHORT_FIRST(d)))
+#define WRAPS(d) ((uint16_t)(((d) - FIRST(d)) >> 7)) /* d up to 120,000 (60 ms) */
+#define SHORT_FIRST(d) ((((d) - 1u) & (HALF - 1u)) + 1u)
+/* A first step is written after the interrupt's entry and the edge's work: one
+ * shorter than this may already have passed when OCR0x is written, and its match
+ * would come a whole timer period (128 us) late.  So a delay with wraps starts
+ * with a step of MIN_FIRST to HALF + MIN_FIRST - 1 counts (below 256: the 8-bit
+ * OCR0x still tells it apart); a short delay alone is spun for (SPIN_COUNTS). */
+#define MIN_FIRST 64u
 /* An edge due this close to the running alarm is waited for in it (the
  * interrupt's exit and entry take about that long) ... */
 #define SPIN_COUNTS 12u

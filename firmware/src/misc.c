@@ -19,7 +19,7 @@
      AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
      AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE | AIO_FEATURE_GPIO_CHANGES | \
      AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS | AIO_FEATURE_ANALOG_CHANGES | \
-     AIO_FEATURE_LOW_LATENCY)
+     AIO_FEATURE_LOW_LATENCY | AIO_FEATURE_DUTY_PWM)
 
 uint8_t misc_reset_pending;
 uint8_t misc_low_latency;
@@ -93,7 +93,7 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
     case AIO_DT_MISC_READ_PIN_ROLES:
         p = aio_put16(p, role_mask(ROLE_GPIO_IN));
         p = aio_put16(p, role_mask(ROLE_GPIO_OUT));
-        p = aio_put16(p, role_mask(ROLE_PWM));
+        p = aio_put16(p, (uint16_t)(role_mask(ROLE_PWM) | role_mask(ROLE_DUTY))); /* duty PWM is PWM */
         p = aio_put16(p, role_mask(ROLE_COUNTER));
         break;
     default:

@@ -5,6 +5,7 @@
 
 #include "aio.h"
 #include "counter.h"
+#include "duty.h"
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
@@ -44,6 +45,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_COUNTER:
         counter_release(pin);
+        break;
+    case ROLE_DUTY:
+        duty_release(pin);
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

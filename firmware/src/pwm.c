@@ -15,6 +15,7 @@
  */
 #include "pwm.h"
 
+#include "duty.h"
 #include "hal.h"
 #include "pins.h"
 
@@ -168,12 +169,16 @@ uint8_t pwm_handle(const aio_request_t *rq, aio_reply_t *rp)
     uint16_t us = aio_be16(rq->data + 1);
     uint8_t err;
 
+    if (rq->dt == AIO_DT_PWM_DUTY_CONFIG || rq->dt == AIO_DT_PWM_DUTY_SET)
+        return duty_handle(rq, rp);
     if (rq->dt != AIO_DT_PWM_CONFIG && rq->dt != AIO_DT_PWM_SET)
         return AIO_ERR_UNKNOWN_DESCRIPTOR;
     if (!pins_capable(pin, AIO_PINS_SOFT_PWM | AIO_PINS_SERVO_PWM))
         return AIO_ERR_PIN_NOT_CAPABLE;
     if (rq->dt == AIO_DT_PWM_CONFIG) {
         err = pins_claim_check(pin, AIO_PINS_SOFT_PWM | AIO_PINS_SERVO_PWM, ROLE_PWM, ROLE_PWM);
+        if (!err && duty_timer_busy(is_soft(pin) ? DUTY_TIMER0 : DUTY_TIMER1))
+            err = AIO_ERR_PIN_BUSY; /* duty PWM holds the timer the pulses need */
         if (!err)
             err = pwm_check_pulse(pin, us);
         if (err)

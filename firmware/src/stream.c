@@ -23,6 +23,7 @@
 
 #include "analog.h"
 #include "counter.h"
+#include "duty.h"
 #include "gpio.h"
 #include "hal.h"
 #include "i2c.h"
@@ -240,6 +241,8 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     if (i2c_enabled() && (m & AIO_PINS_I2C))
         return AIO_ERR_PIN_BUSY;
+    if (duty_timer_busy(DUTY_TIMER0))
+        return AIO_ERR_PIN_BUSY; /* duty PWM on D5/D6 holds the alarm timer */
     if (m && analog_watched())
         return AIO_ERR_PIN_BUSY; /* the ADC samples watched channels */
     if (!stream_admit(value_bytes(m, f), period, BAUD))

@@ -28,6 +28,10 @@ uint8_t fake_pin_level[14];
 static uint8_t fake_driven[14]; /* set by fake_drive: a pull-up no longer decides the level */
 uint16_t fake_adc[9];
 int fake_adc_pending;
+uint8_t fake_duty_cs[3];
+uint16_t fake_duty_top[3];
+uint8_t fake_duty_how[14];
+uint16_t fake_duty_ocr[14];
 uint16_t fake_servo_us[2];
 uint8_t fake_counter_enabled[2];
 uint8_t fake_counter_rising[2];
@@ -72,6 +76,10 @@ void fake_reset(void)
     memset(fake_adc, 0, sizeof fake_adc);
     fake_adc_pending = -1;
     fake_servo_us[0] = fake_servo_us[1] = 0xFFFF;
+    memset(fake_duty_cs, 0, sizeof fake_duty_cs);
+    memset(fake_duty_top, 0, sizeof fake_duty_top);
+    memset(fake_duty_how, 0, sizeof fake_duty_how);
+    memset(fake_duty_ocr, 0, sizeof fake_duty_ocr);
     memset(fake_counter_enabled, 0, 2);
     memset(fake_i2c_mem, 0xFF, sizeof fake_i2c_mem);
     fake_i2c_stuck = false;
@@ -369,6 +377,20 @@ uint8_t hal_twi_read(bool ack, uint8_t *byte)
 
 void hal_twi_stop(void) { i2c_state = I2C_IDLE; }
 void hal_twi_reset(void) { fake_i2c_resets++; i2c_state = I2C_IDLE; }
+
+void hal_duty_timer(uint8_t timer, uint8_t cs, uint16_t top)
+{
+    fake_duty_cs[timer] = cs;
+    fake_duty_top[timer] = top;
+}
+
+void hal_duty_output(uint8_t pin, uint8_t how, uint16_t ocr)
+{
+    fake_duty_how[pin] = how;
+    fake_duty_ocr[pin] = ocr;
+    if (how != HAL_DUTY_PWM)
+        fake_pin_level[pin] = how == HAL_DUTY_HIGH;
+}
 
 void hal_servo_attach(uint8_t pin, uint16_t us) { fake_servo_us[pin - 9] = us; }
 void hal_servo_set(uint8_t pin, uint16_t us) { fake_servo_us[pin - 9] = us; }

@@ -20,6 +20,10 @@ extern uint8_t fake_pin_mode[14];
 extern uint8_t fake_pin_level[14];   /* output levels, or driven input levels */
 extern uint16_t fake_adc[9];
 extern int fake_adc_pending;         /* channel of an interrupt conversion, or -1 */
+extern uint8_t fake_duty_cs[3];      /* duty PWM clock select per timer, 0 = given back */
+extern uint16_t fake_duty_top[3];
+extern uint8_t fake_duty_how[14];    /* HAL_DUTY_LOW/HIGH/PWM per pin */
+extern uint16_t fake_duty_ocr[14];
 extern uint16_t fake_servo_us[2];    /* D9, D10; 0xFFFF = detached */
 extern uint8_t fake_counter_enabled[2];
 extern uint8_t fake_counter_rising[2];

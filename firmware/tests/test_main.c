@@ -116,7 +116,7 @@ static void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x7F, 0xFF, 0x00, 0x01, 0xC2,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0xFF, 0xFF, 0x00, 0x01, 0xC2,
                      0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
@@ -611,9 +611,9 @@ static void test_pwm(void)
     CHECK(B(5, 2, 10, 0x05, 0xDC), B(0x85, 2, AIO_ERR_PIN_NOT_CONFIGURED));
     CHECK(B(5, 1, 10, 0, 0), B(5, 1, 10, 0, 0));
     CHECK(B(5, 1, 8, 0x05, 0xDC), B(0x85, 1, AIO_ERR_PIN_NOT_CAPABLE));
-    CHECK(B(5, 1, 9, 0x03, 0xE7), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
-    CHECK(B(5, 1, 9, 0x07, 0xD1), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 2001 */
-    CHECK(B(5, 1, 4, 0x03, 0xE7), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* soft: 999 */
+    CHECK(B(5, 1, 9, 0x01, 0xF3), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 499 */
+    CHECK(B(5, 1, 9, 0x09, 0xC5), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 2501 */
+    CHECK(B(5, 1, 4, 0x01, 0xF3), B(0x85, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* soft: 499 */
     CHECK(B(2, 1, 4, 1), B(2, 1, 4, 1));
     CHECK(B(5, 1, 4, 0x05, 0xDC), B(0x85, 1, AIO_ERR_PIN_BUSY));
     CHECK(B(2, 4, 4), B(2, 4, 4));
@@ -827,10 +827,10 @@ static void test_failsafe(void)
     CHECK(B(8, 1, 0, 19), B(0x88, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(8, 1, 0x27, 0x11), B(0x88, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(8, 2, 1, 1, 0, 0), B(0x88, 2, AIO_ERR_PIN_NOT_CAPABLE));
-    CHECK(B(8, 2, 13, 3, 0, 0), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(8, 2, 13, 4, 0, 0), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(8, 2, 13, 1, 0, 2), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(8, 2, 13, 2, 0x05, 0xDC), B(0x88, 2, AIO_ERR_PIN_NOT_CAPABLE));
-    CHECK(B(8, 2, 9, 2, 0x01, 0xDC), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(8, 2, 9, 2, 0x01, 0xF3), B(0x88, 2, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 499 us */
     CHECK(B(2, 1, 13, 3), B(2, 1, 13, 3));
     CHECK(B(5, 1, 9, 0x07, 0xD0), B(5, 1, 9, 0x07, 0xD0));
     CHECK(B(8, 2, 13, 1, 0, 0), B(8, 2, 13, 1, 0, 0));

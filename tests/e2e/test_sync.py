@@ -16,10 +16,23 @@ from contextlib import contextmanager
 import pytest
 from anyio.from_thread import start_blocking_portal
 
-from arduinoio_async import A0, D2, D3, D4, BoardDisconnectedError, PinCapabilityError
+from arduinoio_async import (
+    A0,
+    D2,
+    D3,
+    D4,
+    D5,
+    D7,
+    D8,
+    D9,
+    BoardDisconnectedError,
+    PinCapabilityError,
+)
 from arduinoio_async import protocol as p
 from arduinoio_async.sim import SimulatorNotAvailable, VirtualUno
 from arduinoio_async.sync import connect, open_board
+
+from .pulses import control_now
 
 pytestmark = pytest.mark.sim
 
@@ -119,3 +132,26 @@ def test_a_script_that_never_closes_its_board_still_exits(ending: str) -> None:
             assert lines[-1] == "RuntimeError: the script failed before close()", result.stderr
         with open_board(uno.port) as again:  # the port was released: the board was closed
             assert again.read_id() == 0x0035
+
+
+def test_a_script_drives_a_motor_and_a_wide_servo() -> None:
+    """The blocking pwm/motor/servo limits (issue 26), checked on the fixture's pins."""
+    with virtual_uno(board_id=0x0032) as uno, open_board(uno.port) as board:
+        motor = board.motor(D5, D7, D8, frequency_hz=62500)
+        motor.set_speed(-0.5)
+        assert (level(uno, "D7"), level(uno, "D8")) == (0, 1)
+        motor.brake()
+        assert (level(uno, "D7"), level(uno, "D8")) == (1, 1)
+        servo = board.servo(D9, min_us=500, max_us=2500)
+        servo.set_pulse(2500)
+        assert servo.handle.pulse_us == 2500
+        fan = board.pwm(D3, 0.25)
+        fan.set_duty(0.75)
+        assert fan.handle.duty == pytest.approx(0.75, abs=1 / 200)
+        board.arm_failsafe(200, {motor: 0, fan: 0.0})
+        board.disarm_failsafe()
+
+
+def level(uno: VirtualUno, pin: str) -> int:
+    """The level the fixture sees on ``pin``, asked from this plain thread."""
+    return int(control_now(uno, "pin", pin=pin)["level"])

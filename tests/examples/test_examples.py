@@ -140,6 +140,16 @@ async def test_servo_sweep(virtual_uno_factory: VirtualUnoFactory) -> None:
     assert all(abs(high - 1500) <= 1 for high in stats.high_us), stats
 
 
+async def test_dc_motor(virtual_uno_factory: VirtualUnoFactory) -> None:
+    uno = await virtual_uno_factory()
+    out = await run_to_end("dc_motor", uno, "--cruise", "-0.25")
+    assert "braked" in out and "motor at -0.25: D9 25.0 % at 20000 Hz" in out, out
+    stats = await captured_pulses(uno, 9, 4)  # 50 us periods, 12.5 us high, 1/16 us counts
+    assert all(abs(high - 12.5) <= 0.07 for high in stats.high_us), stats
+    assert all(abs(period - 50) <= 0.07 for period in stats.period_us), stats
+    assert (await uno.pin("D7")).level == 0 and (await uno.pin("D8")).level == 1  # reverse
+
+
 async def test_six_soft_servos(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await virtual_uno_factory()
     out = await run_to_end("six_soft_servos", uno)

@@ -217,3 +217,25 @@ async def test_the_page_counts_every_edge_from_change_events_with_the_stream_off
         # Other pins: no source knows their level with the stream off.
         await expect(section.locator('tr[data-pin="D4"] .led')).to_have_attribute("data-level", "")
         await page.close()
+
+
+async def test_the_duty_slider_sets_the_duty_the_fixture_measures(
+    virtual_uno_factory: VirtualUnoFactory, browser: Any
+) -> None:
+    """Issue 26: a duty-cycle PWM pin's slider (0.1 % steps) on D3, Timer2's 10 kHz."""
+    uno = await virtual_uno_factory(board_id=0x2B)
+    async with (
+        Board.open(uno.port) as board,
+        monitor.serve_monitor([board], http="127.0.0.1:0", period_ms=10) as server,
+    ):
+        page = await browser.new_page(viewport={"width": 1360, "height": 900})
+        await page.goto(server.url)
+        section = page.locator('section.board[data-board-id="43"]')
+        d3 = section.locator('tr[data-pin="D3"]')
+        await d3.locator("select.role").select_option("duty")
+        await expect(section.locator(".message")).to_have_text("D3 is now duty-cycle PWM")
+        await d3.locator("input.duty").fill("370")
+        await expect(d3.locator("output")).to_have_text("37.0 %")
+        # 100 us periods of 200 timer counts: 37 % is 74 counts, 37 us high
+        await pulses_settle(uno, "D3", 37.0, tolerance=0.5 + 0.25)
+        await page.close()

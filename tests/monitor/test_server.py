@@ -15,6 +15,7 @@ import anyio
 import pytest
 
 from arduinoio_async import UsageError
+from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.testing import FakeBoard
 
@@ -152,6 +153,15 @@ async def test_controls_reach_the_board_and_refusals_come_back() -> None:
         reply = await tab.call("pulse", pin="D9", us=2500)
         assert not reply["ok"] and "1000-2000" in reply["error"]
         assert fake.pulses[9] == 1500
+        reply = await tab.call("role", pin="D10", role="duty")  # D9 is a servo: Timer1 is
+        assert not reply["ok"] and "D9 is servo PWM" in reply["error"]  # refused unsent
+        assert fake.role(10) == "free"
+        assert (await tab.call("role", pin="D3", role="duty"))["ok"]  # the duty slider
+        assert (await tab.call("duty", pin="D3", permille=370))["ok"]
+        assert fake.duties[3] == (10000, round(0.37 * p.DUTY_FULL))
+        snapshot = await tab.receive("board")
+        while snapshot["pins"][3 - 2]["value"] != 370:
+            snapshot = await tab.receive("board")
         reply = await tab.call("fly")
         assert not reply["ok"] and "unknown monitor operation" in reply["error"]
         reply = await tab.call("i2c_write", address=0x50, register=0, data="zz")

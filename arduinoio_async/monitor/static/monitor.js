@@ -9,7 +9,7 @@
   const COLORS = ["#2563eb", "#dc2626", "#16a34a", "#d97706", "#7c3aed", "#0891b2"];
   const ROLE_LABELS = {
     free: "free", input: "input", input_pullup: "input, pull-up", output: "output",
-    soft_pwm: "software PWM", servo: "servo PWM",
+    soft_pwm: "software PWM", servo: "servo PWM", duty: "duty-cycle PWM",
     counter_rising: "counter (rising)", counter_falling: "counter (falling)",
   };
 
@@ -248,6 +248,10 @@
       // No pulses: the slider says so (greyed) instead of standing at a width not sent.
       slider.classList.toggle("off", !pin.value);
       box.querySelector("output").textContent = pin.value ? `${pin.value} µs` : "off";
+    } else if (pin.role === "duty") {
+      const slider = box.querySelector("input.duty");
+      if (document.activeElement !== slider) slider.value = pin.value;
+      box.querySelector("output").textContent = `${(pin.value / 10).toFixed(1)} %`;
     }
   }
 
@@ -286,6 +290,18 @@
       note.className = "elsewhere";
       note.textContent = "set by another program or client";
       return [note];
+    }
+    if (pin.role === "duty") {
+      const slider = document.createElement("input");
+      slider.type = "range"; slider.className = "duty";
+      slider.min = 0; slider.max = 1000; slider.step = 1;
+      slider.value = pin.value || 0;
+      const shown = document.createElement("output");
+      const send = latestOnly((permille) => control(view, "duty", { pin: key, permille }));
+      slider.addEventListener("input", () => {
+        shown.textContent = `${(slider.value / 10).toFixed(1)} %`; send(Number(slider.value));
+      });
+      return [slider, shown];
     }
     if (pin.role.startsWith("counter_")) {
       const clear = document.createElement("button");

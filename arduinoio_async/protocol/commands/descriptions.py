@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from .._constants import Edge, GpioFlags, I2CSpeed, SafeKind, StreamFlags
+from .._constants import DUTY_FULL, Edge, GpioFlags, I2CSpeed, SafeKind, StreamFlags
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
 from . import analog, counter, failsafe, gpio, i2c, misc, pwm, stream, transaction
@@ -47,6 +47,10 @@ def _gpio_config(rq: gpio.GpioConfig) -> str:
 
 def _pwm_kind(number: int) -> str:
     return "servo PWM" if pin_mask(Function.SERVO_PWM) >> number & 1 else "software PWM"
+
+
+def _duty(duty: int) -> str:
+    return f"{duty * 100 / DUTY_FULL:.1f} %"
 
 
 def _i2c_speed(speed: I2CSpeed) -> str:
@@ -111,6 +115,11 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         f"make {_pin(rq.pin)} a {_pwm_kind(rq.pin)} output ({rq.pulse_us} us pulses)"
     ),
     pwm.PwmSet: lambda rq: f"set the pulses of {_pin(rq.pin)} to {rq.pulse_us} us",
+    pwm.PwmDutyConfig: lambda rq: (
+        f"make {_pin(rq.pin)} a duty-cycle PWM output at {rq.frequency_hz} Hz "
+        f"({_duty(rq.duty)} high)"
+    ),
+    pwm.PwmDutySet: lambda rq: f"set the duty of {_pin(rq.pin)} to {_duty(rq.duty)}",
     counter.CounterConfig: lambda rq: (
         f"make {_pin(rq.pin)} a counter of "
         f"{'rising' if rq.edge == Edge.RISING else 'falling'} edges"
