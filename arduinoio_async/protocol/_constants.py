@@ -149,6 +149,21 @@ class Feature(IntFlag):
     ANALOG_CHANGES = 0x2000
     #: SET_LOW_LATENCY and filler bytes after replies (extension, docs/protocol.md 7.6).
     LOW_LATENCY = 0x4000
+    #: SET_FRAMING: frames checked by CRC-16/CCITT-FALSE instead of the XOR byte
+    #: (extension, docs/protocol.md 7.7).
+    CRC16 = 0x8000
+
+
+class Framing(IntEnum):
+    """How a frame is checked (extension, docs/protocol.md 7.7; SET_FRAMING).
+
+    ``XOR``: ``CT DT D0..Dn CS`` with one XOR byte, the paper's Eq. 1 (after every boot).
+    ``CRC16``: ``CT DT D0..Dn CRCH CRCL``, CRC-16/CCITT-FALSE (polynomial 0x1021, initial
+    value 0xFFFF, no reflection, no final XOR) of every byte before it, big-endian.
+    """
+
+    XOR = 0
+    CRC16 = 1
 
 
 #: Low-latency mode (extension): after the last reply of a burst the board sends filler

@@ -52,6 +52,7 @@ class LinkStats:
     __slots__ = (
         "dropped_late_replies",
         "events",
+        "framing_switches",
         "garbage_bytes",
         "lost_replies",
         "probes",
@@ -77,6 +78,8 @@ class LinkStats:
         self.lost_replies = 0
         #: Re-sends of idempotent requests.
         self.retries = 0
+        #: Framing changes: SetFraming confirmed, or a probe found the other framing.
+        self.framing_switches = 0
 
     def as_dict(self) -> dict[str, int]:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -92,6 +95,7 @@ class Exchange:
     __slots__ = (
         "abandoned",
         "attempts",
+        "crc",
         "deadline",
         "done",
         "error",
@@ -104,10 +108,14 @@ class Exchange:
         "waiter",
     )
 
-    def __init__(self, request: Request[Any], frame: bytes, internal: bool = False) -> None:
+    def __init__(
+        self, request: Request[Any], frame: bytes, internal: bool = False, crc: bool = False
+    ) -> None:
         self.request = request
         self.frame = frame
         self.size = len(frame)
+        #: ``frame`` ends in a CRC-16 (negotiated framing), not in the XOR byte.
+        self.crc = crc
         self.queued = True
         self.done = False
         self.abandoned = False

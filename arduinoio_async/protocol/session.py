@@ -49,6 +49,11 @@ calls :meth:`Session.expire`).
 
 *Board ID.*  A ``WriteId`` whose reply was lost may or may not have changed the ID; the
 probe that follows accepts the new ID as well as the old one and adopts what it finds.
+
+*Framing.*  A board whose capabilities (read through the session) announce CRC-16 framing
+is switched to it with a ``SetFraming`` barrier, and switched again after a reset drops it
+back to XOR framing; the probe decodes both framings to tell.  See
+:mod:`~arduinoio_async.protocol._framing`.
 """
 
 from __future__ import annotations
@@ -66,12 +71,13 @@ from ..errors import (
     ReplyMismatchError,
 )
 from ._bounds import BOUNDED, TEMPERATURE_RAW_RANGE, possible
-from ._constants import RX_FIFO_SIZE
+from ._constants import RX_FIFO_SIZE, Framing
 from ._decoder import Decoded, Decoder, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
+from ._framing import MAX_NEGOTIATIONS, LinkFraming, frame_bytes
 from ._layout import Frame
 from ._messages import ErrorReply, Event, Reply, Request
-from .commands.misc import ReadCapabilities, ReadId, ReadIdReply
+from .commands.misc import ReadCapabilities, ReadCapabilitiesReply, ReadId, ReadIdReply
 from .commands.misc import WriteId as _WriteId
 
 __all__ = [
@@ -79,6 +85,7 @@ __all__ = [
     "MAX_IN_FLIGHT",
     "TEMPERATURE_RAW_RANGE",
     "Exchange",
+    "Framing",
     "LinkStats",
     "Received",
     "Session",
@@ -90,6 +97,7 @@ __all__ = [
 MAX_IN_FLIGHT = 64
 #: Sends of one idempotent request (the first and the retries).
 MAX_ATTEMPTS = 3
+
 
 TraceFn = Callable[[str, "Decoded"], None]
 
@@ -107,6 +115,7 @@ class Session:
         expected_id: int | None = None,
         name: str = "link",
         trace: TraceFn | None = None,
+        framing: Framing = Framing.CRC16,
     ) -> None:
         self.window_bytes = window_bytes
         self.max_in_flight = max_in_flight
@@ -120,7 +129,12 @@ class Session:
         #: Why the link last lost sync, and the history of reasons (newest last).
         self.last_loss: str | None = None
         self.close_error: BoardDisconnectedError | None = None
+        #: The framing in force and wanted (``framing``: used once the board says it can).
+        self.framing = LinkFraming(framing)
+        self._crc = False
         self._decoder = Decoder.from_board()
+        #: While probing: a decoder of the framing not in force (see ``_framing``).
+        self._other: Decoder | None = None
         self._queue: collections.deque[Exchange] = collections.deque()
         self._flight: collections.deque[Exchange] = collections.deque()
         self._flight_bytes = 0
@@ -160,8 +174,11 @@ class Session:
 
     def send(self, request: Request[Any]) -> tuple[Exchange, bytes]:
         """Queue ``request``; return its exchange and the bytes to write now (maybe b"")."""
-        layout = request.LAYOUT
-        exchange = Exchange(request, layout.constant or layout.encode(request))
+        if self._crc:
+            exchange = Exchange(request, frame_bytes(request, True), crc=True)
+        else:
+            layout = request.LAYOUT
+            exchange = Exchange(request, layout.constant or layout.encode(request))
         if self.state is SessionState.CLOSED:
             self._finish(exchange, None, BoardDisconnectedError(str(self.close_error)))
             return exchange, b""
@@ -172,6 +189,7 @@ class Session:
             and self.state is SessionState.READY
             and len(self._flight) < self.max_in_flight
             and (not self._flight or self._flight_bytes + exchange.size <= self.window_bytes)
+            and self.framing.negotiation is None
         ):
             # _put_in_flight, inlined: this is every request's path on an idle link.
             exchange.queued = False
@@ -202,6 +220,11 @@ class Session:
         if exchange.done:
             return out
         self.stats.timeouts += 1
+        negotiation = self.framing.negotiation
+        if exchange.queued and negotiation is not None and not negotiation.queued:
+            # It waited behind a SetFraming whose reply never came: the board's framing
+            # is unknown, and only a probe can tell.
+            self._lose_sync("no reply to SetFraming", out)
         if exchange.queued:
             self._queue.remove(exchange)
             self._finish(
@@ -286,6 +309,7 @@ class Session:
             or exchange.internal
             or exchange.abandoned
             or type(request) is _WriteId
+            or type(frame) is ReadCapabilitiesReply  # may start the framing negotiation
         ):
             return None
         if (request.ECHO and not request.matches(frame)) or (
@@ -303,6 +327,12 @@ class Session:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
         trace = self.trace
+        if (
+            self._other is not None
+            and self.state is SessionState.PROBING
+            and self._probe_other_framing(data, out)
+        ):
+            return out
         items = self._decoder.feed(data)
         if trace is not None:
             for item in items:
@@ -403,10 +433,19 @@ class Session:
             self.stats.garbage_bytes += len(item.data)
             if not flight:
                 return  # noise between replies costs nothing
+            if self.framing.negotiation is flight[0]:
+                # the board may be in either framing: no marker, a probe tells
+                self._lose_sync("SetFraming answered by garbage", out)
+                return
             self._suspect = True
             self._noise += len(item.data)
             if self._marker is None:
-                marker = Exchange(ReadCapabilities(), ReadCapabilities().encode(), internal=True)
+                marker = Exchange(
+                    ReadCapabilities(),
+                    frame_bytes(ReadCapabilities(), self._crc),
+                    internal=True,
+                    crc=self._crc,
+                )
                 self._marker = marker
                 self._queue.appendleft(marker)
 
@@ -461,8 +500,8 @@ class Session:
         low = high = 0
         for exchange in list(self._flight)[:k]:
             layout = exchange.request.REPLY.LAYOUT
-            low += layout.base_size - 1
-            high += layout.max_size + 1
+            low += layout.base_size - 1 + self._crc
+            high += layout.max_size + 1 + self._crc
         return low <= self._noise <= high + 1
 
     def _complete_head(self, reply: Reply | None, error: BoardError | None, out: Received) -> None:
@@ -475,6 +514,14 @@ class Session:
             self._suspect = False
             exchange.done = True
             return
+        if exchange is self.framing.negotiation:
+            self._negotiated(reply, out)
+            exchange.done = True
+            return
+        if type(reply) is ReadCapabilitiesReply:
+            self.framing.learn(reply)
+            if self.framing.wants_negotiation():
+                self._queue.appendleft(self.framing.start_negotiation())
         if reply is not None and isinstance(exchange.request, _WriteId):
             self.expected_id = exchange.request.board_id
         if exchange.abandoned:
@@ -561,6 +608,10 @@ class Session:
         self._suspect = False
         self._noise = 0
         self._marker = None
+        negotiation = self.framing.negotiation
+        if negotiation is not None and not negotiation.queued:
+            self.framing.negotiation = None
+            self.framing.failures += 1
         retries: list[Exchange] = []
         for index, exchange in enumerate(flight):
             if exchange is blame and error is not None:
@@ -583,11 +634,12 @@ class Session:
     def start_probe(self) -> bytes:
         """The line is drained: forget buffered bytes and ask the board for its ID."""
         self._decoder.reset()
+        self._other = self.framing.other_decoder()
         self.state = SessionState.PROBING
         probe = ReadId()
         if self.trace is not None:
             self.trace("tx", probe)
-        return probe.encode()
+        return frame_bytes(probe, self._crc)
 
     def probe_failed(self, reason: str) -> None:
         """No valid answer in time: drain again."""
@@ -595,6 +647,41 @@ class Session:
             self.last_loss = reason
             self.state = SessionState.DRAINING
             self._aligned = False
+
+    def _probe_other_framing(self, data: bytes, out: Received) -> bool:
+        """Probing a board that may use either framing: True when ``data`` answered the
+        probe in the framing not in force (which is then the session's)."""
+        assert self._other is not None
+        for item in self._other.feed(data):
+            if isinstance(item, ReadIdReply) or LinkFraming.probe_error(item):
+                self._set_framing(not self._crc)
+                self._decoder.reset()
+                self.stats.framing_switches += 1
+                if isinstance(item, ReadIdReply):
+                    self._probe_item(item, out)
+                else:
+                    # the board could not parse the probe: the next goes in its framing
+                    self.probe_failed(f"probe answered in {self.framing.current.name} framing")
+                return True
+        return False
+
+    def _set_framing(self, crc: bool) -> None:
+        """Frames are checked by CRC-16 (``crc``) or XOR from now on, both ways."""
+        self._crc = crc
+        self.framing.crc = crc
+        self._decoder = Decoder.from_board(framing=self.framing.current)
+        self._other = None
+
+    def _negotiated(self, reply: Reply | None, out: Received) -> None:
+        """The SetFraming barrier's answer arrived (in CRC framing: it checked)."""
+        self.framing.negotiation = None
+        if reply is not None and getattr(reply, "framing", None) is Framing.CRC16:
+            self.framing.failures = 0
+            self.stats.framing_switches += 1
+            return
+        # refused (answered with an error reply that passed the CRC): back to XOR
+        self.framing.failures = MAX_NEGOTIATIONS
+        self._set_framing(False)
 
     def _probe_item(self, item: Decoded, out: Received) -> None:
         if isinstance(item, ReadIdReply):
@@ -615,7 +702,10 @@ class Session:
             if self.expected_id is not None:
                 self.expected_id = found
             self._candidate_ids.clear()
+            self._other = None
             self.state = SessionState.READY
+            if self.framing.wants_negotiation():  # the board reset to XOR framing
+                self._queue.appendleft(self.framing.start_negotiation())
             self.stats.resyncs += 1
             self.stats.probes += 1
         elif isinstance(item, Garbage) or (isinstance(item, ErrorReply) and item.framing):
@@ -629,8 +719,25 @@ class Session:
         queue = self._queue
         flight = self._flight
         chunks = []
+        negotiation = self.framing.negotiation
         while queue:
             exchange = queue[0]
+            if negotiation is not None:
+                if not negotiation.queued:
+                    break  # the barrier is in flight: nothing goes behind it
+                if exchange is negotiation:
+                    if not self.framing.wants_crc():
+                        queue.popleft()  # a probe found the board in CRC framing already
+                        exchange.done = True
+                        self.framing.negotiation = negotiation = None
+                        continue
+                    if flight:
+                        break  # it goes alone
+                    queue.popleft()
+                    self._put_in_flight(exchange)
+                    chunks.append(exchange.frame)
+                    self._set_framing(True)  # the board answers in CRC framing
+                    break
             if len(flight) >= self.max_in_flight or (
                 flight and self._flight_bytes + exchange.size > self.window_bytes
             ):
@@ -649,6 +756,8 @@ class Session:
         return out.outgoing
 
     def _put_in_flight(self, exchange: Exchange) -> None:
+        if exchange.crc != self._crc:
+            self.framing.reframe(exchange)
         exchange.queued = False
         exchange.attempts += 1
         self._flight.append(exchange)

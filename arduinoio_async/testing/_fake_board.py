@@ -66,6 +66,11 @@ class FakeBoard(PeripheralModels):
     #: GpioChange and CounterReport events dropped because the modelled transmit buffer
     #: was full.
     changes_dropped: int = 0
+    #: The firmware has CRC-16 framing (Feature.CRC16, SetFraming); False models a board
+    #: with older firmware, which answers SetFraming with UNKNOWN_DESCRIPTOR.
+    crc_capable: bool = True
+    #: The framing in force (XOR after every boot).
+    framing: p.Framing = p.Framing.XOR
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
@@ -73,7 +78,7 @@ class FakeBoard(PeripheralModels):
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
-        self._decoder = p.Decoder.from_host(keep_invalid=True)
+        self._decoder = p.Decoder.from_host(keep_invalid=True, framing=self.framing)
         self._task_group: anyio.abc.TaskGroup | None = None
         self._driven: set[int] = set()  # pins drive() set: a pull-up no longer decides them
         self._send_lock = anyio.Lock()  # whole frames only, as the firmware's TX ring
@@ -98,6 +103,7 @@ class FakeBoard(PeripheralModels):
             p.ReadStatus: self._status,
             p.SetSession: self._set_session,
             p.SetLowLatency: self._set_low_latency,
+            p.SetFraming: self._set_framing,
             p.ReadPinRoles: self._pin_roles,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
@@ -123,6 +129,8 @@ class FakeBoard(PeripheralModels):
             p.FailsafeDisarm: self._failsafe_disarm,
             p.Transaction: self._transaction,
         }
+        if not self.crc_capable:
+            del self._handlers[p.SetFraming]
 
     async def __aenter__(self) -> FakeBoard:
         self._task_group = anyio.create_task_group()
@@ -221,7 +229,7 @@ class FakeBoard(PeripheralModels):
     async def push(self, frame: p.Frame) -> None:
         """Send a board-initiated frame (a stream sample, a failsafe event) to the host."""
         async with self._send_lock:
-            await self._board_stream.send(frame.encode())
+            await self._board_stream.send(self._framed(frame.encode()))
 
     async def expire_failsafe(self) -> None:
         """Fire the armed failsafe now, as if the host had fallen silent for its timeout.
@@ -268,7 +276,7 @@ class FakeBoard(PeripheralModels):
                 reply = self._answer(item)
                 if self.faults.lose_reply and self._random.random() < self.faults.lose_reply:
                     continue
-                await self._send(stream, self._padded(reply.encode()))
+                await self._send(stream, reply.encode(), pad=True)
 
     def _answer(self, request: p.Frame) -> p.Frame:
         layout = request.LAYOUT
@@ -279,7 +287,16 @@ class FakeBoard(PeripheralModels):
             return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
 
-    async def _send(self, stream: MemoryByteStream, frame: bytes) -> None:
+    def _framed(self, frame: bytes) -> bytes:
+        """An XOR-framed frame in the framing in force."""
+        return p.crc_framed(frame) if self.framing is p.Framing.CRC16 else frame
+
+    async def _send(self, stream: MemoryByteStream, frame: bytes, pad: bool = False) -> None:
+        """Send ``frame`` (XOR-framed: reframed here), padded with filler if ``pad`` (a
+        reply), through the faults."""
+        frame = self._framed(frame)
+        if pad:
+            frame = self._padded(frame)
         faults, rnd = self.faults, self._random
         low, high = faults.delay
         if high > 0:
@@ -316,6 +333,7 @@ class FakeBoard(PeripheralModels):
         self.i2c_speed = None
         self.session = 0
         self.low_latency = False
+        self._set_decoder(p.Framing.XOR)
         self.stream.stop()
         self.stream.sequence = 0
         self._analog_watches.clear()
@@ -334,6 +352,8 @@ class FakeBoard(PeripheralModels):
         features = 0
         for feature in p.Feature:
             features |= int(feature)
+        if not self.crc_capable:
+            features &= ~p.Feature.CRC16
         return p.ReadCapabilitiesReply(
             p.PROTOCOL_VERSION, *p.FIRMWARE_VERSION, features, self.baud, p.RX_FIFO_SIZE
         )
@@ -347,6 +367,14 @@ class FakeBoard(PeripheralModels):
             return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
 
         return p.ReadPinRolesReply(mask("input"), mask("output"), mask("pwm"), mask("counter"))
+
+    def _set_decoder(self, framing: p.Framing) -> None:
+        self.framing = framing
+        self._decoder = p.Decoder.from_host(keep_invalid=True, framing=framing)
+
+    def _set_framing(self, request: p.SetFraming) -> p.Frame:
+        self._set_decoder(request.framing)  # the reply goes out in the new framing
+        return p.SetFramingReply(request.framing)
 
     def _set_low_latency(self, request: p.SetLowLatency) -> p.Frame:
         self.low_latency = request.enabled

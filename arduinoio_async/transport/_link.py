@@ -63,6 +63,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
+import os
 import threading
 import time
 from collections.abc import Callable, Coroutine
@@ -113,6 +114,24 @@ QUIET_TIME = 0.03
 MAX_DRAIN = 0.25
 #: Longest pause between probes that got no answer.
 MAX_PROBE_BACKOFF = 1.0
+#: Environment variable that picks the framing a link asks for when ``framing`` is not
+#: given: ``crc16`` (the default) or ``xor`` (the paper's, e.g. for its Table IV).
+FRAMING_ENV = "ARDUINOIO_FRAMING"
+
+
+def default_framing() -> p.Framing:
+    """The framing a link asks for by default: CRC-16 unless ``ARDUINOIO_FRAMING=xor``.
+
+    CRC-16 framing is the default because it costs little and catches what the XOR byte
+    passes (docs/protocol.md, section 7.7 has the derivation and the measured cost); a
+    board without it keeps XOR framing whatever is asked.
+    """
+    value = os.environ.get(FRAMING_ENV, "crc16").strip().lower()
+    try:
+        return p.Framing[value.upper()]
+    except KeyError:
+        raise ValueError(f"{FRAMING_ENV}={value!r}: use crc16 or xor") from None
+
 
 R = TypeVar("R", bound=p.Reply)
 
@@ -158,13 +177,20 @@ class Transport:
         quiet_time: float = QUIET_TIME,
         trace: TraceHook | None = None,
         name: str = "",
+        framing: p.Framing | None = None,
     ) -> None:
         self.stream = stream
         self.timeout = timeout
         self.quiet_time = quiet_time
         self.name = name or getattr(stream, "port", "") or "link"
+        # The negotiation step: the session switches the link to ``framing`` as soon as
+        # the board's capabilities (the first thing a Board reads) say it can, and again
+        # after the board resets (see protocol/_framing.py).
         self._session = Session(
-            window_bytes=window_bytes, max_in_flight=MAX_IN_FLIGHT, name=self.name
+            window_bytes=window_bytes,
+            max_in_flight=MAX_IN_FLIGHT,
+            name=self.name,
+            framing=default_framing() if framing is None else framing,
         )
         self._trace: TraceHook | None = None
         self.trace = trace
@@ -277,6 +303,11 @@ class Transport:
     @expected_id.setter
     def expected_id(self, value: int | None) -> None:
         self._session.expected_id = value
+
+    @property
+    def framing(self) -> p.Framing:
+        """The framing the link's frames use now (XOR until the board switched)."""
+        return self._session.framing.current
 
     @property
     def window_bytes(self) -> int:

@@ -18,7 +18,7 @@ from .._constants import ERROR_FLAG, MAX_BLOB, ClassTag, ErrorCode
 from .._layout import Blob, checksum
 from .._messages import ErrorReply, Reply, Request, reply_frame, request_frame
 from .i2c import I2CRead
-from .misc import Reset
+from .misc import Reset, SetFraming
 
 __all__ = ["Transaction", "TransactionReply", "pack_items", "result_size", "unpack_results"]
 
@@ -42,8 +42,9 @@ class Transaction(Request[TransactionReply]):
 
 
 #: Requests a transaction cannot carry: RESET restarts the board mid-list, and a
-#: transaction inside a transaction would make the reply's size unbounded.
-NOT_IN_TRANSACTIONS: tuple[type[Request[Any]], ...] = (Reset, Transaction)
+#: transaction inside a transaction would make the reply's size unbounded; SET_FRAMING
+#: would change the framing of the reply it is part of.
+NOT_IN_TRANSACTIONS: tuple[type[Request[Any]], ...] = (Reset, Transaction, SetFraming)
 
 
 def result_size(request: Request[Any]) -> int:
