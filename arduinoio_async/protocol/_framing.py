@@ -85,29 +85,29 @@ class LinkFraming:
         """The board's capabilities passed by: can it switch framing?"""
         self.capable = bool(reply.features & Feature.CRC16)
 
-    def wants_crc(self) -> bool:
-        """Switching to CRC-16 framing is wanted, possible and not done."""
+    def wants_switch(self) -> bool:
+        """Switching to the preferred framing is wanted, possible and not done (a board
+        in CRC framing can switch: an earlier program may have left it there)."""
         return (
-            self.capable
-            and self.preferred is Framing.CRC16
-            and not self.crc
+            (self.capable or self.crc)
+            and self.current is not self.preferred
             and self.failures < MAX_NEGOTIATIONS
         )
 
     def wants_negotiation(self) -> bool:
-        return self.negotiation is None and self.wants_crc()
+        return self.negotiation is None and self.wants_switch()
 
     def start_negotiation(self) -> Exchange:
-        """The barrier exchange: ``SetFraming(CRC16)``, framed when it goes out."""
-        request = SetFraming(Framing.CRC16)
+        """The barrier exchange: ``SetFraming(preferred)``, framed when it goes out."""
+        request = SetFraming(self.preferred)
         exchange = Exchange(request, frame_bytes(request, self.crc), internal=True, crc=self.crc)
         self.negotiation = exchange
         return exchange
 
-    def other_decoder(self) -> Decoder | None:
-        """For a probe: a decoder of the framing not in force, if the board may use it."""
-        if not self.capable and not self.crc:
-            return None
+    def other_decoder(self) -> Decoder:
+        """For a probe: a decoder of the framing not in force.  Always: before its
+        capabilities are read, a board may still be in the framing an earlier program
+        left it in (an old firmware's XOR frames never pass as CRC-16 answers)."""
         return Decoder.from_board(framing=Framing.XOR if self.crc else Framing.CRC16)
 
     @staticmethod

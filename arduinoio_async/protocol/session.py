@@ -673,15 +673,15 @@ class Session:
         self._other = None
 
     def _negotiated(self, reply: Reply | None, out: Received) -> None:
-        """The SetFraming barrier's answer arrived (in CRC framing: it checked)."""
+        """The SetFraming barrier's answer arrived (in the new framing: it checked)."""
         self.framing.negotiation = None
-        if reply is not None and getattr(reply, "framing", None) is Framing.CRC16:
+        if reply is not None and getattr(reply, "framing", None) is self.framing.current:
             self.framing.failures = 0
             self.stats.framing_switches += 1
             return
-        # refused (answered with an error reply that passed the CRC): back to XOR
+        # refused (an error reply that passed the new framing's check): the old framing
         self.framing.failures = MAX_NEGOTIATIONS
-        self._set_framing(False)
+        self._set_framing(not self._crc)
 
     def _probe_item(self, item: Decoded, out: Received) -> None:
         if isinstance(item, ReadIdReply):
@@ -726,8 +726,8 @@ class Session:
                 if not negotiation.queued:
                     break  # the barrier is in flight: nothing goes behind it
                 if exchange is negotiation:
-                    if not self.framing.wants_crc():
-                        queue.popleft()  # a probe found the board in CRC framing already
+                    if not self.framing.wants_switch():
+                        queue.popleft()  # a probe found the board in that framing already
                         exchange.done = True
                         self.framing.negotiation = negotiation = None
                         continue
@@ -736,7 +736,8 @@ class Session:
                     queue.popleft()
                     self._put_in_flight(exchange)
                     chunks.append(exchange.frame)
-                    self._set_framing(True)  # the board answers in CRC framing
+                    # the board answers in the framing asked for
+                    self._set_framing(exchange.request.framing is Framing.CRC16)
                     break
             if len(flight) >= self.max_in_flight or (
                 flight and self._flight_bytes + exchange.size > self.window_bytes

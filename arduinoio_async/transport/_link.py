@@ -91,6 +91,7 @@ from ._deadline import DeadlineAlarm
 
 __all__ = [
     "DEFAULT_TIMEOUT",
+    "FRAMING_ENV",
     "MAX_IN_FLIGHT",
     "QUIET_TIME",
     "LinkState",
@@ -99,6 +100,7 @@ __all__ = [
     "TraceRecord",
     "Transport",
     "board_error",
+    "default_framing",
 ]
 
 logger = logging.getLogger(__name__)

@@ -6,6 +6,12 @@ fixed 4-5 s (what Firmata and Telemetrix clients do) is slow and still not safe.
 the host sends the paper's ID request every ``poll_interval`` and stops at the first valid
 reply, then drains the replies of earlier polls that may still be on their way, so the
 transport starts on a clean line.
+
+A board that did not reset on the open may still be in the CRC-16 framing an earlier
+program negotiated (docs/protocol.md 7.7): it answers the XOR-framed poll with a CRC-framed
+error.  What arrives is decoded in both framings; a CRC-framed answer to the poll makes
+the next poll a CRC-framed ``SetFraming(XOR)``, so the transport always starts in the
+framing of a fresh boot and negotiates from there.
 """
 
 from __future__ import annotations
@@ -46,25 +52,44 @@ async def _wait_ready(
     stream: anyio.abc.ByteStream, deadline: float, poll_interval: float, settle: float, name: str
 ) -> int:
     decoder = p.Decoder.from_board()
+    crc_decoder = p.Decoder.from_board(framing=p.Framing.CRC16)
     request = p.ReadId().encode()
+    back_to_xor = p.crc_framed(p.SetFraming(p.Framing.XOR).encode())
+    in_crc = False
     heard = bytearray()
     board_id: int | None = None
     while board_id is None:
         if anyio.current_time() >= deadline:
             what = f"it sent {bytes(heard[:16]).hex(' ')}" if heard else "it sent nothing"
             raise BoardTimeoutError(f"{name} did not answer an ID request ({what})")
-        await stream.send(request)
+        await stream.send(back_to_xor if in_crc else request)
+        in_crc = False
         poll_end = min(deadline, anyio.current_time() + poll_interval)
         with anyio.move_on_after(max(0.0, poll_end - anyio.current_time())):
-            while board_id is None:
+            while board_id is None:  # (the poll's time: a board that reported a
+                # framing error discards what comes within 10 ms)
                 data = await stream.receive()
                 heard += data[: max(0, 64 - len(heard))]
                 for item in decoder.feed(data):
                     if isinstance(item, p.ReadIdReply):
                         board_id = item.board_id
+                if any(_answers_poll(item) for item in crc_decoder.feed(data)):
+                    in_crc = True
     # Replies to earlier polls may still arrive: let the line go quiet before handing over.
     while True:
         with anyio.move_on_after(settle):
             await stream.receive()
             continue
         return board_id
+
+
+def _answers_poll(item: p.Decoded) -> bool:
+    """A CRC-framed answer to the ID poll: the board is in CRC-16 framing."""
+    if isinstance(item, p.ReadIdReply):
+        return True
+    return (
+        isinstance(item, p.ErrorReply)
+        and item.framing
+        and item.class_tag == p.ClassTag.MISC
+        and item.descriptor in (0, p.ReadId.LAYOUT.descriptor)
+    )
