@@ -37,11 +37,11 @@ import anyio
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import soak as soak_bench  # noqa: E402 - the soak's checked workload, reused
+import soak as soak_bench
 
-from arduinoio_async import D4, Board  # noqa: E402
-from arduinoio_async.sim import VirtualUno  # noqa: E402
-from arduinoio_async.transport import FRAMING_ENV  # noqa: E402
+from arduinoio_async import D4, Board
+from arduinoio_async.sim import VirtualUno
+from arduinoio_async.transport import FRAMING_ENV
 
 LINK_JSON = Path(__file__).resolve().parent / "results" / "link.json"
 
