@@ -107,7 +107,7 @@ async def run_cost(args: argparse.Namespace) -> dict[str, Any]:
             rounds.append(row)
 
     def med(mode: str, key: str) -> float:
-        return statistics.median(r[mode][key] for r in rounds)
+        return float(statistics.median(r[mode][key] for r in rounds))
 
     def spread(mode: str, key: str) -> list[float]:
         values = [r[mode][key] for r in rounds]

@@ -737,7 +737,7 @@ class Session:
                     self._put_in_flight(exchange)
                     chunks.append(exchange.frame)
                     # the board answers in the framing asked for
-                    self._set_framing(exchange.request.framing is Framing.CRC16)
+                    self._set_framing(self.framing.preferred is Framing.CRC16)
                     break
             if len(flight) >= self.max_in_flight or (
                 flight and self._flight_bytes + exchange.size > self.window_bytes

@@ -34,7 +34,7 @@ async def test_both_ends_switch_and_a_reboot_falls_back_then_renegotiates() -> N
     ):
         assert board.link.framing is p.Framing.CRC16 and fake.framing is p.Framing.CRC16
         fake.reboot()
-        assert fake.framing is p.Framing.XOR
+        assert fake.framing.name == "XOR"
         with anyio.fail_after(10):
             while True:
                 try:
@@ -52,11 +52,13 @@ async def test_a_board_left_in_crc_framing_opens_in_the_framing_asked_for(
     framing: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv(FRAMING_ENV, framing)
-    async with FakeBoard(board_id=0x23, framing=p.Framing.CRC16) as fake:
-        async with Board.connect(fake.host_stream) as board:
-            assert board.link.framing is p.Framing[framing.upper()]
-            assert fake.framing is board.link.framing
-            assert await board.read_id() == 0x23
+    async with (
+        FakeBoard(board_id=0x23, framing=p.Framing.CRC16) as fake,
+        Board.connect(fake.host_stream) as board,
+    ):
+        assert board.link.framing is p.Framing[framing.upper()]
+        assert fake.framing is board.link.framing
+        assert await board.read_id() == 0x23
 
 
 def test_a_bad_framing_setting_is_a_precise_error(monkeypatch: pytest.MonkeyPatch) -> None:
