@@ -337,10 +337,19 @@ class Session:
         if trace is not None:
             for item in items:
                 trace("rx", item)
+        # CRC framing: bytes left over after the last frame that may still become one (a
+        # byte displaced by an insertion makes a passing candidate one byte short): the
+        # frame waits until they resolve (docs/protocol.md 7.7, "Residual errors").
+        trailing = self._crc and self._decoder.buffered > 0
         if self._held is not None:
             items.insert(0, self._held)
             self._held = None
-        elif len(items) == 1 and len(self._flight) == 1 and self.state is SessionState.READY:
+        elif (
+            len(items) == 1
+            and len(self._flight) == 1
+            and self.state is SessionState.READY
+            and not trailing
+        ):
             # One request in flight and its reply in one chunk (receive_reply's case, with
             # a queue to admit from or an internal, abandoned or WriteId exchange).
             item = items[0]
@@ -365,7 +374,7 @@ class Session:
                 if index < last:
                     if isinstance(items[index + 1], Garbage):
                         item = Garbage(item.encode())  # not trusted: see _dispatch
-                elif state is SessionState.READY and self._reply_due_after(item):
+                elif state is SessionState.READY and (trailing or self._reply_due_after(item)):
                     # The next reply is on its way: decide when its bytes show whether
                     # garbage follows this frame.
                     self._held = item
