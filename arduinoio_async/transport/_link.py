@@ -77,7 +77,7 @@ import anyio.abc
 import anyio.lowlevel
 
 from .. import protocol as p
-from ..errors import ArduinoIOError, BoardDisconnectedError
+from ..errors import ArduinoIOError, BoardDisconnectedError, UsageError
 from ..protocol.session import (
     MAX_IN_FLIGHT,
     Exchange,
@@ -132,7 +132,7 @@ def default_framing() -> p.Framing:
     try:
         return p.Framing[value.upper()]
     except KeyError:
-        raise ValueError(f"{FRAMING_ENV}={value!r}: use crc16 or xor") from None
+        raise UsageError(f"{FRAMING_ENV}={value!r}: use crc16 or xor") from None
 
 
 R = TypeVar("R", bound=p.Reply)

@@ -62,8 +62,9 @@ async def test_a_board_left_in_crc_framing_opens_in_the_framing_asked_for(
 
 
 def test_a_bad_framing_setting_is_a_precise_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    from arduinoio_async.errors import UsageError
     from arduinoio_async.transport import default_framing
 
     monkeypatch.setenv(FRAMING_ENV, "crc32")
-    with pytest.raises(ValueError, match="ARDUINOIO_FRAMING='crc32': use crc16 or xor"):
+    with pytest.raises(UsageError, match="ARDUINOIO_FRAMING='crc32': use crc16 or xor"):
         default_framing()
