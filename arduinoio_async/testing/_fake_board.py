@@ -585,7 +585,7 @@ def _split_items(items: bytes) -> list[bytes] | None:
         if len(items) - pos < 2:
             return None
         cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
-        if cls is None or cls in (p.Reset, p.Transaction):
+        if cls is None or cls in (p.Reset, p.Transaction, p.SetFraming):
             return None
         layout = cls.LAYOUT
         size = layout.base_size - 1
