@@ -40,6 +40,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import soak as soak_bench
 
 from arduinoio_async import D4, Board, LinkError
+from arduinoio_async import protocol as p
+from arduinoio_async.protocol.session import Session
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.transport import FRAMING_ENV
 
@@ -112,6 +114,73 @@ async def latency_and_throughput(
     }
 
 
+async def firmware_cycles(
+    uno: VirtualUno, framing: str, args: argparse.Namespace
+) -> dict[str, Any]:
+    """The firmware's own time per request (harness: last request byte in -> first reply
+    byte out), simulated cycles: independent of the machine's load."""
+    set_framing(framing)
+    out: dict[str, Any] = {}
+    async with Board.open(uno.port, baudrate=args.baud, timeout=2.0) as board:
+        gpio = await board.digital_output(D4)
+        for name, call in (("read_id", board.read_id), ("gpio_write", lambda: gpio.write(True))):
+            await uno.firmware_cycles(clear=True)
+            for _ in range(200):
+                await call()
+            samples = (await uno.firmware_cycles()).samples
+            out[name] = statistics.median(samples) if samples else None
+        await board.release(D4)
+    return out
+
+
+def host_cpu_us(framing: str, iterations: int) -> float:
+    """Library CPU per round trip in the sans-IO core (encode the request, decode and
+    match the reply), process time: what the framing costs the host, without the wire."""
+    crc = framing == "crc16"
+    session = Session(framing=p.Framing.CRC16 if crc else p.Framing.XOR)
+    if crc:  # switch it as a link to a CRC board would be
+        session.send(p.ReadCapabilities())
+        session.receive_data(p.ReadCapabilitiesReply(1, 0, 1, 0xFFFF, args_baud(), 128).encode())
+        session.receive_data(p.crc_framed(p.SetFramingReply(p.Framing.CRC16).encode()))
+    assert session.framing.current is (p.Framing.CRC16 if crc else p.Framing.XOR)
+    reply = p.ReadIdReply(7).encode()
+    if crc:
+        reply = p.crc_framed(reply)
+    request = p.ReadId()
+    start = time.process_time()
+    for _ in range(iterations):
+        session.send(request)
+        if session.receive_reply(reply) is None:
+            session.receive_data(reply)
+    return (time.process_time() - start) / iterations * 1e6
+
+
+def args_baud() -> int:
+    return 1_000_000
+
+
+async def run_components(args: argparse.Namespace) -> dict[str, Any]:
+    """The cost by its parts, each measured where the machine's load cannot blur it."""
+    cycles = {}
+    async with VirtualUno(board_id=0x0045, baud=args.baud) as uno:
+        for framing in ("xor", "crc16"):
+            cycles[framing] = await firmware_cycles(uno, framing, args)
+    host: dict[str, list[float]] = {"xor": [], "crc16": []}
+    for index in range(21):
+        for framing in ("xor", "crc16") if index % 2 == 0 else ("crc16", "xor"):
+            host[framing].append(host_cpu_us(framing, 5000))
+    byte_us = 10e6 / args.baud
+    return {
+        "firmware_cycles_median": cycles,
+        "host_cpu_us_per_round_trip_median": {
+            m: round(statistics.median(v), 3) for m, v in host.items()
+        },
+        "host_cpu_us_spread": {m: [round(min(v), 3), round(max(v), 3)] for m, v in host.items()},
+        "wire_us_read_id_round_trip": {"xor": 8 * byte_us, "crc16": 10 * byte_us},
+        "wire_us_gpio_write_each_way": {"xor": 5 * byte_us, "crc16": 6 * byte_us},
+    }
+
+
 async def run_cost(args: argparse.Namespace) -> dict[str, Any]:
     rounds: list[dict[str, Any]] = []
     async with VirtualUno(board_id=0x0044, baud=args.baud) as uno:
@@ -155,6 +224,8 @@ async def main_async(args: argparse.Namespace) -> dict[str, Any]:
         "baud": args.baud,
         "load_at_start": os.getloadavg(),
     }
+    if args.components:
+        result["components"] = await run_components(args)
     if args.cost:
         result["cost"] = await run_cost(args)
     if args.soak:
@@ -182,6 +253,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--soak", action="store_true")
     parser.add_argument("--cost", action="store_true")
+    parser.add_argument("--components", action="store_true", help="firmware cycles, host CPU")
     parser.add_argument("--commands", type=int, default=1_000_000)
     parser.add_argument("--xor-commands", type=int, default=100_000)
     parser.add_argument("--tasks", type=int, default=13)

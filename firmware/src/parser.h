@@ -13,6 +13,7 @@
 #include <stdint.h>
 
 #include "aio.h"
+#include "crc16_table.h"
 
 enum { PARSER_NONE = 0, PARSER_REQUEST, PARSER_ERROR };
 
@@ -25,16 +26,12 @@ enum { PARSER_NONE = 0, PARSER_REQUEST, PARSER_ERROR };
 extern uint8_t parser_crc;
 
 /* One step of CRC-16/CCITT-FALSE (polynomial 0x1021, unreflected; start at
- * 0xFFFF): the byte-wise form without a table (about 20 AVR cycles a byte,
- * no flash for a 512-byte table). */
+ * 0xFFFF), from a 256-entry table in flash: two `lpm` and a few XORs, about
+ * 15 AVR cycles a byte (the table-free byte-wise form took about 45 as
+ * compiled: 16-bit shifts by 12 and 5 are long on the AVR). */
 static inline uint16_t parser_crc16(uint16_t crc, uint8_t b)
 {
-    crc = (uint16_t)((crc >> 8) | (crc << 8));
-    crc ^= b;
-    crc ^= (uint8_t)((uint8_t)crc >> 4);
-    crc ^= (uint16_t)(crc << 12);
-    crc ^= (uint16_t)((uint16_t)(crc & 0xFFu) << 5);
-    return crc;
+    return (uint16_t)((uint16_t)(crc << 8) ^ crc16_table[(uint8_t)((crc >> 8) ^ b)]);
 }
 
 /* Appends the check bytes of the framing in force to the `len` bytes of
