@@ -158,6 +158,10 @@ class Decoder:
         """Bytes held back because they may be the start of a frame."""
         return len(self._buffer)
 
+    def peek(self) -> bytes:
+        """The bytes held back (not consumed: see :attr:`buffered`)."""
+        return bytes(self._buffer)
+
     def reset(self) -> bytes:
         """Forget buffered bytes (after a resync); returns what was dropped."""
         dropped = bytes(self._pending_garbage + self._buffer)

@@ -121,3 +121,11 @@ class LinkFraming:
             and item.class_tag == ClassTag.MISC
             and item.descriptor in (0, ReadId.LAYOUT.descriptor)
         )
+
+    @staticmethod
+    def xor_framing_error(garbage: bytes) -> bool:
+        """``garbage`` (seen in CRC framing) holds an XOR-framed framing error reply."""
+        return any(
+            isinstance(item, ErrorReply) and item.framing
+            for item in Decoder.from_board().feed(garbage)
+        )

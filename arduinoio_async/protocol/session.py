@@ -341,6 +341,17 @@ class Session:
         # byte displaced by an insertion makes a passing candidate one byte short): the
         # frame waits until they resolve (docs/protocol.md 7.7, "Residual errors").
         trailing = self._crc and self._decoder.buffered > 0
+        if (
+            trailing
+            and self._flight
+            and self.state is SessionState.READY
+            and LinkFraming.xor_framing_error(self._decoder.peek())
+        ):
+            # a board that reset answers CRC-framed requests with XOR-framed BAD_CHECKSUM
+            # (4 bytes: the CRC decoder waits for a fifth that never comes)
+            self._decoder.reset()
+            self._lose_sync("the board answers in XOR framing (did it reset?)", out)
+            return out
         if self._held is not None:
             items.insert(0, self._held)
             self._held = None
@@ -445,6 +456,11 @@ class Session:
             if self.framing.negotiation is flight[0]:
                 # the board may be in either framing: no marker, a probe tells
                 self._lose_sync("SetFraming answered by garbage", out)
+                return
+            if self._crc and LinkFraming.xor_framing_error(item.data):
+                # a board that reset answers CRC-framed requests with XOR-framed
+                # BAD_CHECKSUM: no use waiting for a marker it cannot parse
+                self._lose_sync("the board answers in XOR framing (did it reset?)", out)
                 return
             self._suspect = True
             self._noise += len(item.data)

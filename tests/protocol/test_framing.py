@@ -212,3 +212,14 @@ def test_a_lone_crc_frame_followed_by_a_partial_candidate_waits_for_it() -> None
     assert not exchange.done
     session.receive_data(crc_bytes(p.FailsafeTripped())[2:])
     assert exchange.reply == p.AnalogReadReply(2, 7)
+
+
+def test_xor_framed_framing_errors_in_crc_framing_resync_at_once() -> None:
+    """After a reset the board answers CRC-framed requests with XOR-framed BAD_CHECKSUM:
+    the session resyncs at once instead of waiting for a marker the board cannot parse."""
+    session, _ = connected()
+    session.receive_data(crc_bytes(p.SetFramingReply(CRC)))
+    session.send(p.AnalogRead(1))
+    out = session.receive_data(p.ErrorReply(0x03, 0x02, p.ErrorCode.BAD_CHECKSUM).encode())
+    assert out.lost is not None and "XOR framing" in out.lost
+    assert session.state is SessionState.DRAINING
