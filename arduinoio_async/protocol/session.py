@@ -77,7 +77,13 @@ from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
 from ._framing import MAX_NEGOTIATIONS, LinkFraming, frame_bytes
 from ._layout import Frame
 from ._messages import ErrorReply, Event, Reply, Request
-from .commands.misc import ReadCapabilities, ReadCapabilitiesReply, ReadId, ReadIdReply
+from .commands.misc import (
+    ReadCapabilities,
+    ReadCapabilitiesReply,
+    ReadId,
+    ReadIdReply,
+    ResetReply,
+)
 from .commands.misc import WriteId as _WriteId
 
 __all__ = [
@@ -135,6 +141,8 @@ class Session:
         self._decoder = Decoder.from_board()
         #: While probing: a decoder of the framing not in force (see ``_framing``).
         self._other: Decoder | None = None
+        #: A RESET was answered: the next reply comes from a fresh boot (XOR framing).
+        self._after_reset = False
         self._queue: collections.deque[Exchange] = collections.deque()
         self._flight: collections.deque[Exchange] = collections.deque()
         self._flight_bytes = 0
@@ -299,6 +307,7 @@ class Session:
             or self._suspect
             or self.trace is not None
             or self.state is not SessionState.READY
+            or self._after_reset
         ):
             return None
         frame = self._decoder.whole_frame(data)
@@ -310,6 +319,7 @@ class Session:
             or exchange.abandoned
             or type(request) is _WriteId
             or type(frame) is ReadCapabilitiesReply  # may start the framing negotiation
+            or type(frame) is ResetReply  # the board boots in XOR framing
         ):
             return None
         if (request.ECHO and not request.matches(frame)) or (
@@ -545,6 +555,14 @@ class Session:
             return
         if type(reply) is ReadCapabilitiesReply:
             self.framing.learn(reply)
+            if self.framing.wants_negotiation():
+                self._queue.appendleft(self.framing.start_negotiation())
+        elif type(reply) is ResetReply:
+            # the board boots in XOR framing; once it answers again, switch it back
+            self._set_framing(False)
+            self._after_reset = True
+        elif self._after_reset and reply is not None:
+            self._after_reset = False
             if self.framing.wants_negotiation():
                 self._queue.appendleft(self.framing.start_negotiation())
         if reply is not None and isinstance(exchange.request, _WriteId):

@@ -82,6 +82,8 @@ class FakeBoard(PeripheralModels):
         self._task_group: anyio.abc.TaskGroup | None = None
         self._driven: set[int] = set()  # pins drive() set: a pull-up no longer decides them
         self._send_lock = anyio.Lock()  # whole frames only, as the firmware's TX ring
+        #: The framing of the next reply, when not the one in force (RESET's reply).
+        self._reply_framing: p.Framing | None = None
         self._booted = 0.0
         self.stream = StreamModel()
         self.failsafe = FailsafeModel()
@@ -287,16 +289,18 @@ class FakeBoard(PeripheralModels):
             return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
 
-    def _framed(self, frame: bytes) -> bytes:
-        """An XOR-framed frame in the framing in force."""
-        return p.crc_framed(frame) if self.framing is p.Framing.CRC16 else frame
+    def _framed(self, frame: bytes, framing: p.Framing | None = None) -> bytes:
+        """An XOR-framed frame in the framing in force (or in ``framing``)."""
+        return p.crc_framed(frame) if (framing or self.framing) is p.Framing.CRC16 else frame
 
     async def _send(self, stream: MemoryByteStream, frame: bytes, pad: bool = False) -> None:
         """Send ``frame`` (XOR-framed: reframed here), padded with filler if ``pad`` (a
         reply), through the faults."""
-        frame = self._framed(frame)
         if pad:
-            frame = self._padded(frame)
+            framing, self._reply_framing = self._reply_framing, None
+            frame = self._padded(self._framed(frame, framing))
+        else:
+            frame = self._framed(frame)
         faults, rnd = self.faults, self._random
         low, high = faults.delay
         if high > 0:
@@ -317,6 +321,8 @@ class FakeBoard(PeripheralModels):
     # ---- command models ----------------------------------------------------------------------
 
     def _reset(self, request: p.Reset) -> p.Frame:
+        # the firmware sends the reply before it resets: in the framing in force
+        self._reply_framing = self.framing
         self.reboot()
         return p.ResetReply()
 
