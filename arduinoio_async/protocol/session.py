@@ -337,12 +337,8 @@ class Session:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
         trace = self.trace
-        if (
-            self._other is not None
-            and self.state is SessionState.PROBING
-            and self._probe_other_framing(data, out)
-        ):
-            return out
+        if self._other is not None and self.state is SessionState.PROBING:
+            return self._probe_both_framings(data, out)
         items = self._decoder.feed(data)
         if trace is not None:
             for item in items:
@@ -691,22 +687,33 @@ class Session:
             self.state = SessionState.DRAINING
             self._aligned = False
 
-    def _probe_other_framing(self, data: bytes, out: Received) -> bool:
-        """Probing a board that may use either framing: True when ``data`` answered the
-        probe in the framing not in force (which is then the session's)."""
+    def _probe_both_framings(self, data: bytes, out: Received) -> Received:
+        """Probing a board that may use either framing.  The framing in force decides
+        when it yields the answer; otherwise a framing error about the probe in the other
+        framing switches the session to it, and the next probe goes in that framing.  A
+        board in the other framing always answers so (the probe's first check byte, 0x03
+        or 0x0E, is never the other framing's), and noise cannot forge it: it takes four
+        particular bytes that pass the other check.  An ID reply in the other framing is
+        not taken as evidence: one inserted byte can make a damaged reply pass it."""
         assert self._other is not None
-        for item in self._other.feed(data):
-            if isinstance(item, ReadIdReply) or LinkFraming.probe_error(item):
-                self._set_framing(not self._crc)
-                self._decoder.reset()
-                self.stats.framing_switches += 1
-                if isinstance(item, ReadIdReply):
-                    self._probe_item(item, out)
-                else:
-                    # the board could not parse the probe: the next goes in its framing
-                    self.probe_failed(f"probe answered in {self.framing.current.name} framing")
-                return True
-        return False
+        other_error = any(LinkFraming.probe_error(item) for item in self._other.feed(data))
+        items = self._decoder.feed(data)
+        if self.trace is not None:
+            for item in items:
+                self.trace("rx", item)
+        for item in items:
+            if isinstance(item, Event):
+                self.stats.events += 1
+                out.events.append(item)
+            elif self.state is SessionState.PROBING:
+                self._probe_item(item, out)
+            # (after the answer: late replies to requests that failed are skipped)
+        if other_error and self.state is not SessionState.READY:
+            self._set_framing(not self._crc)
+            self.stats.framing_switches += 1
+            self.state = SessionState.PROBING  # (probe_failed needs it)
+            self.probe_failed(f"probe answered in {self.framing.current.name} framing")
+        return out
 
     def _set_framing(self, crc: bool) -> None:
         """Frames are checked by CRC-16 (``crc``) or XOR from now on, both ways."""

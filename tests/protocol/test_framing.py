@@ -223,3 +223,18 @@ def test_xor_framed_framing_errors_in_crc_framing_resync_at_once() -> None:
     out = session.receive_data(p.ErrorReply(0x03, 0x02, p.ErrorCode.BAD_CHECKSUM).encode())
     assert out.lost is not None and "XOR framing" in out.lost
     assert session.state is SessionState.DRAINING
+
+
+def test_a_damaged_crc_id_reply_that_passes_as_xor_does_not_switch_the_framing() -> None:
+    """The soak's one false switch: 0x30 inserted after `01 02 00 33` makes the first
+    five bytes a valid XOR-framed ID reply.  Only a framing error about the probe in
+    the other framing switches; a reply there is not evidence."""
+    session, _ = connected()
+    session.receive_data(crc_bytes(p.SetFramingReply(CRC)))
+    exchange, _ = session.send(p.ReadId())
+    session.expire(exchange)
+    session.start_probe()
+    damaged = bytes.fromhex("0102003330") + crc_bytes(p.ReadIdReply(0x33))[4:]
+    assert p.ReadIdReply(0x33) in p.Decoder.from_board().feed(damaged)  # passes as XOR
+    session.receive_data(damaged)
+    assert session.framing.current is CRC
