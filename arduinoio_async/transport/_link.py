@@ -187,12 +187,17 @@ class Transport:
         self.name = name or getattr(stream, "port", "") or "link"
         # The negotiation step: the session switches the link to ``framing`` as soon as
         # the board's capabilities (the first thing a Board reads) say it can, and again
-        # after the board resets (see protocol/_framing.py).
+        # after the board resets (see protocol/_framing.py).  A stream that relays
+        # another link (the network client's: ``relay_failures_to``) has no wire of its
+        # own to protect: its far end decodes the paper's frames and checks its own wire.
+        if framing is None:
+            relays = hasattr(stream, "relay_failures_to")
+            framing = p.Framing.XOR if relays else default_framing()
         self._session = Session(
             window_bytes=window_bytes,
             max_in_flight=MAX_IN_FLIGHT,
             name=self.name,
-            framing=default_framing() if framing is None else framing,
+            framing=framing,
         )
         self._trace: TraceHook | None = None
         self.trace = trace
