@@ -121,7 +121,7 @@ class Session:
         expected_id: int | None = None,
         name: str = "link",
         trace: TraceFn | None = None,
-        framing: Framing = Framing.CRC16,
+        framing: Framing = Framing.XOR,
     ) -> None:
         self.window_bytes = window_bytes
         self.max_in_flight = max_in_flight

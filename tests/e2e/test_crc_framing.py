@@ -17,6 +17,12 @@ from arduinoio_async.transport import FRAMING_ENV
 pytestmark = pytest.mark.sim
 
 
+@pytest.fixture(autouse=True)
+def ask_for_crc(monkeypatch: pytest.MonkeyPatch) -> None:
+    """CRC-16 framing is asked for (the default is the paper's XOR framing)."""
+    monkeypatch.setenv(FRAMING_ENV, "crc16")
+
+
 async def test_a_board_with_crc_framing_is_switched_to_it_at_open(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:

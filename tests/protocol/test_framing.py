@@ -105,7 +105,7 @@ def test_capabilities_with_the_bit_start_a_set_framing_barrier() -> None:
 
 
 def test_a_board_without_the_bit_keeps_the_papers_framing() -> None:
-    session = Session()
+    session = Session(framing=CRC)
     session.send(p.ReadCapabilities())
     out = session.receive_data(capabilities(ALL_FEATURES & ~p.Feature.CRC16).encode())
     assert out.outgoing == b""

@@ -14,6 +14,25 @@ from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport import FRAMING_ENV
 
 
+@pytest.fixture(autouse=True)
+def ask_for_crc(monkeypatch: pytest.MonkeyPatch) -> None:
+    """CRC-16 framing is asked for (the default is the paper's XOR framing)."""
+    monkeypatch.setenv(FRAMING_ENV, "crc16")
+
+
+async def test_by_default_the_link_keeps_the_papers_framing(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.delenv(FRAMING_ENV)
+    async with (
+        FakeBoard(board_id=0x20) as fake,
+        Board.connect(fake.host_stream) as board,
+    ):
+        assert board.capabilities.features & p.Feature.CRC16
+        assert board.link.framing is p.Framing.XOR and fake.framing is p.Framing.XOR
+        assert await board.read_id() == 0x20
+
+
 async def test_old_firmware_without_the_bit_keeps_working_in_xor() -> None:
     async with (
         FakeBoard(board_id=0x21, crc_capable=False) as fake,
