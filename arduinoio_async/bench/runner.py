@@ -17,8 +17,8 @@ import statistics
 import subprocess
 import sys
 import time
-from collections.abc import AsyncIterator, Callable
-from contextlib import asynccontextmanager
+from collections.abc import AsyncIterator, Callable, Iterator
+from contextlib import asynccontextmanager, contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,7 +29,7 @@ from .. import protocol as p
 from ..board import Board
 from ..manager import BoardManager
 from ..sim import VirtualUno
-from ..transport import Transport, backend_options, open_serial_stream
+from ..transport import FRAMING_ENV, Transport, backend_options, open_serial_stream
 from .commands import COMMANDS, BenchCommand, prepare
 from .model import LinkModel, predict_ms
 from .responder import InstantStream
@@ -157,8 +157,33 @@ async def blocking_pause(seconds: float) -> None:
     await anyio.lowlevel.checkpoint()
 
 
+@contextmanager
+def _paper_framing() -> Iterator[None]:
+    """The links opened inside ask for the paper's XOR framing (Table IV was measured in
+    it, and the wire model counts its frame sizes); ``benchmarks/crc_link.py`` measures
+    what CRC-16 framing costs.  The transport reads ``FRAMING_ENV`` when it is built."""
+    before = os.environ.get(FRAMING_ENV)
+    os.environ[FRAMING_ENV] = "xor"
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[FRAMING_ENV]
+        else:
+            os.environ[FRAMING_ENV] = before
+
+
 @asynccontextmanager
 async def _open(
+    target: Target, scenario: dict[str, Any]
+) -> AsyncIterator[tuple[Board, VirtualUno | None]]:
+    with _paper_framing():
+        async with _open_board(target, scenario) as opened:
+            yield opened
+
+
+@asynccontextmanager
+async def _open_board(
     target: Target, scenario: dict[str, Any]
 ) -> AsyncIterator[tuple[Board, VirtualUno | None]]:
     if target.virtual:

@@ -47,6 +47,7 @@ from ._constants import (
     Edge,
     ErrorCode,
     Feature,
+    Framing,
     GpioFlags,
     GpioState,
     I2CSpeed,
@@ -55,7 +56,7 @@ from ._constants import (
     StreamFlags,
 )
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
-from ._layout import Frame, checksum
+from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
 from .commands import analog, counter, failsafe, gpio, i2c, misc, pwm, stream, transaction
 from .commands.analog import *  # noqa: F403
@@ -123,6 +124,7 @@ __all__ = [
     "Event",
     "Feature",
     "Frame",
+    "Framing",
     "Garbage",
     "GpioFlags",
     "GpioState",
@@ -134,6 +136,8 @@ __all__ = [
     "StatusFlags",
     "StreamFlags",
     "checksum",
+    "crc16",
+    "crc_framed",
     "encode",
 ]
 __all__ += misc.__all__

@@ -129,7 +129,8 @@ class StatusFlags(IntFlag):
 
 
 class Feature(IntFlag):
-    """Feature bits of the capabilities reply (extension)."""
+    """Feature bits of the capabilities reply (extension): a 32-bit word since duty PWM
+    and CRC-16 framing took the 16th and 17th bits."""
 
     NONE = 0
     GPIO = 0x0001
@@ -154,6 +155,21 @@ class Feature(IntFlag):
     LOW_LATENCY = 0x4000
     #: PWM DUTY_CONFIG/DUTY_SET: duty-cycle PWM on the timers' pins (extension, issue 26).
     DUTY_PWM = 0x8000
+    #: SET_FRAMING: frames checked by CRC-16/CCITT-FALSE instead of the XOR byte
+    #: (extension, docs/protocol.md 7.7).
+    CRC16 = 0x10000
+
+
+class Framing(IntEnum):
+    """How a frame is checked (extension, docs/protocol.md 7.7; SET_FRAMING).
+
+    ``XOR``: ``CT DT D0..Dn CS`` with one XOR byte, the paper's Eq. 1 (after every boot).
+    ``CRC16``: ``CT DT D0..Dn CRCH CRCL``, CRC-16/CCITT-FALSE (polynomial 0x1021, initial
+    value 0xFFFF, no reflection, no final XOR) of every byte before it, big-endian.
+    """
+
+    XOR = 0
+    CRC16 = 1
 
 
 #: Low-latency mode (extension): after the last reply of a burst the board sends filler

@@ -28,6 +28,11 @@ board frames by tags, length and checksum alone and refuses bad field values aft
 (``VALUE_OUT_OF_RANGE``), so a board model asks ``from_host(keep_invalid=True)`` and gets
 such a frame whole, as :class:`InvalidValues`, instead of one byte of garbage.
 
+*CRC-16 framing* (an extension, ``SetFraming``): ``Decoder(..., framing=Framing.CRC16)``
+expects every frame one byte longer, ending in the CRC-16/CCITT-FALSE of the bytes before
+it (big-endian), and checks that instead of the XOR: the CRC of a whole valid frame is 0.
+Frame lengths, fields and the search are the same; an error reply has 5 bytes.
+
 *The common case, fast.*  Most chunks a host reads are exactly one reply.
 :meth:`Decoder.whole_frame` takes that case alone, and remembers the frames it decoded by
 their bytes (messages are immutable, so equal bytes can share one object): a board
@@ -40,11 +45,12 @@ replies), at most ``MEMO_SIZE`` of them, and starts afresh when full.
 
 from __future__ import annotations
 
+import binascii
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from ._constants import ERROR_FLAG, FILLER, ErrorCode
-from ._layout import Frame, Layout
+from ._constants import ERROR_FLAG, FILLER, ErrorCode, Framing
+from ._layout import CRC16_INIT, Frame, Layout
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply
 
 __all__ = ["Decoded", "Decoder", "Garbage", "InvalidValues"]
@@ -89,7 +95,10 @@ class Decoder:
         "_accept_errors",
         "_aligned",
         "_buffer",
+        "_crc",
         "_drop_filler",
+        "_error_size",
+        "_extra",
         "_first_bytes",
         "_keep_invalid",
         "_layouts",
@@ -107,8 +116,13 @@ class Decoder:
         accept_errors: bool,
         keep_invalid: bool = False,
         drop_filler: bool = False,
+        framing: Framing = Framing.XOR,
     ) -> None:
         self._layouts = layouts
+        self._crc = framing is Framing.CRC16
+        #: Bytes a frame has beyond its layout's sizes (the second CRC byte).
+        self._extra = 1 if self._crc else 0
+        self._error_size = ErrorReply.SIZE + self._extra
         self._drop_filler = drop_filler and FILLER not in {key >> 8 for key in layouts}
         self._aligned = True  # the last thing decoded was a frame: filler may follow
         self._accept_errors = accept_errors
@@ -119,20 +133,36 @@ class Decoder:
         self._memo: dict[bytes, Frame] = {}
 
     @classmethod
-    def from_board(cls, *, drop_filler: bool = True) -> Decoder:
+    def from_board(cls, *, drop_filler: bool = True, framing: Framing = Framing.XOR) -> Decoder:
         """Decoder for what a board sends: replies, error replies and events (and filler,
         dropped unless ``drop_filler=False``: then every byte is a frame's or garbage)."""
-        return cls(_layouts(REPLY_TYPES, EVENT_TYPES), accept_errors=True, drop_filler=drop_filler)
+        return cls(
+            _layouts(REPLY_TYPES, EVENT_TYPES),
+            accept_errors=True,
+            drop_filler=drop_filler,
+            framing=framing,
+        )
 
     @classmethod
-    def from_host(cls, *, keep_invalid: bool = False) -> Decoder:
+    def from_host(cls, *, keep_invalid: bool = False, framing: Framing = Framing.XOR) -> Decoder:
         """Decoder for what a host sends: requests (see :class:`InvalidValues`)."""
-        return cls(_layouts(REQUEST_TYPES), accept_errors=False, keep_invalid=keep_invalid)
+        return cls(
+            _layouts(REQUEST_TYPES), accept_errors=False, keep_invalid=keep_invalid, framing=framing
+        )
+
+    @property
+    def framing(self) -> Framing:
+        """How this decoder checks frames."""
+        return Framing.CRC16 if self._crc else Framing.XOR
 
     @property
     def buffered(self) -> int:
         """Bytes held back because they may be the start of a frame."""
         return len(self._buffer)
+
+    def peek(self) -> bytes:
+        """The bytes held back (not consumed: see :attr:`buffered`)."""
+        return bytes(self._buffer)
 
     def reset(self) -> bytes:
         """Forget buffered bytes (after a resync); returns what was dropped."""
@@ -157,13 +187,21 @@ class Decoder:
         if len(data) < 3 or data[0] & ERROR_FLAG:
             return None
         layout = self._layouts.get((data[0] << 8) | data[1])
-        if layout is None or layout.length_offset >= 0 or layout.base_size != len(data):
+        if (
+            layout is None
+            or layout.length_offset >= 0
+            or layout.base_size + self._extra != len(data)
+        ):
             return None
-        check = 0
-        for byte in data:
-            check ^= byte
-        if check:
-            return None
+        if self._crc:
+            if binascii.crc_hqx(data, CRC16_INIT):
+                return None
+        else:
+            check = 0
+            for byte in data:
+                check ^= byte
+            if check:
+                return None
         try:
             frame = layout.decode(data)
         except ValueError:
@@ -218,7 +256,7 @@ class Decoder:
         """Length of the frame that may start at ``pos``: 0 = need more, -1 = none."""
         first = buffer[pos]
         if first & ERROR_FLAG:
-            return ErrorReply.SIZE if self._accept_errors else -1
+            return self._error_size if self._accept_errors else -1
         if pos + 1 >= end:
             # A lone first byte: wait only if some frame can start with it.
             return 0 if first in self._first_bytes else -1
@@ -226,11 +264,11 @@ class Decoder:
         if layout is None:
             return -1
         if layout.length_offset < 0:
-            return layout.base_size
+            return layout.base_size + self._extra
         if pos + layout.length_offset >= end:
             return 0
         size = layout.base_size + buffer[pos + layout.length_offset]
-        return size if size <= layout.max_size else -1
+        return size + self._extra if size <= layout.max_size else -1
 
     def _decode(self, buffer: bytearray, pos: int, size: int) -> Frame | InvalidValues | None:
         raw = bytes(buffer[pos : pos + size])
@@ -238,11 +276,15 @@ class Decoder:
         frame: Frame | None = memo.get(raw)
         if frame is not None:
             return frame
-        check = 0
-        for byte in raw:
-            check ^= byte
-        if check:
-            return None
+        if self._crc:
+            if binascii.crc_hqx(raw, CRC16_INIT):
+                return None
+        else:
+            check = 0
+            for byte in raw:
+                check ^= byte
+            if check:
+                return None
         try:
             first = raw[0]
             if first & ERROR_FLAG:  # rare: not remembered

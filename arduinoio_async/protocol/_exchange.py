@@ -53,6 +53,7 @@ class LinkStats:
         "ambiguous",
         "dropped_late_replies",
         "events",
+        "framing_switches",
         "garbage_bytes",
         "lost_replies",
         "probes",
@@ -80,6 +81,8 @@ class LinkStats:
         self.retries = 0
         #: Frames after noise that could answer more than one request (counted as noise).
         self.ambiguous = 0
+        #: Framing changes: SetFraming confirmed, or a probe found the other framing.
+        self.framing_switches = 0
 
     def as_dict(self) -> dict[str, int]:
         return {name: getattr(self, name) for name in self.__slots__}
@@ -95,6 +98,7 @@ class Exchange:
     __slots__ = (
         "abandoned",
         "attempts",
+        "crc",
         "deadline",
         "done",
         "error",
@@ -107,10 +111,14 @@ class Exchange:
         "waiter",
     )
 
-    def __init__(self, request: Request[Any], frame: bytes, internal: bool = False) -> None:
+    def __init__(
+        self, request: Request[Any], frame: bytes, internal: bool = False, crc: bool = False
+    ) -> None:
         self.request = request
         self.frame = frame
         self.size = len(frame)
+        #: ``frame`` ends in a CRC-16 (negotiated framing), not in the XOR byte.
+        self.crc = crc
         self.queued = True
         self.done = False
         self.abandoned = False

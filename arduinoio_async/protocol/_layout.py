@@ -9,11 +9,14 @@ keeps the host's cost per command in the low microseconds.
 
 Every frame is ``CT DT D0..Dn CS`` with ``CS`` the XOR of all bytes before it, so the XOR
 of a whole valid frame is zero.  A frame's length follows from ``(CT, DT)``, plus the value
-of its length byte where it has a ``Blob``.
+of its length byte where it has a ``Blob``.  Layouts encode this, the paper's framing; a
+link that negotiated CRC-16 framing (``SetFraming``) replaces the XOR byte by two CRC
+bytes with :func:`crc_framed`, and its decoder checks them (one byte longer, same fields).
 """
 
 from __future__ import annotations
 
+import binascii
 import dataclasses
 import operator
 import struct
@@ -34,6 +37,8 @@ __all__ = [
     "Frame",
     "Layout",
     "checksum",
+    "crc16",
+    "crc_framed",
 ]
 
 
@@ -75,6 +80,23 @@ def checksum(data: bytes | bytearray | memoryview) -> int:
     for byte in data:
         value ^= byte
     return value
+
+
+#: CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF, no reflection, no final
+#: XOR (``binascii.crc_hqx`` computes this polynomial unreflected, in C).
+CRC16_INIT = 0xFFFF
+
+
+def crc16(data: bytes | bytearray | memoryview) -> int:
+    """CRC-16/CCITT-FALSE of ``data``; 0 over a whole CRC-framed frame (CRC big-endian)."""
+    return binascii.crc_hqx(data, CRC16_INIT)
+
+
+def crc_framed(frame: bytes) -> bytes:
+    """An XOR-framed frame (its last byte the XOR) as a CRC-16 frame: the same bytes
+    without the XOR byte, then their CRC-16, high byte first."""
+    body = frame[:-1]
+    return body + binascii.crc_hqx(body, CRC16_INIT).to_bytes(2, "big")
 
 
 @dataclass(frozen=True, slots=True)
@@ -144,10 +166,13 @@ class Layout:
         # Encoding is on every request's path: a frame without fields is a constant, and
         # one of scalar fields only packs the fields fetched by one ``attrgetter`` call.
         self.constant: bytes | None = None
+        #: The same frame with a CRC-16 (negotiated framing, ``SetFraming``).
+        self.crc_constant: bytes | None = None
         self._getter: Callable[[Any], Any] | None = None
         if not self.fields:
             head = self.prefix.pack(class_tag, descriptor)
             self.constant = head + bytes((checksum(head),))
+            self.crc_constant = crc_framed(self.constant)
         elif self.blob is None and not any(self._array_counts):
             names = [f.name for f in fixed]
             getter = operator.attrgetter(*names)

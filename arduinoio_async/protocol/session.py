@@ -51,6 +51,11 @@ calls :meth:`Session.expire`).
 
 *Board ID.*  A ``WriteId`` whose reply was lost may or may not have changed the ID; the
 probe that follows accepts the new ID as well as the old one and adopts what it finds.
+
+*Framing.*  A board whose capabilities (read through the session) announce CRC-16 framing
+is switched to it with a ``SetFraming`` barrier, and switched again after a reset drops it
+back to XOR framing; the probe decodes both framings to tell.  See
+:mod:`~arduinoio_async.protocol._framing`.
 """
 
 from __future__ import annotations
@@ -68,12 +73,19 @@ from ..errors import (
     ReplyMismatchError,
 )
 from ._bounds import BOUNDED, TEMPERATURE_RAW_RANGE, possible
-from ._constants import RX_FIFO_SIZE
+from ._constants import RX_FIFO_SIZE, Framing
 from ._decoder import Decoded, Decoder, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
+from ._framing import MAX_NEGOTIATIONS, LinkFraming, frame_bytes
 from ._layout import Frame
 from ._messages import ErrorReply, Event, Reply, Request
-from .commands.misc import ReadCapabilities, ReadId, ReadIdReply
+from .commands.misc import (
+    ReadCapabilities,
+    ReadCapabilitiesReply,
+    ReadId,
+    ReadIdReply,
+    ResetReply,
+)
 from .commands.misc import WriteId as _WriteId
 
 __all__ = [
@@ -81,6 +93,7 @@ __all__ = [
     "MAX_IN_FLIGHT",
     "TEMPERATURE_RAW_RANGE",
     "Exchange",
+    "Framing",
     "LinkStats",
     "Received",
     "Session",
@@ -92,6 +105,7 @@ __all__ = [
 MAX_IN_FLIGHT = 64
 #: Sends of one idempotent request (the first and the retries).
 MAX_ATTEMPTS = 3
+
 
 TraceFn = Callable[[str, "Decoded"], None]
 
@@ -109,6 +123,7 @@ class Session:
         expected_id: int | None = None,
         name: str = "link",
         trace: TraceFn | None = None,
+        framing: Framing = Framing.XOR,
     ) -> None:
         self.window_bytes = window_bytes
         self.max_in_flight = max_in_flight
@@ -122,7 +137,14 @@ class Session:
         #: Why the link last lost sync, and the history of reasons (newest last).
         self.last_loss: str | None = None
         self.close_error: BoardDisconnectedError | None = None
+        #: The framing in force and wanted (``framing``: used once the board says it can).
+        self.framing = LinkFraming(framing)
+        self._crc = False
         self._decoder = Decoder.from_board()
+        #: While probing: a decoder of the framing not in force (see ``_framing``).
+        self._other: Decoder | None = None
+        #: A RESET was answered: the next reply comes from a fresh boot (XOR framing).
+        self._after_reset = False
         self._queue: collections.deque[Exchange] = collections.deque()
         self._flight: collections.deque[Exchange] = collections.deque()
         self._flight_bytes = 0
@@ -162,8 +184,11 @@ class Session:
 
     def send(self, request: Request[Any]) -> tuple[Exchange, bytes]:
         """Queue ``request``; return its exchange and the bytes to write now (maybe b"")."""
-        layout = request.LAYOUT
-        exchange = Exchange(request, layout.constant or layout.encode(request))
+        if self._crc:
+            exchange = Exchange(request, frame_bytes(request, True), crc=True)
+        else:
+            layout = request.LAYOUT
+            exchange = Exchange(request, layout.constant or layout.encode(request))
         if self.state is SessionState.CLOSED:
             self._finish(exchange, None, BoardDisconnectedError(str(self.close_error)))
             return exchange, b""
@@ -174,6 +199,7 @@ class Session:
             and self.state is SessionState.READY
             and len(self._flight) < self.max_in_flight
             and (not self._flight or self._flight_bytes + exchange.size <= self.window_bytes)
+            and self.framing.negotiation is None
         ):
             # _put_in_flight, inlined: this is every request's path on an idle link.
             exchange.queued = False
@@ -204,6 +230,11 @@ class Session:
         if exchange.done:
             return out
         self.stats.timeouts += 1
+        negotiation = self.framing.negotiation
+        if exchange.queued and negotiation is not None and not negotiation.queued:
+            # It waited behind a SetFraming whose reply never came: the board's framing
+            # is unknown, and only a probe can tell.
+            self._lose_sync("no reply to SetFraming", out)
         if exchange.queued:
             self._queue.remove(exchange)
             self._finish(
@@ -278,6 +309,7 @@ class Session:
             or self._suspect
             or self.trace is not None
             or self.state is not SessionState.READY
+            or self._after_reset
         ):
             return None
         frame = self._decoder.whole_frame(data)
@@ -288,6 +320,8 @@ class Session:
             or exchange.internal
             or exchange.abandoned
             or type(request) is _WriteId
+            or type(frame) is ReadCapabilitiesReply  # may start the framing negotiation
+            or type(frame) is ResetReply  # the board boots in XOR framing
         ):
             return None
         if (request.ECHO and not request.matches(frame)) or (
@@ -305,14 +339,36 @@ class Session:
         """Feed received bytes; returns completions, events, bytes to write, loss of sync."""
         out = Received()
         trace = self.trace
+        if self._other is not None and self.state is SessionState.PROBING:
+            return self._probe_both_framings(data, out)
         items = self._decoder.feed(data)
         if trace is not None:
             for item in items:
                 trace("rx", item)
+        # CRC framing: bytes left over after the last frame that may still become one (a
+        # byte displaced by an insertion makes a passing candidate one byte short): the
+        # frame waits until they resolve (docs/protocol.md 7.7, "Residual errors").
+        trailing = self._crc and self._decoder.buffered > 0
+        if (
+            trailing
+            and self._flight
+            and self.state is SessionState.READY
+            and LinkFraming.xor_framing_error(self._decoder.peek())
+        ):
+            # a board that reset answers CRC-framed requests with XOR-framed BAD_CHECKSUM
+            # (4 bytes: the CRC decoder waits for a fifth that never comes)
+            self._decoder.reset()
+            self._lose_sync("the board answers in XOR framing (did it reset?)", out)
+            return out
         if self._held is not None:
             items.insert(0, self._held)
             self._held = None
-        elif len(items) == 1 and len(self._flight) == 1 and self.state is SessionState.READY:
+        elif (
+            len(items) == 1
+            and len(self._flight) == 1
+            and self.state is SessionState.READY
+            and not trailing
+        ):
             # One request in flight and its reply in one chunk (receive_reply's case, with
             # a queue to admit from or an internal, abandoned or WriteId exchange).
             item = items[0]
@@ -337,7 +393,7 @@ class Session:
                 if index < last:
                     if isinstance(items[index + 1], Garbage):
                         item = Garbage(item.encode())  # not trusted: see _dispatch
-                elif state is SessionState.READY and self._reply_due_after(item):
+                elif state is SessionState.READY and (trailing or self._reply_due_after(item)):
                     # The next reply is on its way: decide when its bytes show whether
                     # garbage follows this frame.
                     self._held = item
@@ -405,10 +461,24 @@ class Session:
             self.stats.garbage_bytes += len(item.data)
             if not flight:
                 return  # noise between replies costs nothing
+            if self.framing.negotiation is flight[0]:
+                # the board may be in either framing: no marker, a probe tells
+                self._lose_sync("SetFraming answered by garbage", out)
+                return
+            if self._crc and LinkFraming.xor_framing_error(item.data):
+                # a board that reset answers CRC-framed requests with XOR-framed
+                # BAD_CHECKSUM: no use waiting for a marker it cannot parse
+                self._lose_sync("the board answers in XOR framing (did it reset?)", out)
+                return
             self._suspect = True
             self._noise += len(item.data)
             if self._marker is None:
-                marker = Exchange(ReadCapabilities(), ReadCapabilities().encode(), internal=True)
+                marker = Exchange(
+                    ReadCapabilities(),
+                    frame_bytes(ReadCapabilities(), self._crc),
+                    internal=True,
+                    crc=self._crc,
+                )
                 self._marker = marker
                 self._queue.appendleft(marker)
 
@@ -468,8 +538,8 @@ class Session:
         low = high = 0
         for exchange in list(self._flight)[:k]:
             layout = exchange.request.REPLY.LAYOUT
-            low += layout.base_size - 1
-            high += layout.max_size + 1
+            low += layout.base_size - 1 + self._crc
+            high += layout.max_size + 1 + self._crc
         return low <= self._noise <= high + 1
 
     def _complete_head(self, reply: Reply | None, error: BoardError | None, out: Received) -> None:
@@ -482,6 +552,22 @@ class Session:
             self._suspect = False
             exchange.done = True
             return
+        if exchange is self.framing.negotiation:
+            self._negotiated(reply, out)
+            exchange.done = True
+            return
+        if type(reply) is ReadCapabilitiesReply:
+            self.framing.learn(reply)
+            if self.framing.wants_negotiation():
+                self._queue.appendleft(self.framing.start_negotiation())
+        elif type(reply) is ResetReply:
+            # the board boots in XOR framing; once it answers again, switch it back
+            self._set_framing(False)
+            self._after_reset = True
+        elif self._after_reset and reply is not None:
+            self._after_reset = False
+            if self.framing.wants_negotiation():
+                self._queue.appendleft(self.framing.start_negotiation())
         if reply is not None and isinstance(exchange.request, _WriteId):
             self.expected_id = exchange.request.board_id
         if exchange.abandoned:
@@ -577,6 +663,10 @@ class Session:
         self._suspect = False
         self._noise = 0
         self._marker = None
+        negotiation = self.framing.negotiation
+        if negotiation is not None and not negotiation.queued:
+            self.framing.negotiation = None
+            self.framing.failures += 1
         retries: list[Exchange] = []
         for index, exchange in enumerate(flight):
             if exchange is blame and error is not None:
@@ -599,11 +689,12 @@ class Session:
     def start_probe(self) -> bytes:
         """The line is drained: forget buffered bytes and ask the board for its ID."""
         self._decoder.reset()
+        self._other = self.framing.other_decoder()
         self.state = SessionState.PROBING
         probe = ReadId()
         if self.trace is not None:
             self.trace("tx", probe)
-        return probe.encode()
+        return frame_bytes(probe, self._crc)
 
     def probe_failed(self, reason: str) -> None:
         """No valid answer in time: drain again."""
@@ -611,6 +702,52 @@ class Session:
             self.last_loss = reason
             self.state = SessionState.DRAINING
             self._aligned = False
+
+    def _probe_both_framings(self, data: bytes, out: Received) -> Received:
+        """Probing a board that may use either framing.  The framing in force decides
+        when it yields the answer; otherwise a framing error about the probe in the other
+        framing switches the session to it, and the next probe goes in that framing.  A
+        board in the other framing always answers so (the probe's first check byte, 0x03
+        or 0x0E, is never the other framing's), and noise cannot forge it: it takes four
+        particular bytes that pass the other check.  An ID reply in the other framing is
+        not taken as evidence: one inserted byte can make a damaged reply pass it."""
+        assert self._other is not None
+        other_error = any(LinkFraming.probe_error(item) for item in self._other.feed(data))
+        items = self._decoder.feed(data)
+        if self.trace is not None:
+            for item in items:
+                self.trace("rx", item)
+        for item in items:
+            if isinstance(item, Event):
+                self.stats.events += 1
+                out.events.append(item)
+            elif self.state is SessionState.PROBING:
+                self._probe_item(item, out)
+            # (after the answer: late replies to requests that failed are skipped)
+        if other_error and self.state is not SessionState.READY:
+            self._set_framing(not self._crc)
+            self.stats.framing_switches += 1
+            self.state = SessionState.PROBING  # (probe_failed needs it)
+            self.probe_failed(f"probe answered in {self.framing.current.name} framing")
+        return out
+
+    def _set_framing(self, crc: bool) -> None:
+        """Frames are checked by CRC-16 (``crc``) or XOR from now on, both ways."""
+        self._crc = crc
+        self.framing.crc = crc
+        self._decoder = Decoder.from_board(framing=self.framing.current)
+        self._other = None
+
+    def _negotiated(self, reply: Reply | None, out: Received) -> None:
+        """The SetFraming barrier's answer arrived (in the new framing: it checked)."""
+        self.framing.negotiation = None
+        if reply is not None and getattr(reply, "framing", None) is self.framing.current:
+            self.framing.failures = 0
+            self.stats.framing_switches += 1
+            return
+        # refused (an error reply that passed the new framing's check): the old framing
+        self.framing.failures = MAX_NEGOTIATIONS
+        self._set_framing(not self._crc)
 
     def _probe_item(self, item: Decoded, out: Received) -> None:
         if isinstance(item, ReadIdReply):
@@ -631,7 +768,10 @@ class Session:
             if self.expected_id is not None:
                 self.expected_id = found
             self._candidate_ids.clear()
+            self._other = None
             self.state = SessionState.READY
+            if self.framing.wants_negotiation():  # the board reset to XOR framing
+                self._queue.appendleft(self.framing.start_negotiation())
             self.stats.resyncs += 1
             self.stats.probes += 1
         elif isinstance(item, Garbage) or (isinstance(item, ErrorReply) and item.framing):
@@ -645,8 +785,26 @@ class Session:
         queue = self._queue
         flight = self._flight
         chunks = []
+        negotiation = self.framing.negotiation
         while queue:
             exchange = queue[0]
+            if negotiation is not None:
+                if not negotiation.queued:
+                    break  # the barrier is in flight: nothing goes behind it
+                if exchange is negotiation:
+                    if not self.framing.wants_switch():
+                        queue.popleft()  # a probe found the board in that framing already
+                        exchange.done = True
+                        self.framing.negotiation = negotiation = None
+                        continue
+                    if flight:
+                        break  # it goes alone
+                    queue.popleft()
+                    self._put_in_flight(exchange)
+                    chunks.append(exchange.frame)
+                    # the board answers in the framing asked for
+                    self._set_framing(self.framing.preferred is Framing.CRC16)
+                    break
             if len(flight) >= self.max_in_flight or (
                 flight and self._flight_bytes + exchange.size > self.window_bytes
             ):
@@ -665,6 +823,8 @@ class Session:
         return out.outgoing
 
     def _put_in_flight(self, exchange: Exchange) -> None:
+        if exchange.crc != self._crc:
+            self.framing.reframe(exchange)
         exchange.queued = False
         exchange.attempts += 1
         self._flight.append(exchange)

@@ -70,6 +70,11 @@ class FakeBoard(PeripheralModels):
     #: GpioChange and CounterReport events dropped because the modelled transmit buffer
     #: was full.
     changes_dropped: int = 0
+    #: The firmware has CRC-16 framing (Feature.CRC16, SetFraming); False models a board
+    #: with older firmware, which answers SetFraming with UNKNOWN_DESCRIPTOR.
+    crc_capable: bool = True
+    #: The framing in force (XOR after every boot).
+    framing: p.Framing = p.Framing.XOR
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
@@ -77,10 +82,12 @@ class FakeBoard(PeripheralModels):
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
-        self._decoder = p.Decoder.from_host(keep_invalid=True)
+        self._decoder = p.Decoder.from_host(keep_invalid=True, framing=self.framing)
         self._task_group: anyio.abc.TaskGroup | None = None
         self._driven: set[int] = set()  # pins drive() set: a pull-up no longer decides them
         self._send_lock = anyio.Lock()  # whole frames only, as the firmware's TX ring
+        #: The framing of the next reply, when not the one in force (RESET's reply).
+        self._reply_framing: p.Framing | None = None
         self._booted = 0.0
         self.stream = StreamModel()
         self.failsafe = FailsafeModel()
@@ -102,6 +109,7 @@ class FakeBoard(PeripheralModels):
             p.ReadStatus: self._status,
             p.SetSession: self._set_session,
             p.SetLowLatency: self._set_low_latency,
+            p.SetFraming: self._set_framing,
             p.ReadPinRoles: self._pin_roles,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
@@ -129,6 +137,8 @@ class FakeBoard(PeripheralModels):
             p.FailsafeDisarm: self._failsafe_disarm,
             p.Transaction: self._transaction,
         }
+        if not self.crc_capable:
+            del self._handlers[p.SetFraming]
 
     async def __aenter__(self) -> FakeBoard:
         self._task_group = anyio.create_task_group()
@@ -229,7 +239,7 @@ class FakeBoard(PeripheralModels):
     async def push(self, frame: p.Frame) -> None:
         """Send a board-initiated frame (a stream sample, a failsafe event) to the host."""
         async with self._send_lock:
-            await self._board_stream.send(frame.encode())
+            await self._board_stream.send(self._framed(frame.encode()))
 
     async def expire_failsafe(self) -> None:
         """Fire the armed failsafe now, as if the host had fallen silent for its timeout.
@@ -276,7 +286,7 @@ class FakeBoard(PeripheralModels):
                 reply = self._answer(item)
                 if self.faults.lose_reply and self._random.random() < self.faults.lose_reply:
                     continue
-                await self._send(stream, self._padded(reply.encode()))
+                await self._send(stream, reply.encode(), pad=True)
 
     def _answer(self, request: p.Frame) -> p.Frame:
         layout = request.LAYOUT
@@ -287,7 +297,18 @@ class FakeBoard(PeripheralModels):
             return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
 
-    async def _send(self, stream: MemoryByteStream, frame: bytes) -> None:
+    def _framed(self, frame: bytes, framing: p.Framing | None = None) -> bytes:
+        """An XOR-framed frame in the framing in force (or in ``framing``)."""
+        return p.crc_framed(frame) if (framing or self.framing) is p.Framing.CRC16 else frame
+
+    async def _send(self, stream: MemoryByteStream, frame: bytes, pad: bool = False) -> None:
+        """Send ``frame`` (XOR-framed: reframed here), padded with filler if ``pad`` (a
+        reply), through the faults."""
+        if pad:
+            framing, self._reply_framing = self._reply_framing, None
+            frame = self._padded(self._framed(frame, framing))
+        else:
+            frame = self._framed(frame)
         faults, rnd = self.faults, self._random
         low, high = faults.delay
         if high > 0:
@@ -308,6 +329,8 @@ class FakeBoard(PeripheralModels):
     # ---- command models ----------------------------------------------------------------------
 
     def _reset(self, request: p.Reset) -> p.Frame:
+        # the firmware sends the reply before it resets: in the framing in force
+        self._reply_framing = self.framing
         self.reboot()
         return p.ResetReply()
 
@@ -325,6 +348,7 @@ class FakeBoard(PeripheralModels):
         self.i2c_speed = None
         self.session = 0
         self.low_latency = False
+        self._set_decoder(p.Framing.XOR)
         self.stream.stop()
         self.stream.sequence = 0
         self._analog_watches.clear()
@@ -343,6 +367,8 @@ class FakeBoard(PeripheralModels):
         features = 0
         for feature in p.Feature:
             features |= int(feature)
+        if not self.crc_capable:
+            features &= ~p.Feature.CRC16
         return p.ReadCapabilitiesReply(
             p.PROTOCOL_VERSION, *p.FIRMWARE_VERSION, features, self.baud, p.RX_FIFO_SIZE
         )
@@ -357,6 +383,14 @@ class FakeBoard(PeripheralModels):
 
         pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
         return p.ReadPinRolesReply(mask("input"), mask("output"), pwm, mask("counter"))
+
+    def _set_decoder(self, framing: p.Framing) -> None:
+        self.framing = framing
+        self._decoder = p.Decoder.from_host(keep_invalid=True, framing=framing)
+
+    def _set_framing(self, request: p.SetFraming) -> p.Frame:
+        self._set_decoder(request.framing)  # the reply goes out in the new framing
+        return p.SetFramingReply(request.framing)
 
     def _set_low_latency(self, request: p.SetLowLatency) -> p.Frame:
         self.low_latency = request.enabled
@@ -573,7 +607,7 @@ def _split_items(items: bytes) -> list[bytes] | None:
         if len(items) - pos < 2:
             return None
         cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
-        if cls is None or cls in (p.Reset, p.Transaction):
+        if cls is None or cls in (p.Reset, p.Transaction, p.SetFraming):
             return None
         layout = cls.LAYOUT
         size = layout.base_size - 1

@@ -8,6 +8,7 @@ pseudo-terminal of the virtual Uno, or :func:`memory_link` in tests.
 from ._backend import backend_options, run
 from ._link import (
     DEFAULT_TIMEOUT,
+    FRAMING_ENV,
     QUIET_TIME,
     LinkState,
     LinkStats,
@@ -15,6 +16,7 @@ from ._link import (
     TraceRecord,
     Transport,
     board_error,
+    default_framing,
 )
 from ._memory import MemoryByteStream, memory_link
 from ._serial import SerialByteStream, open_serial_stream
@@ -22,6 +24,7 @@ from ._usb import TICK_HOLDING_BRIDGES, tick_holding_bridge
 
 __all__ = [
     "DEFAULT_TIMEOUT",
+    "FRAMING_ENV",
     "QUIET_TIME",
     "TICK_HOLDING_BRIDGES",
     "LinkState",
@@ -33,6 +36,7 @@ __all__ = [
     "Transport",
     "backend_options",
     "board_error",
+    "default_framing",
     "memory_link",
     "open_serial_stream",
     "run",

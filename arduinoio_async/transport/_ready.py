@@ -13,6 +13,12 @@ The drain ends when every poll has had its reply, or when no *reply* has come fo
 on the network another client's stream sends them without pause (every 20 ms for the
 monitor), so waiting for a quiet line would never end there; on a serial line a stream
 a previous program left running would do the same.
+
+A board that did not reset on the open may still be in the CRC-16 framing an earlier
+program negotiated (docs/protocol.md 7.7): it answers the XOR-framed poll with a CRC-framed
+error.  What arrives is decoded in both framings; a CRC-framed answer to the poll makes
+the next poll a CRC-framed ``SetFraming(XOR)``, so the transport always starts in the
+framing of a fresh boot and negotiates from there.
 """
 
 from __future__ import annotations
@@ -53,24 +59,34 @@ async def _wait_ready(
     stream: anyio.abc.ByteStream, deadline: float, poll_interval: float, settle: float, name: str
 ) -> int:
     decoder = p.Decoder.from_board()
+    crc_decoder = p.Decoder.from_board(framing=p.Framing.CRC16)
     request = p.ReadId().encode()
+    back_to_xor = p.crc_framed(p.SetFraming(p.Framing.XOR).encode())
+    in_crc = False
     heard = bytearray()
     board_id: int | None = None
     polls = replies = 0
     while board_id is None:
         if anyio.current_time() >= deadline:
             raise BoardSilentError(name, bytes(heard), baudrate=getattr(stream, "baudrate", None))
-        await stream.send(request)
-        polls += 1
+        if in_crc:
+            await stream.send(back_to_xor)
+        else:
+            await stream.send(request)
+            polls += 1
+        in_crc = False
         poll_end = min(deadline, anyio.current_time() + poll_interval)
         with anyio.move_on_after(max(0.0, poll_end - anyio.current_time())):
-            while board_id is None:
+            while board_id is None:  # (the poll's time: a board that reported a
+                # framing error discards what comes within 10 ms)
                 data = await stream.receive()
                 heard += data[: max(0, 64 - len(heard))]
                 for item in decoder.feed(data):
                     if isinstance(item, p.ReadIdReply):
                         replies += 1
                         board_id = item.board_id
+                if any(_answers_poll(item) for item in crc_decoder.feed(data)):
+                    in_crc = True
     # Replies to earlier polls may still arrive: drain them before handing over.
     quiet_until = anyio.current_time() + settle
     limit = max(deadline, quiet_until)  # a line that never stops babbling ends too
@@ -84,3 +100,15 @@ async def _wait_ready(
                     replies += 1
                 quiet_until = min(limit, anyio.current_time() + settle)
     return board_id
+
+
+def _answers_poll(item: p.Decoded) -> bool:
+    """A CRC-framed answer to the ID poll: the board is in CRC-16 framing."""
+    if isinstance(item, p.ReadIdReply):
+        return True
+    return (
+        isinstance(item, p.ErrorReply)
+        and item.framing
+        and item.class_tag == p.ClassTag.MISC
+        and item.descriptor in (0, p.ReadId.LAYOUT.descriptor)
+    )

@@ -12,8 +12,11 @@
 #define AIO_REQUEST_DATA_MAX (3u + AIO_MAX_BLOB)
 /* Largest reply data: I2C READ, 3 fixed bytes + 32. */
 #define AIO_REPLY_DATA_MAX (3u + AIO_MAX_BLOB)
-/* Largest frame the board sends: CT DT data CS. */
-#define AIO_FRAME_MAX (AIO_REPLY_DATA_MAX + 3u)
+/* Check bytes at the end of a frame: 1 (XOR, the paper's) or 2 (CRC-16 framing,
+ * SET_FRAMING); AIO_CHECK_MAX is the larger. */
+#define AIO_CHECK_MAX 2u
+/* Largest frame the board sends: CT DT data check. */
+#define AIO_FRAME_MAX (AIO_REPLY_DATA_MAX + 2u + AIO_CHECK_MAX)
 
 /* A complete request with a good checksum and known tags. */
 typedef struct {

@@ -21,6 +21,7 @@
 #include "analog.h"
 
 #include "hal.h"
+#include "parser.h"
 #include "i2c.h"
 #include "stream.h"
 
@@ -61,7 +62,7 @@ void analog_tick(void)
 
 static void watch_done(uint16_t value)
 {
-    uint8_t frame[AIO_REPLY_LEN_EVENT_ANALOG_CHANGE + 3u], *p = frame, i, cs = 0;
+    uint8_t frame[AIO_REPLY_LEN_EVENT_ANALOG_CHANGE + 2u + AIO_CHECK_MAX], *p = frame, len;
     uint8_t ch = sampled;
     uint16_t last = reported[ch];
 
@@ -75,10 +76,8 @@ static void watch_done(uint16_t value)
         p = aio_put16(p, change_seq);
         change_seq++;
         p = aio_put32(p, hal_micros());
-        for (i = 0; i < sizeof frame - 1u; i++)
-            cs ^= frame[i];
-        *p = cs;
-        if (hal_tx_send(frame, sizeof frame)) /* dropped if it does not fit */
+        len = parser_seal(frame, (uint8_t)(p - frame));
+        if (hal_tx_send(frame, len)) /* dropped if it does not fit */
             reported[ch] = value;
     }
     converting = 0;

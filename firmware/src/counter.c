@@ -8,6 +8,7 @@
 #include "counter.h"
 
 #include "hal.h"
+#include "parser.h"
 #include "pins.h"
 
 #define COUNTER_FIRST_PIN 2u
@@ -24,7 +25,7 @@ void counter_init(void)
 
 void counter_report(uint8_t index)
 {
-    uint8_t frame[AIO_REPLY_LEN_EVENT_COUNTER_REPORT + 3u], *p = frame, i, cs = 0;
+    uint8_t frame[AIO_REPLY_LEN_EVENT_COUNTER_REPORT + 2u + AIO_CHECK_MAX], *p = frame;
 
     if (++since[index] < counter_every[index])
         return;
@@ -34,10 +35,7 @@ void counter_report(uint8_t index)
     *p++ = (uint8_t)(index + COUNTER_FIRST_PIN);
     p = aio_put32(p, counter_counts[index]);
     p = aio_put32(p, hal_micros());
-    for (i = 0; i < sizeof frame - 1u; i++)
-        cs ^= frame[i];
-    *p = cs;
-    hal_tx_send(frame, sizeof frame); /* dropped if it does not fit */
+    hal_tx_send(frame, parser_seal(frame, (uint8_t)(p - frame))); /* dropped if it does not fit */
 }
 
 static void set_every(uint8_t idx, uint16_t every)

@@ -9,6 +9,7 @@
 #include "gpio.h"
 #include "i2c.h"
 #include "misc.h"
+#include "parser.h"
 #include "pwm.h"
 #include "stream.h"
 
@@ -17,8 +18,7 @@ uint8_t dispatch_error(uint8_t ct, uint8_t dt, uint8_t code, uint8_t *frame)
     frame[0] = ct;
     frame[1] = dt;
     frame[2] = code;
-    frame[3] = (uint8_t)(ct ^ dt ^ code);
-    return 4;
+    return parser_seal(frame, 3u);
 }
 
 /* Requests that change an output: refused while the failsafe is tripped. */
@@ -60,6 +60,8 @@ static inline __attribute__((always_inline)) uint8_t gpio_write_reply(const aio_
     frame[1] = AIO_DT_GPIO_WRITE;
     frame[2] = pin;
     frame[3] = level;
+    if (parser_crc)
+        return parser_seal(frame, 4u);
     frame[4] = (uint8_t)(AIO_CT_GPIO ^ AIO_DT_GPIO_WRITE ^ pin ^ level);
     return 5u;
 }
@@ -87,9 +89,11 @@ __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_
         return dispatch_error((uint8_t)(rq->ct | AIO_ERROR_FLAG), rq->dt, err, frame);
     /* 8-bit pointer steps: the frame is at most AIO_FRAME_MAX bytes */
     len = i = rp->len;
-    cs = (uint8_t)(rq->ct ^ rq->dt);
     frame[0] = rq->ct;
     frame[1] = rq->dt;
+    if (parser_crc)
+        return parser_seal(frame, (uint8_t)(len + 2u));
+    cs = (uint8_t)(rq->ct ^ rq->dt);
     for (p = frame + 2; i; i--)
         cs ^= *p++;
     *p = cs;

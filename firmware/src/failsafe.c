@@ -4,6 +4,7 @@
 #include "failsafe.h"
 
 #include "hal.h"
+#include "parser.h"
 #include "pins.h"
 #include "duty.h"
 #include "pwm.h"
@@ -19,8 +20,9 @@ static uint16_t timeout_ms;
 static volatile uint16_t last_feed;
 static safe_state_t safe[PINS_COUNT];
 
-static const uint8_t tripped_event[3] = {AIO_CT_EVENT, AIO_DT_EVENT_FAILSAFE_TRIPPED,
-                                         AIO_CT_EVENT ^ AIO_DT_EVENT_FAILSAFE_TRIPPED};
+/* 40 02 and the framing's check bytes, sealed when the failsafe trips */
+static uint8_t tripped_event[2u + AIO_CHECK_MAX];
+static uint8_t tripped_len;
 
 void failsafe_init(void)
 {
@@ -67,12 +69,15 @@ void failsafe_tick(void)
     }
     failsafe_is_armed = 0;
     tripped = 1;
-    event_pending = !hal_tx_send(tripped_event, sizeof tripped_event);
+    tripped_event[0] = AIO_CT_EVENT;
+    tripped_event[1] = AIO_DT_EVENT_FAILSAFE_TRIPPED;
+    tripped_len = parser_seal(tripped_event, 2u);
+    event_pending = !hal_tx_send(tripped_event, tripped_len);
 }
 
 void failsafe_poll(void)
 {
-    if (event_pending && hal_tx_send(tripped_event, sizeof tripped_event))
+    if (event_pending && hal_tx_send(tripped_event, tripped_len))
         event_pending = 0;
 }
 

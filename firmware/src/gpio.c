@@ -15,6 +15,7 @@
 #include "gpio.h"
 
 #include "hal.h"
+#include "parser.h"
 #include "pins.h"
 
 static volatile uint16_t watch;       /* GPIO inputs */
@@ -37,7 +38,7 @@ void gpio_init(void)
 static void report(uint16_t changed, uint16_t levels) __attribute__((noinline));
 static void report(uint16_t changed, uint16_t levels)
 {
-    uint8_t frame[AIO_REPLY_LEN_EVENT_GPIO_CHANGE + 3u], *p, pin, i, cs;
+    uint8_t frame[AIO_REPLY_LEN_EVENT_GPIO_CHANGE + 2u + AIO_CHECK_MAX], *p, pin;
     uint32_t now = hal_micros();
 
     for (pin = 2; pin < 14; pin++) {
@@ -52,11 +53,7 @@ static void report(uint16_t changed, uint16_t levels)
         p = aio_put16(p, change_seq);
         change_seq++;
         p = aio_put32(p, now);
-        cs = 0;
-        for (i = 0; i < sizeof frame - 1u; i++)
-            cs ^= frame[i];
-        *p = cs;
-        hal_tx_send(frame, sizeof frame); /* dropped if it does not fit */
+        hal_tx_send(frame, parser_seal(frame, (uint8_t)(p - frame))); /* dropped if it does not fit */
     }
 }
 

@@ -6,6 +6,7 @@
 #include "analog.h"
 #include "failsafe.h"
 #include "hal.h"
+#include "parser.h"
 #include "pins.h"
 #include "stream.h"
 #include "transaction.h"
@@ -19,7 +20,7 @@
      AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
      AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE | AIO_FEATURE_GPIO_CHANGES | \
      AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS | AIO_FEATURE_ANALOG_CHANGES | \
-     AIO_FEATURE_LOW_LATENCY | AIO_FEATURE_DUTY_PWM)
+     AIO_FEATURE_LOW_LATENCY | AIO_FEATURE_DUTY_PWM | AIO_FEATURE_CRC16)
 
 uint8_t misc_reset_pending;
 uint8_t misc_low_latency;
@@ -63,7 +64,7 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         *p++ = AIO_PROTOCOL_VERSION;
         *p++ = AIO_FIRMWARE_MAJOR;
         *p++ = AIO_FIRMWARE_MINOR;
-        p = aio_put16(p, FEATURES);
+        p = aio_put32(p, FEATURES);
         p = aio_put32(p, (uint32_t)BAUD);
         *p++ = AIO_RX_FIFO_SIZE;
         break;
@@ -89,6 +90,15 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
             return AIO_ERR_VALUE_OUT_OF_RANGE;
         misc_low_latency = rq->data[0];
         *p++ = misc_low_latency;
+        break;
+    case AIO_DT_MISC_SET_FRAMING:
+        /* the reply is sealed in the new framing (dispatch seals after this), which
+         * is how the host knows the switch happened; every later request is
+         * parsed in it */
+        if (rq->data[0] > 1u)
+            return AIO_ERR_VALUE_OUT_OF_RANGE;
+        parser_crc = rq->data[0];
+        *p++ = parser_crc;
         break;
     case AIO_DT_MISC_READ_PIN_ROLES:
         p = aio_put16(p, role_mask(ROLE_GPIO_IN));

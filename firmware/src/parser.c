@@ -10,14 +10,33 @@
 
 #include "hal.h"
 
-enum { ST_IDLE = 0, ST_DT, ST_DATA, ST_CS, ST_DISCARD };
+enum { ST_IDLE = 0, ST_DT, ST_DATA, ST_CS, ST_CS2, ST_DISCARD };
+
+uint8_t parser_crc;
+
+uint8_t parser_seal(uint8_t *frame, uint8_t len)
+{
+    uint8_t i, cs = 0;
+    uint16_t crc = 0xFFFFu;
+    if (parser_crc) {
+        for (i = 0; i < len; i++)
+            crc = parser_crc16(crc, frame[i]);
+        frame[len] = (uint8_t)(crc >> 8);
+        frame[len + 1u] = (uint8_t)crc;
+        return (uint8_t)(len + 2u);
+    }
+    for (i = 0; i < len; i++)
+        cs ^= frame[i];
+    frame[len] = cs;
+    return (uint8_t)(len + 1u);
+}
 
 /* frame[ct][dt]: 0 = no such request, else FR_KNOWN | data_len | (len_pos + 1) << 4.
  * Column 0 (no request has DT 0) marks a known class.  A CT or DT outside the
  * table is a compile error in the initializer. */
 #define FR_KNOWN 0x80u
 #define FR_ROWS 9u
-#define FR_COLS 11u
+#define FR_COLS 12u
 #define FR_ENC(data_len, lpos) ((uint8_t)(FR_KNOWN | (data_len) | (uint8_t)((lpos) + 1) << 4))
 
 #pragma GCC diagnostic push
@@ -61,7 +80,9 @@ void parser_init(parser_t *p)
     p->idx = 0;
     p->left = 0;
     p->sum = 0;
+    p->crc = 0xFFFFu;
     p->last_tick = 0;
+    parser_crc = 0; /* every boot starts in the paper's framing */
 }
 
 static uint8_t fail(parser_t *p, uint8_t ct, uint8_t dt, uint8_t code)
@@ -97,6 +118,8 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
             p->idx = AIO_REQUEST_DATA_MAX + 1u; /* more than a request holds: refused */
         }
         p->sum ^= byte;
+        if (parser_crc)
+            p->crc = parser_crc16(p->crc, byte);
         if (--p->left == 0)
             p->state = ST_CS;
         return PARSER_NONE;
@@ -105,6 +128,7 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
             return fail(p, byte, 0, AIO_ERR_UNKNOWN_CLASS);
         p->rq.ct = byte;
         p->sum = byte;
+        p->crc = parser_crc16(0xFFFFu, byte);
         p->state = ST_DT;
         return PARSER_NONE;
     case ST_DT: {
@@ -113,6 +137,7 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
             return fail(p, p->rq.ct, byte, AIO_ERR_UNKNOWN_DESCRIPTOR);
         p->rq.dt = byte;
         p->sum ^= byte;
+        p->crc = parser_crc16(p->crc, byte);
         p->fixed = e & 0x0Fu;
         p->len_pos = (int8_t)(((e >> 4) & 0x07u) - 1);
         p->left = p->fixed;
@@ -121,6 +146,14 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
         return PARSER_NONE;
     }
     case ST_CS:
+        if (parser_crc) {
+            /* CRC framing: the high byte now, the low byte next (a wrong high
+             * byte fails at once; discarding swallows the low one) */
+            if (byte != (uint8_t)(p->crc >> 8))
+                return fail(p, p->rq.ct, p->rq.dt, AIO_ERR_BAD_CHECKSUM);
+            p->state = ST_CS2;
+            return PARSER_NONE;
+        }
         if ((uint8_t)(p->sum ^ byte) != 0)
             return fail(p, p->rq.ct, p->rq.dt, AIO_ERR_BAD_CHECKSUM);
         if (p->idx > AIO_REQUEST_DATA_MAX) { /* a whole frame, but not a request: no handler sees it */
@@ -128,6 +161,12 @@ uint8_t parser_feed(parser_t *p, uint8_t byte, uint16_t tick)
             p->state = ST_IDLE;
             return PARSER_ERROR;
         }
+        p->rq.len = p->idx;
+        p->state = ST_IDLE;
+        return PARSER_REQUEST;
+    case ST_CS2:
+        if (byte != (uint8_t)p->crc)
+            return fail(p, p->rq.ct, p->rq.dt, AIO_ERR_BAD_CHECKSUM);
         p->rq.len = p->idx;
         p->state = ST_IDLE;
         return PARSER_REQUEST;
@@ -146,7 +185,8 @@ uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t coun
 {
     const uint8_t *f = ring + tail;
     uint8_t *d = p->rq.data;
-    uint8_t ct, dt, e, data_len, last, i, b, sum;
+    uint8_t ct, dt, e, data_len, last, i, b, sum, check = parser_crc;
+    uint16_t crc;
 
     /* 8-bit arithmetic throughout (this runs once per pipelined request):
      * `last`, the index of the checksum byte, is below `tail` when the frame
@@ -161,22 +201,35 @@ uint8_t parser_take(parser_t *p, const uint8_t *ring, uint8_t tail, uint8_t coun
     if (!e || (e & 0x70u)) /* unknown, or with a variable part: byte by byte */
         return 0;
     data_len = e & 0x0Fu;
-    last = (uint8_t)(tail + 2u + data_len);
-    if (count <= (uint8_t)(data_len + 2u) || last < tail)
+    /* `last`: the index of the last check byte (the second CRC byte in CRC
+     * framing, `check` = 1) */
+    last = (uint8_t)(tail + 2u + data_len + check);
+    if (count <= (uint8_t)(data_len + 2u + check) || last < tail)
         return 0;
-    sum = (uint8_t)(ct ^ dt);
     f += 2;
-    for (i = data_len; i; i--) {
-        b = *f++;
-        *d++ = b;
-        sum ^= b;
+    if (check) {
+        crc = parser_crc16(parser_crc16(0xFFFFu, ct), dt);
+        for (i = data_len; i; i--) {
+            b = *f++;
+            *d++ = b;
+            crc = parser_crc16(crc, b);
+        }
+        if ((uint8_t)(crc >> 8) != ring[(uint8_t)(last - 1u)] || (uint8_t)crc != ring[last])
+            return 0;
+    } else {
+        sum = (uint8_t)(ct ^ dt);
+        for (i = data_len; i; i--) {
+            b = *f++;
+            *d++ = b;
+            sum ^= b;
+        }
+        if (sum != ring[last])
+            return 0;
     }
-    if (sum != ring[last])
-        return 0;
     p->rq.ct = ct;
     p->rq.dt = dt;
     p->rq.len = data_len;
-    return (uint8_t)(data_len + 3u);
+    return (uint8_t)(data_len + 3u + check);
 }
 
 uint8_t parser_poll(parser_t *p, uint16_t now)

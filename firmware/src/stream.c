@@ -26,6 +26,7 @@
 #include "duty.h"
 #include "gpio.h"
 #include "hal.h"
+#include "parser.h"
 #include "i2c.h"
 
 #ifndef BAUD
@@ -84,11 +85,8 @@ uint8_t stream_admit(uint8_t len, uint16_t period_us, uint32_t baud)
 
 static void finish(void)
 {
-    uint8_t i, cs = 0;
-    for (i = 0; i < frame_len - 1u; i++)
-        cs ^= frame[i];
-    frame[frame_len - 1u] = cs;
-    hal_tx_send(frame, frame_len); /* dropped if it does not fit */
+    /* frame_len counts one check byte: the framing's are appended here */
+    hal_tx_send(frame, parser_seal(frame, (uint8_t)(frame_len - 1u))); /* dropped if it does not fit */
     busy = 0;
 }
 

@@ -46,7 +46,8 @@ static uint8_t measure(const uint8_t *item, uint8_t left, uint8_t *result)
     dt = item[1];
     if (!parser_lookup(ct, dt, &fixed, &lpos))
         return 0;
-    if (ct == AIO_CT_MISC && (dt == AIO_DT_MISC_RESET || dt == AIO_DT_MISC_TRANSACTION))
+    if (ct == AIO_CT_MISC &&
+        (dt == AIO_DT_MISC_RESET || dt == AIO_DT_MISC_TRANSACTION || dt == AIO_DT_MISC_SET_FRAMING))
         return 0;
     len = (uint8_t)(2u + fixed);
     if (lpos >= 0) {
@@ -92,7 +93,7 @@ uint8_t transaction_handle(const aio_request_t *rq, aio_reply_t *rp)
         item.dt = items[pos + 1];
         item.len = (uint8_t)(len - 2u);
         memcpy(item.data, items + pos + 2, item.len);
-        result = (uint8_t)(dispatch(&item, frame) - 1u); /* without the checksum */
+        result = (uint8_t)(dispatch(&item, frame) - 1u - parser_crc); /* without the check bytes */
         memcpy(rp->data + out, frame, result);
         out = (uint8_t)(out + result);
     }

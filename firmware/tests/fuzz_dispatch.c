@@ -29,6 +29,7 @@
 #include "app.h"
 #include "dispatch.h"
 #include "fake_hal.h"
+#include "parser.h"
 
 typedef struct {
     uint8_t ct, dt, fixed;
@@ -108,10 +109,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         n = dispatch((const aio_request_t *)(const void *)exact, frame);
         free(exact);
         if (n < 3u || n > AIO_FRAME_MAX || frame[AIO_FRAME_MAX] != 0xCC)
-            abort(); /* a reply is CT DT (data) CS or an error reply, within the frame */
-        cs = 0;
-        for (k = 0; k < n; k++)
-            cs ^= frame[k];
+            abort(); /* a reply is CT DT (data) CHECK or an error reply, within the frame */
+        if (parser_crc) { /* sealed in the framing in force (a SET_FRAMING may switch it) */
+            uint16_t crc = 0xFFFFu;
+            for (k = 0; k < n; k++)
+                crc = parser_crc16(crc, frame[k]);
+            cs = (uint8_t)(crc != 0u);
+        } else {
+            cs = 0;
+            for (k = 0; k < n; k++)
+                cs ^= frame[k];
+        }
         if (cs || (frame[0] & 0x7Fu) != rq.ct || frame[1] != rq.dt)
             abort();
         settle();

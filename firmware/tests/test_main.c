@@ -116,8 +116,8 @@ static void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0xFF, 0xFF, 0x00, 0x01, 0xC2,
-                     0x00, 128));
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, 0x01, 0xFF, 0xFF, 0x00,
+                     0x01, 0xC2, 0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
     CHECK(B(1, 6), B(1, 6, 0, 0xBE, 0xEF));
@@ -1004,6 +1004,155 @@ static void test_framing(void)
     }
 }
 
+
+/* ------------------------------------------------------------ CRC-16 framing */
+/* The oracle: CRC-16/CCITT-FALSE bit by bit (the firmware computes it byte-wise). */
+static uint16_t crc_of(const uint8_t *p, size_t n)
+{
+    uint16_t crc = 0xFFFFu;
+    int bit;
+    while (n--) {
+        crc ^= (uint16_t)(*p++ << 8);
+        for (bit = 0; bit < 8; bit++)
+            crc = (uint16_t)(crc & 0x8000u ? ((unsigned)crc << 1) ^ 0x1021u : (unsigned)crc << 1);
+    }
+    return crc;
+}
+
+static size_t crc_seal(uint8_t *buf, const uint8_t *body, size_t n)
+{
+    uint16_t crc = crc_of(body, n);
+    memcpy(buf, body, n);
+    buf[n] = (uint8_t)(crc >> 8);
+    buf[n + 1] = (uint8_t)crc;
+    return n + 2;
+}
+
+#define CRC_CHECK(...) crc_check(__FILE__, __LINE__, __VA_ARGS__)
+/* Sends req + its CRC, expects exactly exp + its CRC back. */
+static void crc_check(const char *file, int line, const uint8_t *req, size_t rn, const uint8_t *exp,
+                      size_t en)
+{
+    uint8_t buf[64], want[64];
+    size_t wn;
+    fake_rx_push(buf, (uint32_t)crc_seal(buf, req, rn));
+    run();
+    take();
+    wn = crc_seal(want, exp, en);
+    checks++;
+    if (outn != wn || memcmp(out, want, wn)) {
+        failures++;
+        printf("%s:%d: FAIL (CRC framing)\n", file, line);
+        dump("request", req, rn);
+        dump("expected", want, wn);
+        dump("got", out, outn);
+    }
+}
+
+static void test_crc_framing(void)
+{
+    uint8_t burst[256], want[128];
+    size_t n, wn;
+    int offset, i;
+    board();
+    fake_eeprom[0] = 0x01;
+    fake_eeprom[1] = 0x02;
+    EXPECT(crc_of((const uint8_t *)"123456789", 9) == 0x29B1u); /* the catalogue's check */
+    /* the switch: sent XOR-framed, answered CRC-framed */
+    send_frame(B(1, 0x0B, 1));
+    run();
+    take();
+    wn = crc_seal(want, B(1, 0x0B, 1));
+    EXPECT(outn == wn && !memcmp(out, want, wn));
+    CRC_CHECK(B(1, 2), B(1, 2, 1, 2));
+    CRC_CHECK(B(2, 1, 13, 1), B(2, 1, 13, 1));
+    CRC_CHECK(B(2, 3, 13, 0), B(2, 3, 13, 0)); /* GPIO WRITE's own reply path */
+    EXPECT(fake_pin_level[13] == 0);
+    CRC_CHECK(B(2, 3, 13, 1), B(2, 3, 13, 1));
+    EXPECT(fake_pin_level[13] == 1);
+    CRC_CHECK(B(3, 2, 7), B(0x83, 2, AIO_ERR_PIN_NOT_CAPABLE));
+    CRC_CHECK(B(1, 0x0B, 2), B(0x81, 0x0B, AIO_ERR_VALUE_OUT_OF_RANGE));
+    /* pipelined at every position of the receive ring (parsed in place, or byte by
+     * byte across its end): each ID answered in order */
+    for (offset = 0; offset < 256; offset += 3) {
+        n = 0;
+        for (i = 0; i < 6; i++)
+            n += crc_seal(burst + n, B(1, 2));
+        n += crc_seal(burst + n, B(2, 3, 13, (uint8_t)(offset & 1)));
+        fake_rx_push(burst, (uint32_t)n);
+        run();
+        take();
+        wn = 0;
+        for (i = 0; i < 6; i++)
+            wn += crc_seal(want + wn, B(1, 2, 1, 2));
+        wn += crc_seal(want + wn, B(2, 3, 13, (uint8_t)(offset & 1)));
+        EXPECT(outn == wn && !memcmp(out, want, wn));
+        fake_rx_push(burst, (uint32_t)(offset % 5)); /* shift the ring: garbage IDs... */
+        run();
+        take();
+        fake_advance(PARSER_GAP_TICKS + 1u); /* ...then quiet: back in step */
+        run();
+        take();
+    }
+    /* a wrong CRC, high or low byte: BAD_CHECKSUM once, then quiet, then in step */
+    for (i = 0; i < 2; i++) {
+        n = crc_seal(burst, B(1, 2));
+        burst[2 + i] ^= 0x10;
+        fake_rx_push(burst, (uint32_t)n);
+        run();
+        take();
+        wn = crc_seal(want, B(0x81, 2, AIO_ERR_BAD_CHECKSUM));
+        EXPECT(outn == wn && !memcmp(out, want, wn));
+        fake_advance(PARSER_GAP_TICKS + 1u);
+        run();
+        take();
+        CRC_CHECK(B(1, 2), B(1, 2, 1, 2));
+    }
+    /* a paper-framed request in CRC framing: its XOR byte 03 is not the CRC's
+     * high byte (0E), so BAD_CHECKSUM at once (what tells a host after a
+     * reconnect that the board is in CRC framing) */
+    send_frame(B(1, 2));
+    run();
+    take();
+    wn = crc_seal(want, B(0x81, 2, AIO_ERR_BAD_CHECKSUM));
+    EXPECT(outn == wn && !memcmp(out, want, wn));
+    fake_advance(PARSER_GAP_TICKS + 1u);
+    run();
+    take();
+    /* one CRC byte short, then quiet: INCOMPLETE_FRAME */
+    fake_rx_push(B(1, 2, 0x0E));
+    run();
+    fake_advance(PARSER_GAP_TICKS + 1u);
+    run();
+    take();
+    wn = crc_seal(want, B(0x81, 2, AIO_ERR_INCOMPLETE_FRAME));
+    EXPECT(outn == wn && !memcmp(out, want, wn));
+    /* events are sealed in the framing in force: the failsafe's */
+    CRC_CHECK(B(8, 1, 0, 20), B(8, 1, 0, 20));
+    fake_advance(300);
+    take();
+    wn = crc_seal(want, B(0x40, 0x02));
+    EXPECT(outn == wn && !memcmp(out, want, wn));
+    CRC_CHECK(B(8, 3), B(8, 3));
+    /* a transaction's items carry no check bytes; its reply has the framing's */
+    CRC_CHECK(B(1, 9, 0x30, 3, 2, 2, 13), B(1, 9, 0x30, 4, 2, 2, 13, 1));
+    /* back to the paper's framing: the reply is XOR-framed already */
+    n = crc_seal(burst, B(1, 0x0B, 0));
+    fake_rx_push(burst, (uint32_t)n);
+    run();
+    take();
+    EXPECT(outn == 4 && !memcmp(out, "\x01\x0B\x00\x0A", 4));
+    CHECK(B(1, 2), B(1, 2, 1, 2));
+    /* every boot starts in XOR framing */
+    send_frame(B(1, 0x0B, 1));
+    run();
+    take();
+    board();
+    fake_eeprom[0] = 0x01;
+    fake_eeprom[1] = 0x02;
+    CHECK(B(1, 2), B(1, 2, 1, 2));
+}
+
 static void test_pipelining(void)
 {
     uint8_t burst[128];
@@ -1213,6 +1362,7 @@ int main(void)
     test_failsafe();
     test_unknown_descriptors();
     test_framing();
+    test_crc_framing();
     test_pipelining();
     test_ring_positions();
     test_random();

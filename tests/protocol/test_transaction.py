@@ -7,13 +7,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from arduinoio_async import protocol as p
+from arduinoio_async.protocol.commands.transaction import NOT_IN_TRANSACTIONS
 from arduinoio_async.testing._fake_board import _split_items
 
 from .strategies import message
 
-#: Requests a transaction may carry (everything but RESET and TRANSACTION).
+#: Requests a transaction may carry (everything but RESET, TRANSACTION and SET_FRAMING).
 items = st.one_of(
-    *[message(cls) for cls in p.REQUEST_TYPES.values() if cls not in (p.Reset, p.Transaction)]
+    *[message(cls) for cls in p.REQUEST_TYPES.values() if cls not in NOT_IN_TRANSACTIONS]
 )
 
 

@@ -32,8 +32,14 @@ class RawLink:
         self.decoder = p.Decoder.from_board()
         self.pending: collections.deque[p.Decoded] = collections.deque()
 
+    def set_framing(self, crc: bool) -> None:
+        """Decode the next replies in CRC-16 (``crc``) or XOR framing."""
+        if (self.decoder.framing is p.Framing.CRC16) != crc:
+            self.decoder = p.Decoder.from_board(framing=p.Framing.CRC16 if crc else p.Framing.XOR)
+
     async def exchange(self, request: bytes, timeout: float = 2.0) -> bytes:
         await self.stream.send(request)
+        crc = self.decoder.framing is p.Framing.CRC16
         with anyio.fail_after(timeout):
             while True:
                 while self.pending:
@@ -41,7 +47,7 @@ class RawLink:
                     if isinstance(item, p.Garbage):
                         return item.data
                     if not isinstance(item, p.Event):
-                        return item.encode()
+                        return p.crc_framed(item.encode()) if crc else item.encode()
                 self.pending.extend(self.decoder.feed(await self.stream.receive()))
 
 
@@ -53,6 +59,7 @@ async def run_vectors(vf: VectorFile, link: RawLink, drive: Drive_) -> None:
         if isinstance(step, Drive):
             await drive(step.pin, step.level)
             continue
+        link.set_framing(step.crc)
         got = await link.exchange(step.request)
         assert step.matches(got), f"{vf.name}.vec {step.describe()}: got {got.hex(' ').upper()}"
 

@@ -10,6 +10,11 @@ Format, one step a line (``#`` starts a comment):
   reply ``CT|0x80 DT code`` to the request's tags;
 * ``drive 7 1`` -- the circuit drives pin D7 high (or ``0`` low) from outside.
 
+Framing: a file starts in the paper's XOR framing; a SET_FRAMING step (``> 01 0B 01``)
+that succeeds switches it: its reply and every later frame, both ways, carry the
+framing's check bytes (two CRC-16 bytes for mode 1).  ``Exchange.crc`` says which
+framing a step's reply is in (the runners decode it so).
+
 ``python -m tests.vectors.vectors`` writes ``firmware/tests/vectors.h``; a test fails when
 it differs from what this module would write.
 """
@@ -21,7 +26,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from arduinoio_async.protocol import ERROR_FLAG, ErrorCode, checksum
+from arduinoio_async.protocol import ERROR_FLAG, ErrorCode, checksum, crc16
 
 __all__ = ["Drive", "Exchange", "VectorFile", "load_all", "render_c_header"]
 
@@ -35,6 +40,7 @@ class Exchange:
     line: int
     request: bytes  # with checksum
     reply: tuple[int, ...]  # with checksum; ANY where any byte will do
+    crc: bool = False  # the reply is in CRC-16 framing
 
     def matches(self, got: bytes) -> bool:
         return len(got) == len(self.reply) and all(
@@ -75,15 +81,24 @@ def _hex_bytes(text: str, line: int) -> list[int]:
     return out
 
 
-def _with_checksum(body: list[int]) -> tuple[int, ...]:
+def _with_checksum(body: list[int], crc: bool = False) -> tuple[int, ...]:
+    if crc:
+        if ANY in body:
+            return (*body, ANY, ANY)
+        value = crc16(bytes(body))
+        return (*body, value >> 8, value & 0xFF)
     if ANY in body:
         return (*body, ANY)
     return (*body, checksum(bytes(body)))
 
 
+SET_FRAMING = (0x01, 0x0B)
+
+
 def parse(name: str, text: str) -> VectorFile:
     board_id = 0xFFFF
     steps: list[Step] = []
+    crc = False
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -99,12 +114,15 @@ def parse(name: str, text: str) -> VectorFile:
             if ANY in request:
                 raise ValueError(f"line {number}: a request cannot contain ??")
             reply_text = reply_text.strip()
+            framed_request = bytes(_with_checksum(request, crc))
             if reply_text.startswith("error "):
                 code = ErrorCode[reply_text.split()[1]]
                 reply = [request[0] | ERROR_FLAG, request[1], int(code)]
             else:
                 reply = _hex_bytes(reply_text, number)
-            steps.append(Exchange(number, bytes(_with_checksum(request)), _with_checksum(reply)))
+                if tuple(request[:2]) == SET_FRAMING:
+                    crc = request[2] == 1  # the reply is in the new framing already
+            steps.append(Exchange(number, framed_request, _with_checksum(reply, crc), crc))
         else:
             raise ValueError(f"{name} line {number}: cannot read {raw!r}")
     return VectorFile(name, board_id, tuple(steps))

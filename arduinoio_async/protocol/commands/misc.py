@@ -9,7 +9,14 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from .._constants import TEMP_MV_AT_25C, TEMP_MV_PER_C, TEMP_REFERENCE_MV, ClassTag, StatusFlags
+from .._constants import (
+    TEMP_MV_AT_25C,
+    TEMP_MV_PER_C,
+    TEMP_REFERENCE_MV,
+    ClassTag,
+    Framing,
+    StatusFlags,
+)
 from .._layout import U8, U16, U32
 from .._messages import Reply, Request, check_10_bit, echo, reply_frame, request_frame
 
@@ -26,6 +33,8 @@ __all__ = [
     "ReadTemperatureReply",
     "Reset",
     "ResetReply",
+    "SetFraming",
+    "SetFramingReply",
     "SetLowLatency",
     "SetLowLatencyReply",
     "SetSession",
@@ -91,7 +100,7 @@ class ReadCapabilitiesReply(Reply):
     protocol_version: Annotated[int, U8]
     firmware_major: Annotated[int, U8]
     firmware_minor: Annotated[int, U8]
-    features: Annotated[int, U16]
+    features: Annotated[int, U32]
     baud: Annotated[int, U32]
     rx_buffer: Annotated[int, U8]
 
@@ -176,4 +185,25 @@ class SetLowLatency(_LowLatency, Request[SetLowLatencyReply]):
     96 bytes wait, otherwise on its 4.096 ms timer tick.  Costs 97 byte times of the
     board-to-host line per burst, so it pays from 1 Mbaud up (485 us at 2 Mbaud).  Off
     after every boot.
+    """
+
+
+@echo
+class _Framing:
+    framing: Annotated[Framing, U8]
+
+
+@reply_frame(ClassTag.MISC, 0x0B)
+class SetFramingReply(_Framing, Reply):
+    """Sent in the framing just set: a reply that checks in it proves the switch."""
+
+
+@request_frame(SetFramingReply, extension=True, idempotent=True)
+class SetFraming(_Framing, Request[SetFramingReply]):
+    """Check every later frame, both ways, by ``framing`` (extension, docs/protocol.md 7.7).
+
+    Sent in the framing in force; the board answers in the new one and parses every
+    later request in it.  Back to ``XOR`` after every boot.  The session sends it itself
+    (:class:`~arduinoio_async.protocol.session.Session`, ``framing=``), with nothing else
+    in flight.
     """

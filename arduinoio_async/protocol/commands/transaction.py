@@ -34,7 +34,7 @@ from .._messages import (
     request_frame,
 )
 from .i2c import I2CRead
-from .misc import Reset
+from .misc import Reset, SetFraming
 
 __all__ = [
     "Transaction",
@@ -92,8 +92,9 @@ class Transaction(_Seq, Request[TransactionReply]):
 
 
 #: Requests a transaction cannot carry: RESET restarts the board mid-list, and a
-#: transaction inside a transaction would make the reply's size unbounded.
-NOT_IN_TRANSACTIONS: tuple[type[Request[Any]], ...] = (Reset, Transaction)
+#: transaction inside a transaction would make the reply's size unbounded; SET_FRAMING
+#: would change the framing of the reply it is part of.
+NOT_IN_TRANSACTIONS: tuple[type[Request[Any]], ...] = (Reset, Transaction, SetFraming)
 
 
 def result_size(request: Request[Any]) -> int:
