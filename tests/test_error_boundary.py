@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import anyio
 import pytest
 
-from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9
+from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.errors import ArduinoIOError
@@ -74,6 +74,9 @@ CALLS: dict[str, Callable[[Scene], Awaitable[object]]] = {
     "from_link": lambda s: Board.from_link(s.board.link),
     "i2c": lambda s: s.board.i2c(),
     "keepalive": run_keepalive,
+    "motor": lambda s: s.board.motor(D5, D8),
+    "motor_2pwm": lambda s: s.board.motor_2pwm(D9, D10),
+    "pwm": lambda s: s.board.pwm(D10, 0.5),
     "read_analog_all": lambda s: s.board.read_analog_all(),
     "read_id": lambda s: s.board.read_id(),
     "rearm_failsafe": lambda s: s.board.rearm_failsafe(),

@@ -64,9 +64,9 @@ int port_bit(int p) { return (sh_port[pin_port(p)] >> pin_bit(p)) & 1; }
  * of a servo pulse.  The harness therefore tracks each compare output's level
  * from the timer's own IRQ and takes a connected pin's level from it: for
  * capture, for a loopback partner, for the R2R ladders and the `pin` command.
- * (Not modelled: the PIN register bit the firmware would read, and a level
- * change at the moment COMnx itself is written; the project firmware switches
- * its servo outputs only right after a compare match, when both are low.) */
+ * A write of COMnx itself moves the pin to the compare output's level or back to
+ * the PORT bit at that instant (tccr_write).  (Not modelled: the PIN register bit
+ * the firmware would read.) */
 struct oc_pin {
 	int pin;
 	char timer;
@@ -271,6 +271,23 @@ static void capture_hook(avr_irq_t *irq, uint32_t value, void *param)
 	record_level(p, oc_drives(p) ? oc_level[p] : (int)(value & 1));
 }
 
+/* A write of TCCRnA (registered beside the timer's own writer, which runs first
+ * and stores the value): connecting or disconnecting a compare output changes
+ * what drives its pin at that instant, with no pin IRQ raised.  The firmware's
+ * duty PWM holds a pin at 0 % or 100 % by writing its PORT bit while the output
+ * is still connected and then clearing COMnx. */
+static void tccr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	(void)param;
+	a->data[addr] = v;
+	for (int k = 0; k < N_OC_PINS; k++) {
+		const struct oc_pin *o = &oc_pins[k];
+		if (o->tccr == addr && oc_of[o->pin] && is_out(o->pin))
+			record_level(o->pin, (v >> o->shift) & 3 ? oc_level[o->pin] : port_bit(o->pin));
+	}
+	apply_circuit();
+}
+
 /* A timer's compare output changed (simavr raises it whatever COMnx says). */
 static void oc_hook(avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -326,6 +343,9 @@ void circuit_attach(void)
 		oc_of[o->pin] = k + 1;
 		avr_irq_register_notify(irq, oc_hook, (void *)(intptr_t)o->pin);
 	}
+	static const uint8_t tccrs[] = {0x44, 0x80, 0xB0};
+	for (int k = 0; k < 3; k++)
+		avr_register_io_write(avr, tccrs[k], tccr_write, NULL);
 }
 
 void circuit_after_reset(void)

@@ -349,7 +349,7 @@ async def test_firmware_cycles_per_command(virtual_uno_factory: VirtualUnoFactor
     measured: dict[str, tuple[bytes, int]] = {
         "read id": (frame(1, 2), 5),
         "read temperature": (frame(1, 3), 5),
-        "capabilities": (frame(1, 4), 13),
+        "capabilities": (frame(1, 4), 15),
         "status": (frame(1, 6), 6),
         "gpio write": (frame(2, 3, 13, 1), 5),
         "gpio read": (frame(2, 2, 8), 5),

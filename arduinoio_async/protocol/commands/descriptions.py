@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from .._constants import DUTY_FULL, Edge, GpioFlags, I2CSpeed, SafeKind, StreamFlags
+from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
 from . import analog, counter, failsafe, gpio, i2c, misc, pwm, stream, transaction
@@ -86,6 +86,9 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
     misc.ReadPinRoles: lambda rq: "report its pin roles",
     transaction.Transaction: lambda rq: "run a transaction",
     misc.SetLowLatency: lambda rq: f"turn low-latency mode {'on' if rq.enabled else 'off'}",
+    misc.SetFraming: lambda rq: (
+        "check frames by CRC-16" if rq.framing == Framing.CRC16 else "check frames by XOR"
+    ),
     gpio.GpioConfig: _gpio_config,
     gpio.GpioRead: lambda rq: f"read {_pin(rq.pin)}",
     gpio.GpioWrite: lambda rq: f"set {_pin(rq.pin)} {'high' if rq.value else 'low'}",
