@@ -196,9 +196,10 @@ def test_records_expire_and_kept_clients_stay() -> None:
 
 
 async def test_a_flooding_client_holds_only_its_share_ahead_of_another() -> None:
-    # Each reply takes the board 1 ms, so the flood is still waiting when the legit query
-    # comes, however slowly this machine sends it.
-    async with served_fake(Faults(delay=(0.001, 0.001))) as (served, session):
+    # Each reply takes the board 10 ms, so the flood is still waiting when the legit query
+    # comes even on a loaded machine: the admitted 272 take 2.7 s to answer, and sending
+    # the 400 took up to 0.4 s on CI (at 1 ms a reply, a slow send let the flood drain).
+    async with served_fake(Faults(delay=(0.01, 0.01))) as (served, session):
         replies = Replies()
         flood = 400
         token = session.liveliness().declare_token(client_key("legit"))
@@ -238,8 +239,8 @@ async def test_a_flooding_client_holds_only_its_share_ahead_of_another() -> None
 async def test_made_up_clients_share_one_share() -> None:
     """Queries whose attachment names no live client (one made up per query) count as one
     client: at most its share of them is ahead of a live client's request."""
-    # 3 ms a reply: the 400-query flood outlasts its own sending on a loaded machine
-    async with served_fake(Faults(delay=(0.003, 0.003))) as (served, session):
+    # 10 ms a reply: the 400-query flood outlasts its own sending on a loaded machine
+    async with served_fake(Faults(delay=(0.01, 0.01))) as (served, session):
         replies = Replies()
         token = session.liveliness().declare_token(client_key("legit"))
         with anyio.fail_after(5):
