@@ -32,6 +32,9 @@ from ._constants import (
     SERVO_DEFAULT_MIN_US,
     SERVO_PERIOD_US,
     SOFT_PWM_STEP_US,
+    STEPPER_COUNT,
+    STEPPER_MAX_ACCEL,
+    STEPPER_MAX_SPEED,
     STREAM_FRAME_OVERHEAD,
     STREAM_LINK_SHARE_DEN,
     STREAM_LINK_SHARE_NUM,
@@ -53,12 +56,13 @@ from ._constants import (
     I2CSpeed,
     SafeKind,
     StatusFlags,
+    StepperDoneReason,
     StreamFlags,
 )
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from .commands import analog, counter, failsafe, gpio, i2c, misc, pwm, stepper, stream, transaction
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403
 from .commands.failsafe import *  # noqa: F403
@@ -66,6 +70,7 @@ from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
+from .commands.stepper import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
 from .commands.transaction import *  # noqa: F403
 
@@ -104,6 +109,9 @@ __all__ = [
     "SERVO_DEFAULT_MIN_US",
     "SERVO_PERIOD_US",
     "SOFT_PWM_STEP_US",
+    "STEPPER_COUNT",
+    "STEPPER_MAX_ACCEL",
+    "STEPPER_MAX_SPEED",
     "STREAM_FRAME_OVERHEAD",
     "STREAM_LINK_SHARE_DEN",
     "STREAM_LINK_SHARE_NUM",
@@ -134,6 +142,7 @@ __all__ = [
     "Request",
     "SafeKind",
     "StatusFlags",
+    "StepperDoneReason",
     "StreamFlags",
     "checksum",
     "crc16",
@@ -146,6 +155,7 @@ __all__ += analog.__all__
 __all__ += i2c.__all__
 __all__ += pwm.__all__
 __all__ += counter.__all__
+__all__ += stepper.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

@@ -19,6 +19,7 @@ import anyio.abc
 from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
+from ._fake_stepper import FakeSteppers
 from ._faults import Faults, corrupt
 from ._peripherals import (
     DIGITAL,
@@ -137,6 +138,9 @@ class FakeBoard(PeripheralModels):
             p.FailsafeDisarm: self._failsafe_disarm,
             p.Transaction: self._transaction,
         }
+        self.steppers = FakeSteppers(self)
+        self._handlers.update(self.steppers.handlers())
+        self.stream.positions = self.steppers.positions
         if not self.crc_capable:
             del self._handlers[p.SetFraming]
 
@@ -147,6 +151,7 @@ class FakeBoard(PeripheralModels):
         self._task_group.start_soon(self._serve, self._board_stream)
         self._task_group.start_soon(self._watchdog)
         self._task_group.start_soon(self._send_changes)
+        self._task_group.start_soon(self.steppers.run)
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
@@ -338,6 +343,7 @@ class FakeBoard(PeripheralModels):
         """A fresh boot (watchdog, power loss, the reset button): RAM state is gone, the
         subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
         self._pins = {n: PinModel() for n in range(2, 14)}
+        self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
@@ -480,6 +486,8 @@ class FakeBoard(PeripheralModels):
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
+        if self._pins[request.pin].role == "stepper":
+            self.steppers.release(request.pin)
         self._pins[request.pin] = PinModel()
         self.pulses.pop(request.pin, None)
         self.duties.pop(request.pin, None)
@@ -593,6 +601,7 @@ class FakeBoard(PeripheralModels):
                 self.pulses[pin] = value
             elif kind is p.SafeKind.DUTY and role == "duty":
                 self.duties[pin] = (self.duties[pin][0], value)
+        self.steppers.stop_all()
         self.failsafe.armed, self.failsafe.tripped = False, True
         with contextlib.suppress(anyio.BrokenResourceError, anyio.ClosedResourceError):
             await self._send(self._board_stream, p.FailsafeTripped().encode())
@@ -634,4 +643,6 @@ def _changes_output(request: p.Frame) -> bool:
     tag = request.LAYOUT.class_tag
     if tag == p.ClassTag.GPIO:
         return not isinstance(request, p.GpioRead | p.GpioWatch)
+    if tag == p.ClassTag.STEPPER:
+        return isinstance(request, p.StepperMove | p.StepperRun)
     return tag == p.ClassTag.PWM

@@ -35,15 +35,23 @@ class StreamModel:
     fell: int = 0
     #: Cancels the sampling task of the running stream.
     scope: anyio.CancelScope | None = None
+    #: The stepper slots' positions (StreamFlags.STEPPERS), set by the board.
+    positions: Callable[[], Sequence[int]] = lambda: [0] * p.STEPPER_COUNT
 
     def check(self, request: p.StreamStart, baud: int, i2c_on: bool) -> p.ErrorCode | None:
         """The firmware's checks of a START request, in its order."""
         mask, flags, period = request.analog_mask, int(request.flags), request.period_us
-        all_flags = int(p.StreamFlags.LEVELS | p.StreamFlags.EDGES | p.StreamFlags.COUNTERS)
+        all_flags = int(
+            p.StreamFlags.LEVELS
+            | p.StreamFlags.EDGES
+            | p.StreamFlags.COUNTERS
+            | p.StreamFlags.STEPPERS
+        )
         if (
             mask & ~((1 << p.ANALOG_CHANNELS) - 1)
             or flags & ~all_flags
             or (mask == 0 and flags == 0)
+            or p.sample_payload_size(mask, request.flags) > p.MAX_BLOB
             or not p.STREAM_MIN_PERIOD_US <= period <= p.STREAM_MAX_PERIOD_US
             or period % p.STREAM_PERIOD_STEP_US
         ):
@@ -75,6 +83,8 @@ class StreamModel:
             self.rose = self.fell = 0
         if request.flags & p.StreamFlags.COUNTERS:
             payload += struct.pack(">II", counters[2], counters[3])
+        if request.flags & p.StreamFlags.STEPPERS:
+            payload += struct.pack(f">{p.STEPPER_COUNT}i", *self.positions())
         return p.StreamSample(mask, request.flags, self.sequence, board_us & 0xFFFFFFFF, payload)
 
     def stop(self) -> int:

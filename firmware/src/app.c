@@ -30,6 +30,7 @@
 #include "parser.h"
 #include "pins.h"
 #include "pwm.h"
+#include "stepper.h"
 #include "stream.h"
 
 /* A batch answers at most BATCH_MAX requests and claims at most CLAIM_MAX
@@ -68,6 +69,7 @@ void app_init(void)
     i2c_init();
     pwm_init();
     duty_init();
+    stepper_init();
     counter_init();
     stream_init();
     analog_init();
@@ -141,6 +143,7 @@ uint8_t app_step(void)
     hal_rx_view_t rx;
 
     failsafe_poll();
+    stepper_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

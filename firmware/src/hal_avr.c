@@ -115,6 +115,19 @@ void hal_edge_watch(uint16_t mask)
 ISR(PCINT0_vect) { gpio_pin_change(hal_pin_levels()); }
 ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
 
+void hal_step_pins(uint16_t mask, uint8_t level)
+{
+    uint8_t s = hal_irq_save(), d = (uint8_t)mask, b = (uint8_t)(mask >> 8);
+    if (level) {
+        PORTD |= d;
+        PORTB |= b;
+    } else {
+        PORTD &= (uint8_t)~d;
+        PORTB &= (uint8_t)~b;
+    }
+    hal_irq_restore(s);
+}
+
 void hal_softpwm_low(uint8_t mask)
 {
     uint8_t s = hal_irq_save();

@@ -9,6 +9,7 @@
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
+#include "stepper.h"
 
 uint8_t pins_role[PINS_COUNT];
 
@@ -48,6 +49,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_DUTY:
         duty_release(pin);
+        break;
+    case ROLE_STEPPER:
+        stepper_release(pin);
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

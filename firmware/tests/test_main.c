@@ -116,7 +116,7 @@ static void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, 0x01, 0xFF, 0xFF, 0x00,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, 0x03, 0xFF, 0xFF, 0x00,
                      0x01, 0xC2, 0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
@@ -730,7 +730,7 @@ static void test_stream(void)
     board();
     CHECK(B(7, 1, 0, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* empty */
     CHECK(B(7, 1, 0x40, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
-    CHECK(B(7, 1, 1, 8, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(7, 1, 1, 0x80, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
     CHECK(B(7, 1, 1, 0, 0x03, 0xE7), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
     CHECK(B(7, 1, 1, 0, 0x00, 0xF9), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 249 */
     CHECK(B(7, 1, 1, 0, 0x01, 0x13), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 275 */
@@ -931,10 +931,10 @@ static void test_framing(void)
     run();
     CHECK(B(1, 2), B(1, 2, 0x12, 0x34));
     /* unknown class, unknown descriptor */
-    fake_rx_push(B(0x09));
+    fake_rx_push(B(0x0B));
     run();
     take();
-    EXPECT(outn == 4 && !memcmp(out, "\x89\x00\x02\x8B", 4));
+    EXPECT(outn == 4 && !memcmp(out, "\x8B\x00\x02\x89", 4));
     fake_advance(101);
     run();
     fake_rx_push(B(0xC1));

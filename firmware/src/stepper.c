@@ -1,0 +1,528 @@
+/*
+ * stepper.c - STEPPER class (CT 0x09) and the STEPPER_DONE event (issue 26).
+ *
+ * Timing: the steppers share the board tick (Timer2 compare A, 100 us,
+ * clock.c), because every other compare channel already has a job
+ * (docs/motors.md, "Timers and pins").  Each tick the interrupt calls
+ * stepper_tick() with interrupts enabled, which
+ *   1. reads the limit switches and stops any stepper heading into a closed
+ *      one (its pending step is dropped: no step after the switch is seen),
+ *   2. raises the step pins computed in the previous tick,
+ *   3. advances every profile by one tick and notes the next steps,
+ *   4. lowers the step pins (the pulse lasts the profile work, >= 5 us:
+ *      A4988 wants 1 us, DRV8825 1.9 us, TMC2209 0.1 us).
+ * So a stepper takes at most one step a tick (10,000 steps/s), and a
+ * direction change happens a tick before its first step (setup >> 200 ns).
+ *
+ * The profile is a digital differential analyser in 32-bit integers: the
+ * speed v (Q32 steps a tick) gains or loses the acceleration each tick, a
+ * phase accumulator adds v and a carry out of it is a step.  `ramp` counts the
+ * steps taken while speeding up (and gives one back per step while slowing
+ * down), which is the distance needed to stop: a move decelerates once the
+ * steps left are no more than that, so the trapezoid needs no square root or
+ * division in the interrupt.  It ends with the step that reaches the target
+ * (the last tick of deceleration runs at no less than the speed of the first
+ * step, `vmin`, so it never stalls a step short), which is therefore exact.
+ */
+#include "stepper.h"
+
+#include "hal.h"
+#include "parser.h"
+#include "pins.h"
+
+#define N AIO_STEPPER_COUNT
+#define NONE 0xFFu
+
+enum { IDLE = 0, MOVE, RUN, STOPPING };
+
+typedef struct {
+    uint8_t step, dir_pin;  /* NONE: slot unused */
+    uint8_t limit[2];       /* negative, positive side; NONE: no switch */
+    uint8_t active[2];      /* level of a closed switch */
+    uint8_t mode;
+    int8_t dir;             /* +1 / -1: the direction pin's meaning now */
+    int8_t run_dir;         /* RUN: the wanted direction */
+    uint8_t pending;        /* a step computed, pulsed next tick */
+    int32_t pos, target;
+    uint32_t v, vmax, vrun, vmin, acc, phase, ramp;
+    uint8_t done;           /* StepperDone to send: reason + 1 */
+    int32_t done_pos;
+    uint32_t done_us;
+} stepper_t;
+
+static stepper_t st[N];
+volatile uint8_t stepper_active;
+static volatile uint8_t in_tick;
+
+uint32_t stepper_speed_q(uint16_t s)
+{
+    /* s * 2^32 / 10,000 = s * 429,496.7296 */
+    if (s >= AIO_STEPPER_MAX_SPEED)
+        return 0xFFFFFFFFu;
+    return (uint32_t)s * 429496u + (uint32_t)s * 7296u / 10000u;
+}
+
+uint32_t stepper_accel_q(uint32_t a)
+{
+    /* a * 2^32 / 10^8 = a * 42.94967296 = a * 43 - a * 3298.2 / 65536 */
+    return a * 43u - (a * 3298u >> 16);
+}
+
+int16_t stepper_speed_of(uint32_t q, int8_t dir)
+{
+    int16_t s = (int16_t)(((q >> 16) * 10000u + 32768u) >> 16);
+    return dir < 0 ? (int16_t)-s : s;
+}
+
+/* Speed at the first step from rest, sqrt(2 a) steps a tick: the floor of
+ * the last decelerating ticks of a move. */
+static uint32_t first_speed(uint32_t acc)
+{
+    uint32_t x = 2u * acc, r = 0, bit = 1ul << 30;
+    while (bit > x)
+        bit >>= 2;
+    while (bit) {
+        if (x >= r + bit) {
+            x -= r + bit;
+            r = (r >> 1) + bit;
+        } else {
+            r >>= 1;
+        }
+        bit >>= 2;
+    }
+    return r << 16;
+}
+
+static void update_active(void)
+{
+    uint8_t i, a = 0;
+    for (i = 0; i < N; i++)
+        a |= (uint8_t)(st[i].mode | st[i].pending);
+    stepper_active = a;
+}
+
+static void done(stepper_t *s, uint8_t reason)
+{
+    s->done = (uint8_t)(reason + 1u);
+    s->done_pos = s->pos;
+    s->done_us = hal_micros();
+}
+
+/* Comes to rest now (interrupts off or in the tick): the event is queued. */
+static void halt(stepper_t *s, uint8_t reason)
+{
+    if (s->pending) {
+        s->pending = 0;
+        s->pos -= s->dir; /* the step computed last tick is never pulsed */
+    }
+    s->mode = IDLE;
+    s->v = s->phase = s->ramp = 0;
+    s->target = s->pos;
+    done(s, reason);
+}
+
+void stepper_init(void)
+{
+    uint8_t i;
+    for (i = 0; i < N; i++) {
+        stepper_t *s = &st[i];
+        uint8_t *b = (uint8_t *)s, n = sizeof *s;
+        while (n--)
+            *b++ = 0;
+        s->step = s->dir_pin = s->limit[0] = s->limit[1] = NONE;
+        s->dir = 1;
+        s->vmax = stepper_speed_q(1000u);
+        s->acc = stepper_accel_q(1000u);
+        s->vmin = first_speed(s->acc);
+    }
+    stepper_active = 0;
+}
+
+int32_t stepper_position(uint8_t i)
+{
+    uint8_t sreg = hal_irq_save();
+    int32_t p = st[i].pos;
+    hal_irq_restore(sreg);
+    return p;
+}
+
+/* One tick of one stepper's profile (mode not IDLE); returns whether it
+ * steps, with the position already counted. */
+static uint8_t advance(stepper_t *s)
+{
+    uint32_t v = s->v, top = s->mode == RUN ? s->vrun : s->vmax, old;
+    int8_t want = s->dir, change = 0;
+    uint8_t slow;
+    int32_t d;
+
+    if (s->mode == MOVE) {
+        d = s->target - s->pos;
+        if (!d && !v) {
+            halt(s, AIO_STEPPER_DONE_TARGET);
+            return 0;
+        }
+        want = d < 0 ? -1 : 1;
+        slow = want != s->dir || (uint32_t)(d < 0 ? -d : d) <= s->ramp;
+    } else if (s->mode == RUN) {
+        want = s->run_dir;
+        slow = want != s->dir || !top;
+    } else {
+        slow = 1; /* STOPPING */
+    }
+    if (!v) {
+        if (s->mode == STOPPING || (s->mode == RUN && !top)) {
+            halt(s, AIO_STEPPER_DONE_STOPPED);
+            return 0;
+        }
+        if (want != s->dir) {
+            s->dir = want; /* a tick before the first step that way */
+            hal_pin_write(s->dir_pin, want > 0);
+            s->ramp = 0;
+            return 0;
+        }
+        slow = 0;
+    }
+    /* Speeding up adds the acceleration before the tick's distance, slowing
+     * down after it, so the ramp down mirrors the ramp up step for step. */
+    old = s->phase;
+    if (slow) {
+        s->phase = old + v;
+        v = v > s->acc ? v - s->acc : 0;
+        change = -1;
+        if (s->mode == MOVE && want == s->dir && v < s->vmin)
+            v = s->vmin < top ? s->vmin : top; /* creep the last steps in */
+    } else {
+        if (v < top) {
+            v = top - v > s->acc ? v + s->acc : top;
+            change = 1;
+        } else if (v > top) {
+            v = v - top > s->acc ? v - s->acc : top; /* a lower top speed */
+            change = -1;
+        }
+        s->phase = old + v;
+    }
+    s->v = v;
+    if (s->phase >= old)
+        return 0; /* no carry: no step this tick */
+    if (change > 0)
+        s->ramp++;
+    else if (change < 0 && s->ramp)
+        s->ramp--;
+    {
+        uint8_t sreg = hal_irq_save(); /* the stream reads it from an interrupt */
+        s->pos += s->dir;
+        hal_irq_restore(sreg);
+    }
+    if (s->mode == MOVE && s->pos == s->target) {
+        s->mode = IDLE; /* this last step goes out next tick, then the event */
+        s->v = s->phase = s->ramp = 0;
+    }
+    return 1;
+}
+
+/* Called from the tick interrupt's assembly (clock.c) only. */
+void stepper_tick(void) __attribute__((used, externally_visible, noinline));
+void stepper_tick(void)
+{
+    uint16_t levels, mask = 0;
+    uint8_t i, side;
+    stepper_t *s;
+
+    if (in_tick)
+        return; /* the previous tick is still at work (not seen: < 30 us) */
+    in_tick = 1;
+    levels = hal_pin_levels();
+    for (i = 0, s = st; i < N; i++, s++) {
+        if (s->mode == IDLE && !s->pending)
+            continue;
+        side = s->dir > 0;
+        if (s->limit[side] != NONE && (uint8_t)!!(levels & pins_bit_of(s->limit[side])) == s->active[side] &&
+            (s->pending || s->v)) {
+            halt(s, (uint8_t)(AIO_STEPPER_DONE_LIMIT_MIN + side));
+            continue;
+        }
+        if (s->pending) {
+            mask |= pins_bit_of(s->step);
+            if (s->mode == IDLE)
+                done(s, AIO_STEPPER_DONE_TARGET); /* the move's last step */
+        }
+    }
+    hal_step_pins(mask, 1);
+    for (i = 0, s = st; i < N; i++, s++) {
+        s->pending = 0;
+        if (s->mode != IDLE)
+            s->pending = advance(s);
+    }
+    hal_step_pins(mask, 0);
+    update_active();
+    in_tick = 0;
+}
+
+void stepper_stop_all(void)
+{
+    uint8_t i, sreg = hal_irq_save();
+    for (i = 0; i < N; i++)
+        if (st[i].mode != IDLE || st[i].pending)
+            halt(&st[i], AIO_STEPPER_DONE_FAILSAFE);
+    update_active();
+    hal_irq_restore(sreg);
+}
+
+void stepper_poll(void)
+{
+    uint8_t i, sreg, reason, frame[2u + 10u + AIO_CHECK_MAX], *p;
+    for (i = 0; i < N; i++) {
+        stepper_t *s = &st[i];
+        if (!s->done)
+            continue;
+        p = frame;
+        *p++ = AIO_CT_EVENT;
+        *p++ = AIO_DT_EVENT_STEPPER_DONE;
+        *p++ = i;
+        sreg = hal_irq_save();
+        reason = s->done;
+        s->done = 0;
+        *p++ = (uint8_t)(reason - 1u);
+        p = aio_put32(p, (uint32_t)s->done_pos);
+        p = aio_put32(p, s->done_us);
+        hal_irq_restore(sreg);
+        if (!hal_tx_send(frame, parser_seal(frame, (uint8_t)(p - frame)))) {
+            sreg = hal_irq_save();
+            if (!s->done)
+                s->done = reason; /* no room: the next loop step tries again */
+            hal_irq_restore(sreg);
+            return;
+        }
+    }
+}
+
+/* ---------------------------------------------------------------- requests */
+
+static int32_t be32s(const uint8_t *p) { return (int32_t)((uint32_t)aio_be16(p) << 16 | aio_be16(p + 2)); }
+
+static void free_pin(uint8_t pin)
+{
+    pins_role[pin] = ROLE_FREE;
+    hal_pin_mode(pin, HAL_IN);
+}
+
+/* The slot whose step/dir pin (uses 1) or limit switch (uses 2) `pin` is. */
+static uint8_t owner(uint8_t pin, uint8_t *uses)
+{
+    uint8_t i;
+    for (i = 0; i < N; i++) {
+        *uses = st[i].step == pin || st[i].dir_pin == pin ? 1u : st[i].limit[0] == pin || st[i].limit[1] == pin ? 2u : 0u;
+        if (*uses)
+            return i;
+    }
+    return NONE;
+}
+
+/* May slot i take `pin` for a use (1 step/dir, 2 limit)? It may reuse its own. */
+static uint8_t claim_check(uint8_t i, uint8_t pin, uint16_t capable, uint8_t use)
+{
+    uint8_t uses, err = pins_claim_check(pin, capable, ROLE_STEPPER, ROLE_STEPPER);
+    if (err)
+        return err;
+    if (pins_role[pin] == ROLE_STEPPER && (owner(pin, &uses) != i || uses != use))
+        return AIO_ERR_PIN_BUSY;
+    return 0;
+}
+
+static void drop_limit(stepper_t *s, uint8_t side)
+{
+    uint8_t pin = s->limit[side];
+    s->limit[side] = NONE;
+    if (pin != NONE && s->limit[!side] != pin)
+        free_pin(pin);
+}
+
+/* Unconfigures slot s (interrupts off), keeping the pins in `keep` (bit n = Dn).
+ * The stepper stops at once with no StepperDone: the host ended it. */
+static void unconfigure(stepper_t *s, uint16_t keep)
+{
+    if (s->mode != IDLE || s->pending)
+        halt(s, AIO_STEPPER_DONE_STOPPED);
+    s->done = 0;
+    drop_limit(s, 0);
+    drop_limit(s, 1);
+    if (s->step != NONE && !(keep & pins_bit_of(s->step)))
+        free_pin(s->step);
+    if (s->dir_pin != NONE && !(keep & pins_bit_of(s->dir_pin)))
+        free_pin(s->dir_pin);
+    s->step = s->dir_pin = NONE;
+}
+
+void stepper_release(uint8_t pin)
+{
+    uint8_t uses, i = owner(pin, &uses), sreg = hal_irq_save();
+    if (i != NONE) {
+        if (uses == 2) {
+            if (st[i].limit[0] == pin)
+                st[i].limit[0] = NONE;
+            if (st[i].limit[1] == pin)
+                st[i].limit[1] = NONE;
+        } else {
+            unconfigure(&st[i], pins_bit_of(pin)); /* the caller frees pin itself */
+        }
+        update_active();
+    }
+    hal_irq_restore(sreg);
+}
+
+static uint8_t configure(uint8_t i, const uint8_t *d)
+{
+    stepper_t *s = &st[i];
+    uint8_t a = d[0], b = d[1], err, sreg;
+    if (a == b)
+        return AIO_ERR_VALUE_OUT_OF_RANGE;
+    err = claim_check(i, a, AIO_PINS_DIGITAL_OUTPUT, 1);
+    if (!err)
+        err = claim_check(i, b, AIO_PINS_DIGITAL_OUTPUT, 1);
+    if (err)
+        return err;
+    sreg = hal_irq_save();
+    unconfigure(s, (uint16_t)(pins_bit_of(a) | pins_bit_of(b)));
+    s->pos = s->target = 0;
+    s->dir = -1; /* the direction pin starts low */
+    s->step = a;
+    s->dir_pin = b;
+    pins_role[a] = pins_role[b] = ROLE_STEPPER;
+    hal_pin_mode(a, HAL_OUT_LOW);
+    hal_pin_mode(b, HAL_OUT_LOW);
+    hal_irq_restore(sreg);
+    return 0;
+}
+
+static uint8_t set_limit(uint8_t i, const uint8_t *d)
+{
+    stepper_t *s = &st[i];
+    uint8_t side = d[0], pin = d[1], act = d[2], err, sreg;
+    if (side > 1u || act > 1u)
+        return AIO_ERR_VALUE_OUT_OF_RANGE;
+    if (pin) {
+        err = claim_check(i, pin, AIO_PINS_DIGITAL_INPUT, 2);
+        if (err)
+            return err;
+    }
+    sreg = hal_irq_save();
+    if (s->limit[side] != pin)
+        drop_limit(s, side);
+    if (pin) {
+        s->limit[side] = pin;
+        s->active[side] = act;
+        pins_role[pin] = ROLE_STEPPER;
+        hal_pin_mode(pin, act ? HAL_IN : HAL_IN_PULLUP);
+    }
+    hal_irq_restore(sreg);
+    return 0;
+}
+
+uint8_t stepper_handle(const aio_request_t *rq, aio_reply_t *rp)
+{
+    uint8_t i = rq->data[0], sreg, *p, err = 0;
+    const uint8_t *d = rq->data + 1;
+    stepper_t *s;
+    uint32_t x;
+    int32_t t;
+    int16_t sp;
+
+    if (rq->dt < AIO_DT_STEPPER_CONFIG || rq->dt > AIO_DT_STEPPER_LIMIT)
+        return AIO_ERR_UNKNOWN_DESCRIPTOR;
+    if (i >= N)
+        return AIO_ERR_VALUE_OUT_OF_RANGE;
+    s = &st[i];
+    if (rq->dt == AIO_DT_STEPPER_CONFIG) {
+        err = configure(i, d);
+        return err ? err : aio_echo(rq, rp);
+    }
+    if (s->step == NONE)
+        return AIO_ERR_PIN_NOT_CONFIGURED;
+    sreg = hal_irq_save();
+    switch (rq->dt) {
+    case AIO_DT_STEPPER_PROFILE:
+        sp = (int16_t)aio_be16(d);
+        x = (uint32_t)be32s(d + 2);
+        if (sp < 1 || sp > (int16_t)AIO_STEPPER_MAX_SPEED || !x || x > AIO_STEPPER_MAX_ACCEL) {
+            err = AIO_ERR_VALUE_OUT_OF_RANGE;
+            break;
+        }
+        s->vmax = stepper_speed_q((uint16_t)sp);
+        s->acc = stepper_accel_q(x);
+        s->vmin = first_speed(s->acc);
+        break;
+    case AIO_DT_STEPPER_MOVE:
+        if (d[0] > 1u) {
+            err = AIO_ERR_VALUE_OUT_OF_RANGE;
+            break;
+        }
+        t = d[0] ? (s->mode == MOVE ? s->target : s->pos) : 0;
+        t = (int32_t)((uint32_t)t + (uint32_t)be32s(d + 1));
+        if (s->mode == IDLE)
+            s->phase = s->ramp = 0;
+        s->target = t;
+        s->mode = MOVE;
+        rp->data[0] = i;
+        rp->data[1] = d[0];
+        aio_put32(rp->data + 2, (uint32_t)t);
+        rp->len = 6;
+        break;
+    case AIO_DT_STEPPER_RUN:
+        sp = (int16_t)aio_be16(d);
+        if (sp > (int16_t)AIO_STEPPER_MAX_SPEED || sp < -(int16_t)AIO_STEPPER_MAX_SPEED) {
+            err = AIO_ERR_VALUE_OUT_OF_RANGE;
+            break;
+        }
+        if (s->mode == IDLE)
+            s->phase = s->ramp = 0;
+        if (sp)
+            s->run_dir = sp < 0 ? -1 : 1;
+        else
+            s->run_dir = s->dir;
+        s->vrun = stepper_speed_q((uint16_t)(sp < 0 ? -sp : sp));
+        s->mode = RUN;
+        break;
+    case AIO_DT_STEPPER_STOP:
+        if (d[0] > 1u) {
+            err = AIO_ERR_VALUE_OUT_OF_RANGE;
+            break;
+        }
+        if (d[0] && (s->mode != IDLE || s->pending))
+            halt(s, AIO_STEPPER_DONE_STOPPED);
+        else if (s->mode != IDLE)
+            s->mode = STOPPING;
+        rp->data[0] = i;
+        rp->data[1] = d[0];
+        aio_put32(rp->data + 2, (uint32_t)s->pos);
+        rp->len = 6;
+        break;
+    case AIO_DT_STEPPER_READ:
+        p = rp->data;
+        *p++ = i;
+        p = aio_put32(p, (uint32_t)s->pos);
+        p = aio_put32(p, (uint32_t)(s->mode == MOVE ? s->target : s->pos));
+        p = aio_put16(p, (uint16_t)stepper_speed_of(s->v, s->dir));
+        *p++ = (uint8_t)(s->mode != IDLE || s->pending);
+        x = hal_pin_levels();
+        *p++ = (uint8_t)((s->limit[0] != NONE && !!(x & pins_bit_of(s->limit[0])) == s->active[0]) |
+                         (s->limit[1] != NONE && !!(x & pins_bit_of(s->limit[1])) == s->active[1]) << 1);
+        rp->len = (uint8_t)(p - rp->data);
+        break;
+    case AIO_DT_STEPPER_SET_POSITION:
+        if (s->mode != IDLE || s->pending) {
+            err = AIO_ERR_STEPPER_MOVING;
+            break;
+        }
+        s->pos = s->target = be32s(d);
+        break;
+    default: /* AIO_DT_STEPPER_LIMIT */
+        hal_irq_restore(sreg);
+        err = set_limit(i, d);
+        return err ? err : aio_echo(rq, rp);
+    }
+    update_active();
+    hal_irq_restore(sreg);
+    if (err)
+        return err;
+    return rp->len ? 0 : aio_echo(rq, rp);
+}
