@@ -82,6 +82,7 @@ if TYPE_CHECKING:
     from .motors import DutyPwm, Motor
     from .protocol import I2CSpeed
     from .sim import VirtualUno
+    from .steppers import LimitSwitch, Stepper, StepperState
     from .streaming import Sample, SampleStream
     from .testing import FakeBoard
 
@@ -105,6 +106,9 @@ _LAZY = {
     "BoardManager": ".manager",
     "DutyPwm": ".motors",
     "Motor": ".motors",
+    "Stepper": ".steppers",
+    "StepperState": ".steppers",
+    "LimitSwitch": ".steppers",
     "ManagerEvent": ".manager",
     "ProbeResult": ".manager",
     "I2CSpeed": ".protocol",
@@ -169,6 +173,7 @@ __all__ = [
     "I2CBus",
     "I2CError",
     "I2CSpeed",
+    "LimitSwitch",
     "LinkCapacityError",
     "LinkError",
     "LinkResyncError",
@@ -187,6 +192,8 @@ __all__ = [
     "Servo",
     "SoftPwm",
     "StaleHandleError",
+    "Stepper",
+    "StepperState",
     "TimerBusyError",
     "UsageError",
     "ValueRangeError",

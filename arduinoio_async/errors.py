@@ -185,6 +185,7 @@ _REFUSAL_REASONS = {
     "LINK_CAPACITY": "too much for the link",
     "FAILSAFE_TRIPPED": "the failsafe has tripped",
     "EEPROM_FAILED": "its EEPROM did not keep the value",
+    "STEPPER_MOVING": "the stepper is moving",
 }
 
 #: What a refusal means and what to do about it, by error code name.
@@ -200,6 +201,8 @@ _REFUSAL_HINTS = {
     "I2C_NACK_ADDRESS": "is a device at that address, and powered?",
     "I2C_TIMEOUT": "SDA/SCL held low? pull-ups?",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
+    "STEPPER_MOVING": "stop it and wait until it rests (await stepper.stop(); "
+    "await stepper.wait())",
 }
 
 

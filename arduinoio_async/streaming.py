@@ -59,6 +59,9 @@ class Sample:
     fell: int | None = None
     #: Counts of D2 and D3, if the stream includes counters.
     counters: tuple[int, int] | None = None
+    #: Positions of the stepper slots 0-3 (0 for a slot without a stepper), if the stream
+    #: includes steppers.
+    steppers: tuple[int, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -88,13 +91,29 @@ class Sample:
         counters = None
         if frame.flags & p.StreamFlags.COUNTERS:
             counters = (take(4), take(4))
+        steppers = None
+        if frame.flags & p.StreamFlags.STEPPERS:
+            steppers = tuple((take(4) ^ 0x80000000) - 0x80000000 for _ in range(p.STEPPER_COUNT))
         return cls(
-            host_time, frame.timestamp_us, frame.sequence, analog, levels, rose, fell, counters
+            host_time,
+            frame.timestamp_us,
+            frame.sequence,
+            analog,
+            levels,
+            rose,
+            fell,
+            counters,
+            steppers,
         )
 
 
 def stream_request(
-    analog: Sequence[AnalogPin], levels: bool, edges: bool, counters: bool, period_ms: float
+    analog: Sequence[AnalogPin],
+    levels: bool,
+    edges: bool,
+    counters: bool,
+    period_ms: float,
+    steppers: bool = False,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request."""
     mask = 0
@@ -108,6 +127,8 @@ def stream_request(
         flags |= p.StreamFlags.EDGES
     if counters:
         flags |= p.StreamFlags.COUNTERS
+    if steppers:
+        flags |= p.StreamFlags.STEPPERS
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)

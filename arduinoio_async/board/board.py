@@ -57,6 +57,7 @@ from ..transport import (
     tick_holding_bridge,
 )
 from ._motor_methods import MotorMethods
+from ._stepper_methods import StepperMethods
 from .boot import (
     READY_TIMEOUT,
     check_same_board,
@@ -77,7 +78,7 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(MotorMethods):
+class Board(MotorMethods, StepperMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -478,15 +479,17 @@ class Board(MotorMethods):
         counters: bool = False,
         period_ms: float = 10.0,
         buffer: int = DEFAULT_BUFFER,
+        steppers: bool = False,
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
         ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
         async for s in samples: ...``.  Commands keep working meanwhile.  A period the
-        link cannot carry is refused by the board with :class:`LinkCapacityError`; see
+        link cannot carry is refused by the board with :class:`LinkCapacityError`;
+        ``steppers=True`` carries every stepper slot's position (``Sample.steppers``); see
         :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
         """
-        request = stream_request(analog, levels, edges, counters, period_ms)
+        request = stream_request(analog, levels, edges, counters, period_ms, steppers)
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
         async with run_stream(self, request, buffer) as samples:
             yield samples

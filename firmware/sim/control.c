@@ -27,6 +27,7 @@
 #include "json.h"
 #include "pacing.h"
 #include "pty.h"
+#include "steps.h"
 #include "wire.h"
 
 char ctl_path[600];
@@ -321,6 +322,9 @@ static const struct command commands[] = {
 	{"eeprom", 1, cmd_eeprom},
 	{"ping", 1, cmd_ping},
 	{"peek", 1, cmd_peek},
+	{"step_log", 0, cmd_step_log},
+	{"steps", 1, cmd_steps},
+	{"limit_at", 0, cmd_limit_at},
 };
 
 static const struct command *find_command(const char *name)
