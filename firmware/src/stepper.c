@@ -43,6 +43,8 @@ typedef struct {
     int8_t dir;             /* +1 / -1: the direction pin's meaning now */
     int8_t run_dir;         /* RUN: the wanted direction */
     uint8_t pending;        /* a step computed, pulsed next tick */
+    uint8_t cruise;         /* at top speed: 1 a move until brake_at, 2 a run */
+    int32_t brake_at;       /* a cruising move decelerates from here */
     int32_t pos, target;
     uint32_t v, vmax, vrun, vmin, acc, phase, ramp;
     uint8_t done;           /* StepperDone to send: reason + 1 */
@@ -52,7 +54,7 @@ typedef struct {
 
 static stepper_t st[N];
 volatile uint8_t stepper_active;
-static volatile uint8_t in_tick;
+static volatile uint8_t in_tick, owed;
 
 uint32_t stepper_speed_q(uint16_t s)
 {
@@ -116,6 +118,7 @@ static void halt(stepper_t *s, uint8_t reason)
         s->pos -= s->dir; /* the step computed last tick is never pulsed */
     }
     s->mode = IDLE;
+    s->cruise = 0;
     s->v = s->phase = s->ramp = 0;
     s->target = s->pos;
     done(s, reason);
@@ -146,15 +149,35 @@ int32_t stepper_position(uint8_t i)
     return p;
 }
 
-/* One tick of one stepper's profile (mode not IDLE); returns whether it
- * steps, with the position already counted. */
-static uint8_t advance(stepper_t *s)
+/* The common tick, kept short (its own function: few registers to save):
+ * at top speed the phase runs and the speed holds. */
+static __attribute__((noinline)) uint8_t cruise(stepper_t *s)
 {
-    uint32_t v = s->v, top = s->mode == RUN ? s->vrun : s->vmax, old;
-    int8_t want = s->dir, change = 0;
-    uint8_t slow;
+    uint32_t old = s->phase, now = old + s->v;
+    uint8_t sreg;
+    s->phase = now;
+    if (now >= old)
+        return 0;
+    sreg = hal_irq_save(); /* the stream reads it from an interrupt */
+    s->pos += s->dir;
+    hal_irq_restore(sreg);
+    if (s->cruise == 1 && s->pos == s->brake_at)
+        s->cruise = 0; /* the steps left are the distance to stop */
+    return 1;
+}
+
+/* One tick of one stepper's profile (mode not IDLE, not cruising); returns
+ * whether it steps, with the position already counted. */
+static __attribute__((noinline)) uint8_t advance(stepper_t *s)
+{
+    uint32_t v, top, old;
+    int8_t want, change = 0;
+    uint8_t slow, sreg;
     int32_t d;
 
+    v = s->v;
+    top = s->mode == RUN ? s->vrun : s->vmax;
+    want = s->dir;
     if (s->mode == MOVE) {
         d = s->target - s->pos;
         if (!d && !v) {
@@ -202,35 +225,41 @@ static uint8_t advance(stepper_t *s)
         s->phase = old + v;
     }
     s->v = v;
-    if (s->phase >= old)
-        return 0; /* no carry: no step this tick */
-    if (change > 0)
-        s->ramp++;
-    else if (change < 0 && s->ramp)
-        s->ramp--;
-    {
-        uint8_t sreg = hal_irq_save(); /* the stream reads it from an interrupt */
+    slow = s->phase < old; /* carry: a step this tick */
+    if (slow) {
+        if (change > 0)
+            s->ramp++;
+        else if (change < 0 && s->ramp)
+            s->ramp--;
+        sreg = hal_irq_save();
         s->pos += s->dir;
         hal_irq_restore(sreg);
+        if (s->mode == MOVE && s->pos == s->target) {
+            s->mode = IDLE; /* this last step goes out next tick, then the event */
+            s->v = s->phase = s->ramp = 0;
+            return 1;
+        }
     }
-    if (s->mode == MOVE && s->pos == s->target) {
-        s->mode = IDLE; /* this last step goes out next tick, then the event */
-        s->v = s->phase = s->ramp = 0;
+    if (!change && v == top && v) {
+        /* at top speed: cruise until the steps left are the distance to stop */
+        d = s->target - s->pos;
+        if (s->mode == RUN) {
+            s->cruise = 2;
+        } else if (s->mode == MOVE && (s->dir > 0 ? d : -d) > (int32_t)s->ramp) {
+            s->cruise = 1;
+            s->brake_at = s->target - (s->dir > 0 ? (int32_t)s->ramp : -(int32_t)s->ramp);
+        }
     }
-    return 1;
+    return slow;
 }
 
-/* Called from the tick interrupt's assembly (clock.c) only. */
-void stepper_tick(void) __attribute__((used, externally_visible, noinline));
-void stepper_tick(void)
+/* One tick of every stepper: limits, pulses, profiles. */
+static void one_tick(void)
 {
     uint16_t levels, mask = 0;
-    uint8_t i, side;
+    uint8_t i, side, active = 0;
     stepper_t *s;
 
-    if (in_tick)
-        return; /* the previous tick is still at work (not seen: < 30 us) */
-    in_tick = 1;
     levels = hal_pin_levels();
     for (i = 0, s = st; i < N; i++, s++) {
         if (s->mode == IDLE && !s->pending)
@@ -251,11 +280,49 @@ void stepper_tick(void)
     for (i = 0, s = st; i < N; i++, s++) {
         s->pending = 0;
         if (s->mode != IDLE)
-            s->pending = advance(s);
+            s->pending = s->cruise ? cruise(s) : advance(s);
+        active |= (uint8_t)(s->mode | s->pending);
     }
     hal_step_pins(mask, 0);
-    update_active();
-    in_tick = 0;
+    stepper_active = active;
+}
+
+/* At most this many ticks are made up: past it the CPU is overloaded (the
+ * steppers' ticks plus the interrupts take more than the time there is), and
+ * ticks are dropped instead, so the main loop still runs: the profiles slow
+ * down, they never skip a step. */
+#define OWED_MAX 4u
+
+/* Called from the tick interrupt's assembly (clock.c) only, with interrupts
+ * enabled.  Four cruising steppers take ~39 us of a tick (simulated, 16
+ * MHz: ~14 us fixed, ~6.5 us each); the interrupts of a busy
+ * link (RX, TX, stream) can stretch that past the next tick, whose call then
+ * finds this one at work: it leaves the tick owed, and this one runs it
+ * before it returns, so no tick of any profile is lost (a step comes late by
+ * that stretch, never missing) and speeds and positions stay exact. */
+void stepper_tick(void) __attribute__((used, externally_visible, noinline));
+void stepper_tick(void)
+{
+    uint8_t sreg;
+    if (in_tick) {
+        if (owed < OWED_MAX)
+            owed++;
+        return;
+    }
+    in_tick = 1;
+    hal_pin_write(12, 1);
+    for (;;) {
+        one_tick();
+        sreg = hal_irq_save();
+        if (!owed) {
+            hal_pin_write(12, 0);
+            in_tick = 0;
+            hal_irq_restore(sreg);
+            return;
+        }
+        owed--;
+        hal_irq_restore(sreg);
+    }
 }
 
 void stepper_stop_all(void)
@@ -439,6 +506,7 @@ uint8_t stepper_handle(const aio_request_t *rq, aio_reply_t *rp)
     if (s->step == NONE)
         return AIO_ERR_PIN_NOT_CONFIGURED;
     sreg = hal_irq_save();
+    s->cruise = 0; /* the next tick looks at the request's effect */
     switch (rq->dt) {
     case AIO_DT_STEPPER_PROFILE:
         sp = (int16_t)aio_be16(d);
