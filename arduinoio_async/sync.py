@@ -48,6 +48,7 @@ from typing import Any, TypeVar
 from anyio.from_thread import BlockingPortal, start_blocking_portal
 
 from . import protocol as p
+from ._sync_stepper import BlockingStepper
 from .board import Board
 from .errors import BoardDisconnectedError
 from .handles import (
@@ -367,6 +368,17 @@ class BlockingBoard(_Blocking):
             lambda: self.handle.motor(pwm, direction, direction2, frequency_hz=frequency_hz)
         )
         return BlockingMotor(self._runner, handle)
+
+    def stepper(
+        self, *, step: DigitalPin, dir: DigitalPin, max_speed: int = 1000, acceleration: int = 1000
+    ) -> BlockingStepper:
+        """A step/dir stepper (see ``Board.stepper``)."""
+        handle = self._runner.call(
+            lambda: self.handle.stepper(
+                step=step, dir=dir, max_speed=max_speed, acceleration=acceleration
+            )
+        )
+        return BlockingStepper(self._runner, handle)
 
     def motor_2pwm(
         self, in1: DutyPwmPin, in2: DutyPwmPin, *, frequency_hz: int | None = None

@@ -8,17 +8,24 @@ in simulated time, the board's own clock.
 
 from __future__ import annotations
 
+import io
 import itertools
 import time
 
 import anyio
 import pytest
+from anyio.from_thread import start_blocking_portal
+from rich.console import Console
 
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import PinRoleError
+from arduinoio_async.sim import VirtualUno
+from arduinoio_async.sim.harness import SimulatorNotAvailable
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+from arduinoio_async.sync import open_board
 
 from .pulses import control_now
 from .steps import fit_quadratic, quiet_steps, step_log, step_times
@@ -189,3 +196,51 @@ async def test_pin_roles_refuse_a_stepper_pin_with_words_naming_the_stepper(
         out = await board.digital_output(D3)  # free again, on the board too
         await out.write(True)
         assert (await uno.pin("D3")).level == 1
+
+
+# ---- the command line and the blocking API ---------------------------------------------------
+
+
+async def run_cli(*argv: str) -> tuple[int, str]:
+    """Run ``arduinoio`` in a worker thread (it starts its own event loop)."""
+    buffer = io.StringIO()
+    console = Console(file=buffer, width=200)
+    code = await anyio.to_thread.run_sync(lambda: cli_main(list(argv), console=console))
+    return code, buffer.getvalue()
+
+
+async def test_cli_moves_a_stepper_and_refuses_homing_without_a_switch(
+    virtual_uno_factory: VirtualUnoFactory, capsys: pytest.CaptureFixture[str]
+) -> None:
+    uno = await virtual_uno_factory(baud=BAUD)
+    await step_log(uno, "D2")
+    port = ("--port", uno.port)
+    code, out = await run_cli("stepper", *port, "D2", "D3", "--by", "-700", "--speed", "3000")
+    assert code == 0 and "position -700 (target)" in out, out
+    times, _ = await step_times(uno, "D2")
+    assert len(times) == 700
+    assert (await uno.pin("D3")).level == 0
+    code, _ = await run_cli("stepper", *port, "D2", "D3", "--home")
+    assert code == 1 and "--home needs the switch" in capsys.readouterr().err
+
+
+def test_a_script_moves_a_stepper_with_the_blocking_api() -> None:
+    with start_blocking_portal() as portal:
+        try:
+            cm = portal.wrap_async_context_manager(VirtualUno(board_id=0x0035, baud=BAUD))
+            uno = cm.__enter__()
+        except SimulatorNotAvailable as exc:
+            pytest.skip(f"virtual Uno not available: {exc}")
+        try:
+            portal.call(step_log, uno, "D4")
+            with open_board(uno.port) as board:
+                stepper = board.stepper(step=D4, dir=D5, max_speed=4000, acceleration=40_000)
+                assert stepper.move_to(1500) == 1500
+                assert stepper.move_by(-500) == 1000
+                stepper.set_position(0)
+                assert stepper.read().position == 0
+                stepper.release()
+            times, _ = portal.call(step_times, uno, "D4")
+        finally:
+            cm.__exit__(None, None, None)
+    assert len(times) == 2000
