@@ -129,6 +129,7 @@ class Stepper:
 
     @property
     def released(self) -> bool:
+        """Whether the stepper's pins were released (it can no longer move)."""
         return self.step_pin.released or self.dir_pin.released
 
     def _check(self) -> None:

@@ -160,7 +160,7 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
     stepper.StepperSetPosition: lambda rq: f"call stepper {rq.index}'s position {rq.position}",
     stepper.StepperLimit: lambda rq: (
         f"bind a {'positive' if rq.positive else 'negative'}-side limit switch on "
-        f"{_pin(rq.pin)} (closed = {'high' if rq.active_high else 'low'}) to stepper {rq.index}"
+        f"{_pin(rq.pin)} (closed when {'high' if rq.active_high else 'low'}) to stepper {rq.index}"
         if rq.pin
         else f"remove stepper {rq.index}'s {'positive' if rq.positive else 'negative'}-side "
         "limit switch"
