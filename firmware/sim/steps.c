@@ -8,11 +8,13 @@
  *   step_log {pin, enable}  start (clear) or stop logging pin's rising edges
  *   steps {pin, from}       count (logged rises), times_us[from..] (at most
  *                           20,000 a reply; ask again from where it ended),
- *                           limit_us: when a limit_at on this pin fired, or null
+ *                           limit_us: when the first limit_at on this pin
+ *                           fired, or null; fired_us: every one that fired
  *   limit_at {pin, after, drive, level}
  *                           once pin's log holds `after` rises, drive pin
  *                           `drive` to `level` (as the drive command), at the
- *                           instant of that rise
+ *                           instant of that rise; up to 4 per log (a switch
+ *                           that closes, then opens again as the axis leaves)
  */
 #include "harness.h"
 
@@ -24,16 +26,18 @@
 #include "steps.h"
 
 #define REPLY_MAX 20000u
+#define NTRIG 4
 
 struct steplog {
 	int on;
 	uint64_t *t;
 	size_t n, cap;
-	/* limit trigger */
-	int armed, drive_pin, drive_to;
-	unsigned long after;
-	int fired;
-	uint64_t fired_t;
+	struct trigger {
+		int armed, drive_pin, drive_to, fired;
+		unsigned long after;
+		uint64_t fired_t;
+	} trig[NTRIG];
+	int ntrig;
 };
 static struct steplog logs[NPINS];
 
@@ -65,12 +69,15 @@ void steps_rise(int p, uint64_t t)
 		l->cap = cap;
 	}
 	l->t[l->n++] = t;
-	if (l->armed && l->n >= l->after) {
-		l->armed = 0;
-		l->fired = 1;
-		l->fired_t = t;
-		drive_level[l->drive_pin] = l->drive_to;
-		apply_circuit();
+	for (int k = 0; k < l->ntrig; k++) {
+		struct trigger *g = &l->trig[k];
+		if (g->armed && l->n >= g->after) {
+			g->armed = 0;
+			g->fired = 1;
+			g->fired_t = t;
+			drive_level[g->drive_pin] = g->drive_to;
+			apply_circuit();
+		}
 	}
 }
 
@@ -104,11 +111,17 @@ void cmd_steps(struct jobj *o, struct sbuf *r)
 	if (end > i + REPLY_MAX)
 		end = i + REPLY_MAX;
 	sb_add(r, "{\"ok\": true, \"count\": %zu, \"from\": %zu, \"limit_us\": ", l->n, i);
-	if (l->fired)
-		sb_add(r, "%.3f", (double)l->fired_t / CYC_PER_US);
+	if (l->ntrig && l->trig[0].fired)
+		sb_add(r, "%.3f", (double)l->trig[0].fired_t / CYC_PER_US);
 	else
 		sb_add(r, "null");
-	sb_add(r, ", \"times_us\": [");
+	sb_add(r, ", \"fired_us\": [");
+	for (int k = 0, first = 1; k < l->ntrig; k++)
+		if (l->trig[k].fired) {
+			sb_add(r, "%s%.3f", first ? "" : ", ", (double)l->trig[k].fired_t / CYC_PER_US);
+			first = 0;
+		}
+	sb_add(r, "], \"times_us\": [");
 	for (size_t k = i; k < end; k++)
 		sb_add(r, "%s%.3f", k > i ? ", " : "", (double)l->t[k] / CYC_PER_US);
 	sb_add(r, "]}");
@@ -128,10 +141,15 @@ void cmd_limit_at(struct jobj *o, struct sbuf *r)
 		sb_add(r, "{\"ok\": false, \"error\": \"limit_at needs a step_log on pin\"}");
 		return;
 	}
-	l->armed = 1;
-	l->fired = 0;
-	l->after = (unsigned long)after;
-	l->drive_pin = d;
-	l->drive_to = level != 0;
+	if (l->ntrig == NTRIG) {
+		sb_add(r, "{\"ok\": false, \"error\": \"limit_at: at most 4 triggers a log\"}");
+		return;
+	}
+	struct trigger *g = &l->trig[l->ntrig++];
+	g->armed = 1;
+	g->fired = 0;
+	g->after = (unsigned long)after;
+	g->drive_pin = d;
+	g->drive_to = level != 0;
 	sb_add(r, "{\"ok\": true}");
 }
