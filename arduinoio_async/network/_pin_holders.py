@@ -24,11 +24,19 @@ from typing import Any
 
 from .. import protocol as p
 
-__all__ = ["PinHolders", "role_of"]
+__all__ = ["PinHolders", "role_of", "roles_of"]
 
 #: Requests that give a pin a role or take it away.
 CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
-    {p.GpioConfig, p.PwmConfig, p.CounterConfig, p.PinRelease, p.Transaction}
+    {
+        p.GpioConfig,
+        p.PwmConfig,
+        p.CounterConfig,
+        p.PinRelease,
+        p.Transaction,
+        p.StepperConfig,
+        p.StepperLimit,
+    }
 )
 
 
@@ -46,6 +54,21 @@ def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
     if isinstance(request, p.PinRelease):
         return request.pin, ""
     return None
+
+
+def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
+    """Every (pin, role) ``request`` sets up or releases: :func:`role_of`'s, and a
+    stepper's pins (its step and direction pins, a limit switch; issue 26)."""
+    if isinstance(request, p.StepperConfig):
+        n = request.index
+        return [
+            (request.step_pin, f"stepper {n}'s step pin"),
+            (request.dir_pin, f"stepper {n}'s direction pin"),
+        ]
+    if isinstance(request, p.StepperLimit):
+        return [(request.pin, f"stepper {request.index}'s limit switch")] if request.pin else []
+    found = role_of(request)
+    return [] if found is None else [found]
 
 
 def _items(request: p.Transaction) -> list[p.Request[Any]]:
@@ -86,8 +109,7 @@ class PinHolders:
     def claim(self, client: str, request: p.Request[Any]) -> str | None:
         """Record what ``request`` of ``client`` claims; return why it is refused instead
         (the role another client holds the pin in), or None."""
-        roles = [role_of(item) for item in self._requests(request)]
-        wanted = [role for role in roles if role is not None]
+        wanted = [role for item in self._requests(request) for role in roles_of(item)]
         for pin, role in wanted:
             why = self._conflict(client, pin, role)
             if why is not None:
@@ -98,10 +120,7 @@ class PinHolders:
 
     def refused(self, client: str, request: p.Request[Any]) -> None:
         """The board refused ``request``: ``client`` holds nothing through it."""
-        for item in self._requests(request):
-            found = role_of(item)
-            if found is None:
-                continue
+        for found in (role for item in self._requests(request) for role in roles_of(item)):
             held = self.pins.get(found[0])
             if held is not None and held.role == found[1]:
                 held.clients.discard(client)
