@@ -38,6 +38,7 @@ from ._changes import ChangeSource
 from ._counts import CountSource
 from ._elsewhere import RolesElsewhere
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
+from ._steppers import StepperView
 
 if TYPE_CHECKING:
     from ..board import Board
@@ -138,6 +139,7 @@ class BoardPanel:
         self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         self.elsewhere = RolesElsewhere(board, on_change=self.changed)
+        self.steppers = StepperView(board, on_change=self.changed)
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
         self.known = 0
@@ -262,6 +264,7 @@ class BoardPanel:
         try:
             async with anyio.create_task_group() as tg:
                 tg.start_soon(self.elsewhere.run)
+                tg.start_soon(self.steppers.run)
                 for source in self.sources:
                     tg.start_soon(source.run, self.on_activity)
         finally:
@@ -305,6 +308,7 @@ class BoardPanel:
             "i2c": None if self.i2c is None else int(self.i2c.speed),
             "analog_pins": [pin.name for pin in AnalogPin],
             "message": self.message,
+            "steppers": self.steppers.rows,
             "pins": [
                 {
                     "name": pin.name,

@@ -205,6 +205,9 @@
     fact("failsafe").dataset.tripped = snapshot.failsafe_tripped ? "true" : "false";
     renderStream(view, snapshot.stream);
     renderChanges(view, snapshot.changes);
+    fact("steppers").textContent = (snapshot.steppers || []).map((s) =>
+      `stepper ${s.index} (${s.pins}): ${s.position} -> ${s.target}` +
+      (s.moving ? `, ${s.speed} steps/s` : ", at rest")).join("; ") || "none";
     for (const pin of snapshot.pins) renderPin(view, pin);
   }
 
