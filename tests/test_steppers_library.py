@@ -97,3 +97,18 @@ async def test_homing_stops_at_the_switch_or_says_why_not() -> None:
                     await anyio.sleep(0.001)
             await stepper.stop(immediate=True)
         assert failure and "STOPPED" in str(failure[0])
+
+
+async def test_a_reset_with_restore_sets_the_stepper_up_again() -> None:
+    async with connected() as (board, fake):
+        stepper = await board.stepper(step=D6, dir=D7, max_speed=3000, acceleration=30_000)
+        await stepper.limit(D8)
+        await stepper.move_to(120)
+        await stepper.wait(timeout=5)
+        await board.reset(restore=True)
+        slot = fake.steppers.slots[0]
+        assert slot is not None and (slot.step, slot.dir_pin) == (6, 7)
+        assert (slot.max_speed, slot.acceleration) == (3000, 30_000) and 0 in slot.limits
+        assert (await stepper.read()).position == 0  # the board's RAM was lost
+        await stepper.move_to(50)
+        assert (await stepper.wait(timeout=5)).position == 50
