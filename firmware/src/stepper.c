@@ -103,8 +103,12 @@ static void update_active(void)
     stepper_active = a;
 }
 
+/* Set with any StepperDone to send: the main loop's poll costs one load else. */
+static volatile uint8_t any_done;
+
 static void done(stepper_t *s, uint8_t reason)
 {
+    any_done = 1;
     s->done = (uint8_t)(reason + 1u);
     s->done_pos = s->pos;
     s->done_us = hal_micros();
@@ -338,6 +342,9 @@ void stepper_stop_all(void)
 void stepper_poll(void)
 {
     uint8_t i, sreg, reason, frame[2u + 10u + AIO_CHECK_MAX], *p;
+    if (!any_done)
+        return;
+    any_done = 0; /* (a done() from here on sets it again) */
     for (i = 0; i < N; i++) {
         stepper_t *s = &st[i];
         if (!s->done)
@@ -357,6 +364,7 @@ void stepper_poll(void)
             sreg = hal_irq_save();
             if (!s->done)
                 s->done = reason; /* no room: the next loop step tries again */
+            any_done = 1;
             hal_irq_restore(sreg);
             return;
         }
