@@ -27,6 +27,7 @@
 #include "json.h"
 #include "pacing.h"
 #include "pty.h"
+#include "stack.h"
 #include "steps.h"
 #include "wire.h"
 
@@ -325,6 +326,8 @@ static const struct command commands[] = {
 	{"step_log", 0, cmd_step_log},
 	{"steps", 1, cmd_steps},
 	{"limit_at", 0, cmd_limit_at},
+	{"stack_paint", 1, cmd_stack_paint},
+	{"stack_low", 1, cmd_stack_low},
 };
 
 static const struct command *find_command(const char *name)

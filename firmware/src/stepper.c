@@ -258,7 +258,7 @@ static __attribute__((noinline)) uint8_t advance(stepper_t *s)
 }
 
 /* One tick of every stepper: limits, pulses, profiles. */
-static void one_tick(void)
+static __attribute__((noinline)) void one_tick(void)
 {
     uint16_t levels, mask = 0;
     uint8_t i, side, active = 0;
