@@ -115,9 +115,14 @@ void hal_edge_watch(uint16_t mask)
 ISR(PCINT0_vect) { gpio_pin_change(hal_pin_levels()); }
 ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
 
+/* A port without a step pin in the mask is not written at all (most ticks of a
+ * slow stepper have none). */
 void hal_step_pins(uint16_t mask, uint8_t level)
 {
-    uint8_t s = hal_irq_save(), d = (uint8_t)mask, b = (uint8_t)(mask >> 8);
+    uint8_t s, d = (uint8_t)mask, b = (uint8_t)(mask >> 8);
+    if (!mask)
+        return;
+    s = hal_irq_save();
     if (level) {
         PORTD |= d;
         PORTB |= b;
