@@ -66,7 +66,7 @@ logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 if TYPE_CHECKING:
     from .board import Board, FailsafeConfig
-    from .handles import (
+    from .board.handles import (
         AnalogInput,
         Counter,
         DigitalInput,
@@ -78,11 +78,11 @@ if TYPE_CHECKING:
         Servo,
         SoftPwm,
     )
+    from .board.motors import DutyPwm, Motor
+    from .board.streaming import Sample, SampleStream
     from .manager import BoardManager, ManagerEvent, ProbeResult
-    from .motors import DutyPwm, Motor
     from .protocol import I2CSpeed
     from .sim import VirtualUno
-    from .streaming import Sample, SampleStream
     from .testing import FakeBoard
 
 #: The package version (the only place it is written; pyproject.toml reads it from here).
@@ -92,25 +92,25 @@ __version__ = "0.1.0"
 _LAZY = {
     "Board": ".board",
     "FailsafeConfig": ".board",
-    "AnalogInput": ".handles",
-    "Counter": ".handles",
-    "DigitalInput": ".handles",
-    "DigitalOutput": ".handles",
-    "Gpio": ".handles",
-    "I2CBus": ".handles",
-    "PinState": ".handles",
-    "PulseOutput": ".handles",
-    "Servo": ".handles",
-    "SoftPwm": ".handles",
+    "AnalogInput": ".board.handles",
+    "Counter": ".board.handles",
+    "DigitalInput": ".board.handles",
+    "DigitalOutput": ".board.handles",
+    "Gpio": ".board.handles",
+    "I2CBus": ".board.handles",
+    "PinState": ".board.handles",
+    "PulseOutput": ".board.handles",
+    "Servo": ".board.handles",
+    "SoftPwm": ".board.handles",
     "BoardManager": ".manager",
-    "DutyPwm": ".motors",
-    "Motor": ".motors",
+    "DutyPwm": ".board.motors",
+    "Motor": ".board.motors",
     "ManagerEvent": ".manager",
     "ProbeResult": ".manager",
     "I2CSpeed": ".protocol",
     "VirtualUno": ".sim",
-    "Sample": ".streaming",
-    "SampleStream": ".streaming",
+    "Sample": ".board.streaming",
+    "SampleStream": ".board.streaming",
     "FakeBoard": ".testing",
 }
 

@@ -49,8 +49,7 @@ from anyio.from_thread import BlockingPortal, start_blocking_portal
 
 from . import protocol as p
 from .board import Board
-from .errors import BoardDisconnectedError
-from .handles import (
+from .board.handles import (
     AnalogInput,
     Counter,
     DigitalInput,
@@ -61,9 +60,10 @@ from .handles import (
     PinState,
     PulseOutput,
 )
-from .motors import DutyPwm, Motor
+from .board.motors import DutyPwm, Motor
+from .board.streaming import Sample, SampleStream
+from .errors import BoardDisconnectedError
 from .protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin, SoftPwmPin
-from .streaming import Sample, SampleStream
 
 T = TypeVar("T")
 
@@ -127,7 +127,7 @@ class _BlockingPin(_Blocking):
 
 
 class BlockingGpio(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.handles.Gpio`: an output on its first write, an
+    """Blocking :class:`~arduinoio_async.board.handles.Gpio`: an output on its first write, an
     input on its first read."""
 
     handle: Gpio
@@ -147,7 +147,7 @@ class BlockingGpio(_BlockingPin):
 
 
 class BlockingDigitalOutput(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.handles.DigitalOutput`: a level the board replays."""
+    """Blocking :class:`~arduinoio_async.board.handles.DigitalOutput`: a level the board replays."""
 
     handle: DigitalOutput
 
@@ -161,7 +161,7 @@ class BlockingDigitalOutput(_BlockingPin):
 
 
 class BlockingDigitalInput(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.handles.DigitalInput`, with edges latched between reads."""
+    """Blocking :class:`~arduinoio_async.board.DigitalInput`, with edges latched between reads."""
 
     handle: DigitalInput
 
@@ -171,7 +171,7 @@ class BlockingDigitalInput(_BlockingPin):
 
 
 class BlockingAnalogInput(_Blocking):
-    """Blocking :class:`~arduinoio_async.handles.AnalogInput` (A0-A5, 10 bits against AVCC)."""
+    """Blocking :class:`~arduinoio_async.board.AnalogInput` (A0-A5, 10 bits against AVCC)."""
 
     handle: AnalogInput
 
@@ -207,7 +207,7 @@ class BlockingPulseOutput(_BlockingPin):
 
 
 class BlockingDutyPwm(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.motors.DutyPwm` (D3, D5, D6, D9, D10)."""
+    """Blocking :class:`~arduinoio_async.board.motors.DutyPwm` (D3, D5, D6, D9, D10)."""
 
     handle: DutyPwm
 
@@ -217,7 +217,7 @@ class BlockingDutyPwm(_BlockingPin):
 
 
 class BlockingMotor(_Blocking):
-    """Blocking :class:`~arduinoio_async.motors.Motor`: signed speed, brake, coast."""
+    """Blocking :class:`~arduinoio_async.board.motors.Motor`: signed speed, brake, coast."""
 
     handle: Motor
 
@@ -235,7 +235,7 @@ class BlockingMotor(_Blocking):
 
 
 class BlockingCounter(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.handles.Counter` (D2 or D3)."""
+    """Blocking :class:`~arduinoio_async.board.handles.Counter` (D2 or D3)."""
 
     handle: Counter
 
@@ -249,7 +249,7 @@ class BlockingCounter(_BlockingPin):
 
 
 class BlockingI2CBus(_Blocking):
-    """Blocking :class:`~arduinoio_async.handles.I2CBus`: register reads and writes on A4/A5."""
+    """Blocking :class:`~arduinoio_async.board.I2CBus`: register reads and writes on A4/A5."""
 
     handle: I2CBus
 

@@ -28,8 +28,8 @@ from arduinoio_async import (
 from arduinoio_async import manager as manager_module
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.handles import PinState
 from arduinoio_async.errors import BoardDisconnectedError
-from arduinoio_async.handles import PinState
 from arduinoio_async.manager import BoardManager
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport import memory_link

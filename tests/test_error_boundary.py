@@ -21,8 +21,8 @@ import pytest
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.handles import DigitalOutput, output_setup
 from arduinoio_async.errors import ArduinoIOError
-from arduinoio_async.handles import DigitalOutput, output_setup
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.testing._faults import Faults
 

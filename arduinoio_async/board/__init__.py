@@ -5,7 +5,7 @@
   which the handles use and the board replays after a reset;
 * :mod:`.failsafe`: the failsafe and the keepalive heartbeat that feeds it.
 
-The handles themselves are in :mod:`arduinoio_async.handles`.
+The handles themselves are in :mod:`arduinoio_async.board.handles`.
 """
 
 from __future__ import annotations

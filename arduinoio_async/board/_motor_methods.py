@@ -2,7 +2,7 @@
 :class:`Board`.
 
 Kept apart from ``board.py`` by idea: they only combine the board's pin-role machinery
-(``_new_handle``, ``set_up``, ``roles``) with :mod:`arduinoio_async.motors`.
+(``_new_handle``, ``set_up``, ``roles``) with :mod:`arduinoio_async.board.motors`.
 """
 
 from __future__ import annotations
@@ -11,8 +11,6 @@ from typing import TYPE_CHECKING, TypeVar, cast
 
 from .. import protocol as p
 from ..errors import PinCapabilityError
-from ..handles import PulseOutput, Servo, SoftPwm
-from ..motors import DutyPwm, Motor, check_timer, resolve_frequency
 from ..protocol.pins import (
     D11,
     DigitalPin,
@@ -23,6 +21,8 @@ from ..protocol.pins import (
     capable_pins,
 )
 from ..protocol.timers import TIMER_OF
+from .handles import PulseOutput, Servo, SoftPwm
+from .motors import DutyPwm, Motor, check_timer, resolve_frequency
 
 if TYPE_CHECKING:
     from .board import Board

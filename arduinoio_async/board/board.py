@@ -33,22 +33,8 @@ from ..errors import (
     ProtocolError,
     ValueRangeError,
 )
-from ..handles import (
-    AnalogInput,
-    Counter,
-    DigitalInput,
-    DigitalOutput,
-    Gpio,
-    I2CBus,
-    PinHandle,
-    input_setup,
-    output_setup,
-)
-from ..motors import Motor, check_stream
 from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function
 from ..protocol.pins import require as require_capable
-from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
-from ..transactions import Transaction
 from ..transport import (
     DEFAULT_TIMEOUT,
     TraceHook,
@@ -66,7 +52,21 @@ from .boot import (
     wait_new_boot,
 )
 from .failsafe import Failsafe, FailsafeConfig, Recovery
+from .handles import (
+    AnalogInput,
+    Counter,
+    DigitalInput,
+    DigitalOutput,
+    Gpio,
+    I2CBus,
+    PinHandle,
+    input_setup,
+    output_setup,
+)
+from .motors import Motor, check_stream
 from .roles import PinRoles
+from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
+from .transactions import Transaction
 from .watches import Watches
 
 logger = logging.getLogger(__name__)
@@ -253,7 +253,7 @@ class Board(MotorMethods):
 
     def transaction(self) -> Transaction:
         """Requests run back to back in one frame: ``async with board.transaction() as tx:
-        d3 = tx.add(p.GpioRead(D3))`` (extension; see :mod:`arduinoio_async.transactions`)."""
+        d3 = tx.add(p.GpioRead(D3))`` (extension; see :mod:`arduinoio_async.board.transactions`)."""
         return Transaction(self)
 
     # ---- pin roles ---------------------------------------------------------------------------
@@ -382,7 +382,7 @@ class Board(MotorMethods):
         """Make ``pin`` an input, with the internal pull-up (20-50 kOhm to 5 V) if asked.
 
         The board latches rising and falling edges between reads (:meth:`DigitalInput.read
-        <arduinoio_async.handles.DigitalInput.read>`).  Raises PinCapabilityError or
+        <arduinoio_async.board.handles.DigitalInput.read>`).  Raises PinCapabilityError or
         PinRoleError as :meth:`digital_output` does.
         """
         handle = self._new_handle(pin, Function.DIGITAL_INPUT, DigitalInput)
@@ -484,7 +484,7 @@ class Board(MotorMethods):
         ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
         async for s in samples: ...``.  Commands keep working meanwhile.  A period the
         link cannot carry is refused by the board with :class:`LinkCapacityError`; see
-        :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
+        :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms)
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need

@@ -23,9 +23,9 @@ import anyio.lowlevel
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, LinkError, PinRoleError, StaleHandleError, ValueRangeError
-from ..handles import DigitalOutput, Gpio, PinHandle, PulseOutput
-from ..motors import DutyPwm, Motor
 from ..transport import LinkState, Transport
+from .handles import DigitalOutput, Gpio, PinHandle, PulseOutput
+from .motors import DutyPwm, Motor
 
 if TYPE_CHECKING:
     from .board import Board

@@ -28,7 +28,7 @@ from ..errors import PinRoleError, StaleHandleError
 from ..protocol.pins import DigitalPin
 
 if TYPE_CHECKING:
-    from ..handles import I2CBus, PinHandle
+    from .handles import I2CBus, PinHandle
 
 __all__ = ["Claim", "PinRoles"]
 

@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, Any
 import anyio
 
 from .. import protocol as p
+from ..board.handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
+from ..board.motors import DutyPwm, Motor
 from ..errors import ArduinoIOError, PinRoleError, UsageError
-from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
-from ..motors import DutyPwm, Motor
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource

@@ -18,8 +18,8 @@ from rich.console import Console
 from arduinoio_async import D3, D4, D5, D6, D7, D8, D9, D10
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.motors import DutyPwm
 from arduinoio_async.cli import main as cli_main
-from arduinoio_async.motors import DutyPwm
 from arduinoio_async.protocol.pins import DutyPwmPin
 from arduinoio_async.protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, timer_setting
 from arduinoio_async.sim import PulseStats, VirtualUno

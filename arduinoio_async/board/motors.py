@@ -19,11 +19,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from . import protocol as p
-from .errors import TimerBusyError, ValueRangeError
+from .. import protocol as p
+from ..errors import TimerBusyError, ValueRangeError
+from ..protocol.pins import DigitalPin
+from ..protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, duty_steps
 from .handles import DigitalOutput, PinHandle, Servo, SoftPwm
-from .protocol.pins import DigitalPin
-from .protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, duty_steps
 
 if TYPE_CHECKING:
     from .board import Board

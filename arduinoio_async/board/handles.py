@@ -17,7 +17,9 @@ from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
-from . import protocol as p
+from .. import protocol as p
+from ..errors import StaleHandleError, ValueRangeError
+from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from .changes import (
     DEFAULT_CHANGE_BUFFER,
     AnalogChanges,
@@ -29,8 +31,6 @@ from .changes import (
     watch_changes,
     watch_counter,
 )
-from .errors import StaleHandleError, ValueRangeError
-from .protocol.pins import AnalogPin, DigitalPin, Function, require
 
 if TYPE_CHECKING:
     from .board import Board
@@ -124,7 +124,7 @@ class DigitalOutput(PinHandle):
 
 
 class _Watchable(PinHandle):
-    """Input change events (extension, :mod:`arduinoio_async.changes`)."""
+    """Input change events (extension, :mod:`arduinoio_async.board.changes`)."""
 
     async def _as_input(self) -> None:
         """Make the pin an input if it is not one (Gpio); DigitalInput already is."""
@@ -263,7 +263,7 @@ class AnalogInput:
     ) -> AbstractAsyncContextManager[AnalogChanges]:
         """``async with a0.watch(deadband=8) as moves: async for move in moves: ...``: the
         board reports each move by more than ``deadband`` counts (1-1023) until the block
-        ends (extension; :mod:`arduinoio_async.changes` gives the rules)."""
+        ends (extension; :mod:`arduinoio_async.board.changes` gives the rules)."""
         return watch_analog(self.board, self.pin, deadband, buffer, callback)
 
     async def changes(

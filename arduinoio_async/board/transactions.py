@@ -30,9 +30,9 @@ import weakref
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
-from . import protocol as p
-from .errors import BoardError, ReplyMismatchError, ValueRangeError, describe_request
-from .protocol._exchange import board_error
+from .. import protocol as p
+from ..errors import BoardError, ReplyMismatchError, ValueRangeError, describe_request
+from ..protocol._exchange import board_error
 
 if TYPE_CHECKING:
     from .board import Board

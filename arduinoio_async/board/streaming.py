@@ -28,11 +28,11 @@ from contextlib import AsyncExitStack, asynccontextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from . import protocol as p
-from ._event_queue import SequencedQueue
-from .errors import LinkCapacityError, ValueRangeError
-from .protocol.pins import AnalogPin, DigitalPin, Function, require
-from .transport import Transport
+from .. import protocol as p
+from .._event_queue import SequencedQueue
+from ..errors import LinkCapacityError, ValueRangeError
+from ..protocol.pins import AnalogPin, DigitalPin, Function, require
+from ..transport import Transport
 
 if TYPE_CHECKING:
     from .board import Board

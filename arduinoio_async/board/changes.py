@@ -15,7 +15,7 @@ frame time after it happened instead of one round trip after it asked.  The rule
 * **Overflow (host)**: when the consumer falls behind and ``buffer`` changes wait, the
   **oldest** is dropped (the newest level is the one that matters) and counted in
   :attr:`ChangeStream.dropped`.
-* A callback (:meth:`Gpio.on_change <arduinoio_async.handles.Gpio.on_change>`) runs on the
+* A callback (:meth:`Gpio.on_change <arduinoio_async.board.handles.Gpio.on_change>`) runs on the
   link's reader for each change; an exception in it is logged and never reaches the link.
 
 The subscription ends with the ``watch`` block, a new configuration of the pin or its
@@ -57,14 +57,14 @@ from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from . import protocol as p
-from ._event_queue import EventQueue, SequencedQueue
-from .errors import BoardError, ValueRangeError
-from .transport import Transport
+from .. import protocol as p
+from .._event_queue import EventQueue, SequencedQueue
+from ..errors import BoardError, ValueRangeError
+from ..transport import Transport
 
 if TYPE_CHECKING:
+    from ..protocol.pins import AnalogPin, DigitalPin
     from .board import Board
-    from .protocol.pins import AnalogPin, DigitalPin
 
 __all__ = [
     "DEFAULT_CHANGE_BUFFER",
