@@ -161,7 +161,8 @@ class BlockingDigitalOutput(_BlockingPin):
 
 
 class BlockingDigitalInput(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.board.DigitalInput`, with edges latched between reads."""
+    """Blocking :class:`~arduinoio_async.board.handles.DigitalInput`: edges latched between
+    reads."""
 
     handle: DigitalInput
 
@@ -171,7 +172,8 @@ class BlockingDigitalInput(_BlockingPin):
 
 
 class BlockingAnalogInput(_Blocking):
-    """Blocking :class:`~arduinoio_async.board.AnalogInput` (A0-A5, 10 bits against AVCC)."""
+    """Blocking :class:`~arduinoio_async.board.handles.AnalogInput` (A0-A5, 10 bits against
+    AVCC)."""
 
     handle: AnalogInput
 
@@ -249,7 +251,8 @@ class BlockingCounter(_BlockingPin):
 
 
 class BlockingI2CBus(_Blocking):
-    """Blocking :class:`~arduinoio_async.board.I2CBus`: register reads and writes on A4/A5."""
+    """Blocking :class:`~arduinoio_async.board.handles.I2CBus`: register reads and writes on
+    A4/A5."""
 
     handle: I2CBus
 
