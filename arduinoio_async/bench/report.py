@@ -13,8 +13,8 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from .. import __version__
 from .. import protocol as p
+from .._version import __version__
 from .runner import ScenarioResult
 
 __all__ = ["print_scenario", "to_json", "write_json", "write_plot"]

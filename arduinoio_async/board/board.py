@@ -24,16 +24,16 @@ import anyio.lowlevel
 import anyio.to_thread
 
 from .. import protocol as p
+from .._schemes import opener_for
 from ..errors import (
     BoardDisconnectedError,
     BoardSilentError,
     FailsafeTrippedError,
     LinkError,
-    PinRoleError,
     ProtocolError,
     ValueRangeError,
 )
-from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function
+from ..protocol.pins import AnalogPin, DigitalPin, Function
 from ..protocol.pins import require as require_capable
 from ..transport import (
     DEFAULT_TIMEOUT,
@@ -53,18 +53,11 @@ from .boot import (
 )
 from .failsafe import Failsafe, FailsafeConfig, Recovery
 from .handles import (
-    AnalogInput,
-    Counter,
-    DigitalInput,
-    DigitalOutput,
     Gpio,
-    I2CBus,
     PinHandle,
-    input_setup,
-    output_setup,
 )
 from .motors import Motor, check_stream
-from .roles import PinRoles
+from .roles import PinRoles, RoleHolder
 from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 from .transactions import Transaction
 from .watches import Watches
@@ -97,7 +90,7 @@ class Board(MotorMethods):
         self.low_latency = False
         #: The change, counter and analog watches, restored after a reset with the roles.
         self.watches = Watches(self)
-        self._failsafe = Failsafe(self)
+        self._failsafe: Failsafe[Board] = Failsafe(self)
         self._failsafe.listen(link)
 
     def __repr__(self) -> str:
@@ -123,13 +116,14 @@ class Board(MotorMethods):
         for a board that resets when its port opens.  ``low_latency``: see
         :meth:`choose_low_latency` (None, the default, turns it on behind an Uno's 16U2
         bridge at 1,000,000 baud and up).  ``zenoh://0x0007[@endpoint]`` opens a board
-        served on the network (:mod:`arduinoio_async.network`), whose server chose.
+        served on the network (:mod:`arduinoio_async.network`), whose server chose: the
+        board layer does not know the network, so such an address goes to the opener
+        registered for its scheme (:mod:`arduinoio_async.opener`).
         """
-        if port.startswith("zenoh://"):
-            from ..network import open_remote_board
-
-            async with open_remote_board(port, timeout=timeout, ready_timeout=ready_timeout) as b:
-                yield b
+        remote = opener_for(port)
+        if remote is not None:
+            async with remote(port, timeout=timeout, ready_timeout=ready_timeout) as board:
+                yield board
             return
         stream = await open_serial_stream(port, baudrate)
         try:
@@ -266,7 +260,7 @@ class Board(MotorMethods):
         """
         return self._roles
 
-    async def set_up(self, handle: PinHandle, setup: p.Request[Any]) -> None:
+    async def set_up(self, handle: RoleHolder, setup: p.Request[Any]) -> None:
         """Give ``handle`` its pin by sending ``setup``, and record it in :attr:`roles`.
 
         What the typed handles do when they take a pin or change its direction.  A pin
@@ -281,15 +275,6 @@ class Board(MotorMethods):
         except BaseException:
             roles.withdraw(handle, previous)
             raise
-
-    def _new_handle(
-        self, pin: object, function: Function, factory: Callable[[Board, DigitalPin], H]
-    ) -> H:
-        require_capable(pin, function)
-        assert isinstance(pin, DigitalPin)
-        handle = factory(self, pin)
-        self._roles.check_free(handle)
-        return handle
 
     async def release(self, pin: DigitalPin) -> None:
         """End whatever role ``pin`` has, on the board and here."""
@@ -355,62 +340,6 @@ class Board(MotorMethods):
             )
         await self.request(p.SetLowLatency(enabled))
         self.low_latency = enabled
-
-    # ---- handles -----------------------------------------------------------------------------
-
-    def gpio(self, pin: DigitalPin) -> Gpio:
-        """A digital pin that configures itself on first use (output on write, input on read)."""
-        require_capable(pin, Function.DIGITAL_OUTPUT)
-        handle = self._gpio.get(pin)
-        if handle is None:
-            handle = Gpio(self, pin)
-            self._roles.check_free(handle)
-            self._gpio[pin] = handle
-        return handle
-
-    async def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> DigitalOutput:
-        """Make ``pin`` an output that starts at ``initial`` (no glitch to the other level).
-
-        The role is recorded and replayed after a reset.  Raises PinCapabilityError for a
-        pin that cannot be a digital output, PinRoleError when another handle holds it.
-        """
-        handle = self._new_handle(pin, Function.DIGITAL_OUTPUT, DigitalOutput)
-        await self.set_up(handle, output_setup(handle.pin, initial))
-        return handle
-
-    async def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> DigitalInput:
-        """Make ``pin`` an input, with the internal pull-up (20-50 kOhm to 5 V) if asked.
-
-        The board latches rising and falling edges between reads (:meth:`DigitalInput.read
-        <arduinoio_async.board.handles.DigitalInput.read>`).  Raises PinCapabilityError or
-        PinRoleError as :meth:`digital_output` does.
-        """
-        handle = self._new_handle(pin, Function.DIGITAL_INPUT, DigitalInput)
-        await self.set_up(handle, input_setup(handle.pin, pull_up))
-        return handle
-
-    def analog(self, pin: AnalogPin) -> AnalogInput:
-        """An analog input (no configuration needed); A4/A5 are busy while I2C is on."""
-        if self._roles.i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
-            raise PinRoleError(pin.name, "I2C", "analog input")
-        return AnalogInput(self, pin)
-
-    async def read_analog_all(self) -> tuple[int, ...]:
-        """All six analog inputs, A0 first, in one request."""
-        return (await self.request(p.AnalogReadAll())).values
-
-    async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
-        """An event counter on D2/D3 counting rising or falling edges, from zero."""
-        handle = self._new_handle(pin, Function.COUNTER, Counter)
-        await self.set_up(handle, p.CounterConfig(handle.pin, p.Edge(edge)))
-        return handle
-
-    async def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> I2CBus:
-        """The I2C bridge on A4/A5 at 100 or 400 kHz."""
-        reply = await self.request(p.I2CConfig(p.I2CSpeed(speed)))
-        bus = I2CBus(self, reply.speed)
-        self._roles.set_i2c(bus)
-        return bus
 
     # ---- misc ------------------------------------------------------------------------------
 

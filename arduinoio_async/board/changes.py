@@ -64,7 +64,7 @@ from ..transport import Transport
 
 if TYPE_CHECKING:
     from ..protocol.pins import AnalogPin, DigitalPin
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = [
     "DEFAULT_CHANGE_BUFFER",
@@ -143,7 +143,7 @@ def _name(pin: int) -> str:
 
 @asynccontextmanager
 async def watch_changes(
-    board: Board,
+    board: BoardCore,
     pin: DigitalPin,
     buffer: int = DEFAULT_CHANGE_BUFFER,
     callback: Callable[[Change], None] | None = None,
@@ -197,7 +197,7 @@ class CountReports(EventQueue[p.CounterReport]):
 
 @asynccontextmanager
 async def watch_counter(
-    board: Board, pin: DigitalPin, every: int, buffer: int = DEFAULT_CHANGE_BUFFER
+    board: BoardCore, pin: DigitalPin, every: int, buffer: int = DEFAULT_CHANGE_BUFFER
 ) -> AsyncIterator[CountReports]:
     """Reports of counter ``pin`` every ``every`` counts for the block."""
     if not 1 <= every <= 0xFFFF:
@@ -271,7 +271,7 @@ class AnalogChanges(SequencedQueue[AnalogMove]):
 
 @asynccontextmanager
 async def watch_analog(
-    board: Board,
+    board: BoardCore,
     channel: AnalogPin,
     deadband: int,
     buffer: int = DEFAULT_CHANGE_BUFFER,

@@ -33,7 +33,7 @@ from .changes import (
 )
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = [
     "AnalogInput",
@@ -80,7 +80,7 @@ class PinHandle:
 
     ROLE: str = "pin"
 
-    def __init__(self, board: Board, pin: DigitalPin) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin) -> None:
         self.board = board
         self.pin = pin
         #: Set when the pin's role ended (``release()`` or ``board.release(pin)``): the pin
@@ -196,7 +196,7 @@ class Gpio(_Watchable):
 
     ROLE = "GPIO"
 
-    def __init__(self, board: Board, pin: DigitalPin) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin) -> None:
         super().__init__(board, pin)
         self.direction: str | None = None
 
@@ -235,7 +235,7 @@ class Gpio(_Watchable):
 class AnalogInput:
     """An analog input A0-A5: 10-bit conversions against AVCC."""
 
-    def __init__(self, board: Board, pin: AnalogPin, vref: float = p.VCC_MV / 1000) -> None:
+    def __init__(self, board: BoardCore, pin: AnalogPin, vref: float = p.VCC_MV / 1000) -> None:
         require(pin, Function.ANALOG_INPUT)
         self.board = board
         self.pin = pin
@@ -294,7 +294,7 @@ class PulseOutput(PinHandle):
 
     STEP_US = 1
 
-    def __init__(self, board: Board, pin: DigitalPin) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin) -> None:
         super().__init__(board, pin)
         self.pulse_us: int = 0
         #: The narrowest and widest pulse this output sends (set_angle's 0 and 180 degrees).
@@ -400,7 +400,7 @@ class Counter(PinHandle):
 class I2CBus:
     """The I2C bridge on A4 (SDA) / A5 (SCL)."""
 
-    board: Board
+    board: BoardCore
     speed: p.I2CSpeed
 
     @staticmethod

@@ -26,7 +26,7 @@ from ..protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, duty_steps
 from .handles import DigitalOutput, PinHandle, Servo, SoftPwm
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = [
     "DEFAULT_FREQUENCY",
@@ -49,7 +49,7 @@ class DutyPwm(PinHandle):
 
     ROLE = "duty-cycle PWM"
 
-    def __init__(self, board: Board, pin: DigitalPin) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin) -> None:
         super().__init__(board, pin)
         #: The timer's frequency (nominal Hz, as sent): shared by the timer's duty pins.
         self.frequency_hz = 0
@@ -91,7 +91,7 @@ def _conflict(pin: DigitalPin, other: DigitalPin, holder: PinHandle, wanted: str
     raise TimerBusyError(pin.name, f"{holder.ROLE} on {other.name}", wanted, msg)
 
 
-def check_timer(board: Board, pin: DigitalPin, wanted: str, frequency_hz: int = 0) -> None:
+def check_timer(board: BoardCore, pin: DigitalPin, wanted: str, frequency_hz: int = 0) -> None:
     """Raise :class:`TimerBusyError` if ``pin`` cannot take ``wanted`` because another
     pin's role holds the timer it needs (the firmware's PIN_BUSY rules, checked first).
 
@@ -153,11 +153,11 @@ def check_timer(board: Board, pin: DigitalPin, wanted: str, frequency_hz: int = 
             )
 
 
-def _streaming(board: Board) -> bool:
+def _streaming(board: BoardCore) -> bool:
     return any(isinstance(r, p.StreamStart) for r in board.watches.requests())
 
 
-def check_stream(board: Board) -> None:
+def check_stream(board: BoardCore) -> None:
     """Raise :class:`TimerBusyError` if duty PWM holds Timer0, whose alarms time a stream's
     samples (the firmware refuses STREAM_START then with PIN_BUSY)."""
     for pin, claim in board.roles.items():
@@ -172,7 +172,7 @@ def check_stream(board: Board) -> None:
             )
 
 
-def resolve_frequency(board: Board, pin: DigitalPin, frequency_hz: int | None) -> int:
+def resolve_frequency(board: BoardCore, pin: DigitalPin, frequency_hz: int | None) -> int:
     """The frequency ``pin`` will run at: ``frequency_hz`` if its timer offers it, else
     (None) the one the timer's other duty pin runs at, or the timer's default."""
     timer = TIMER_OF[pin]

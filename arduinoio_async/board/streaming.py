@@ -35,7 +35,7 @@ from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from ..transport import Transport
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = ["DEFAULT_BUFFER", "Sample", "SampleStream", "run_stream", "stream_request"]
 
@@ -161,7 +161,7 @@ def _describe(request: p.Request[Any]) -> str:
 
 @asynccontextmanager
 async def run_stream(
-    board: Board, request: p.StreamStart, buffer: int
+    board: BoardCore, request: p.StreamStart, buffer: int
 ) -> AsyncIterator[SampleStream]:
     """Start ``request`` on ``board``, yield its samples, stop it when the block ends.
 

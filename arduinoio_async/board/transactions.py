@@ -35,17 +35,17 @@ from ..errors import BoardError, ReplyMismatchError, ValueRangeError, describe_r
 from ..protocol._exchange import board_error
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = ["Item", "Transaction"]
 
 R = TypeVar("R", bound=p.Reply)
 
 #: Each board's transaction numbers (its ``seq`` counter), dropped with the board.
-_SEQ: weakref.WeakKeyDictionary[Board, itertools.count[int]] = weakref.WeakKeyDictionary()
+_SEQ: weakref.WeakKeyDictionary[BoardCore, itertools.count[int]] = weakref.WeakKeyDictionary()
 
 
-def _next_seq(board: Board) -> int:
+def _next_seq(board: BoardCore) -> int:
     counter = _SEQ.get(board)
     if counter is None:
         counter = _SEQ[board] = itertools.count()
@@ -88,7 +88,7 @@ class Item(Generic[R]):
 class Transaction:
     """Requests collected for one TRANSACTION frame (see the module docstring)."""
 
-    def __init__(self, board: Board) -> None:
+    def __init__(self, board: BoardCore) -> None:
         self.board = board
         self._items: list[Item[Any]] = []
         self._ran = False

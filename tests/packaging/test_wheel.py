@@ -38,7 +38,7 @@ def test_public_names_import_from_the_installed_wheel(installed: Installed) -> N
     )
     out = checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
     assert out[0].startswith(str(installed.venv)), out  # not the clone
-    version = (REPO / "arduinoio_async" / "__init__.py").read_text()
+    version = (REPO / "arduinoio_async" / "_version.py").read_text()
     assert f'__version__ = "{out[1]}"' in version
     help_text = checked(installed.run(installed.exe("arduinoio"), "flash", "--help")).stdout
     assert "--dry-run" in help_text and "--baud" in help_text
