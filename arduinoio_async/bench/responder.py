@@ -16,6 +16,7 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
+from ..transport import ImmediateSender
 from .commands import COMMANDS
 
 __all__ = ["InstantStream", "reply_table"]
@@ -31,7 +32,7 @@ def reply_table() -> dict[bytes, bytes]:
     return table
 
 
-class InstantStream(anyio.abc.ByteStream):
+class InstantStream(anyio.abc.ByteStream, ImmediateSender):
     """Replies are ready the moment a request is sent; SetSession is echoed."""
 
     def __init__(self) -> None:

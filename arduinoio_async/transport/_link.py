@@ -88,6 +88,7 @@ from ..protocol.session import (
     board_error,
 )
 from ._deadline import DeadlineAlarm
+from ._streams import abilities_of
 
 __all__ = [
     "DEFAULT_TIMEOUT",
@@ -191,15 +192,16 @@ class Transport:
         #: hear a frame well within its timeout, and a probe's lost answer would otherwise
         #: silence the host for the whole ``timeout``; the keepalive sets it.
         self.max_silence: float | None = None
-        self.name = name or getattr(stream, "port", "") or "link"
+        #: What the stream declared it can do, looked at once (see ``_streams.py``).
+        self.abilities = abilities = abilities_of(stream)
+        self.name = name or abilities.port or "link"
         # The negotiation step: the session switches the link to ``framing`` as soon as
         # the board's capabilities (the first thing a Board reads) say it can, and again
         # after the board resets (see protocol/_framing.py).  A stream that relays
         # another link (the network client's: ``relay_failures_to``) has no wire of its
         # own to protect: its far end decodes the paper's frames and checks its own wire.
         if framing is None:
-            relays = hasattr(stream, "relay_failures_to")
-            framing = p.Framing.XOR if relays else default_framing()
+            framing = p.Framing.XOR if abilities.relays else default_framing()
         self._session = Session(
             window_bytes=window_bytes,
             max_in_flight=MAX_IN_FLIGHT,
@@ -218,7 +220,8 @@ class Transport:
         self._collect_sends: Callable[[], None] | None = None
         #: Orders the session and the wire between the loop and other threads (see
         #: ``request_from_thread``): the stream's own lock where it has one.
-        self._lock: Any = getattr(stream, "lock", None) or threading.RLock()
+        thread_sender = abilities.thread_sender
+        self._lock: Any = thread_sender.lock if thread_sender is not None else threading.RLock()
         self._send_from_thread: Callable[[bytes], bool] | None = None
         self._outbox = bytearray()
         self._outbox_ready = anyio.Event()
@@ -270,14 +273,15 @@ class Transport:
         stack = AsyncExitStack()
         try:
             self._task_group = await stack.enter_async_context(anyio.create_task_group())
-            attach = getattr(self.stream, "attach", None)
-            pushed = attach is not None and attach(self._on_data, self._on_lost)
+            abilities = self.abilities
+            push = abilities.push
+            pushed = push is not None and push.attach(self._on_data, self._on_lost)
             if not pushed:
                 self._task_group.start_soon(self._reader, name=f"arduinoio reader {self.name}")
-            self._send_nowait = getattr(self.stream, "send_nowait", None)
-            self._collect_sends = getattr(self.stream, "collect_sends", None)
-            if pushed and self._loop is not None:
-                self._send_from_thread = getattr(self.stream, "send_from_thread", None)
+            self._send_nowait = abilities.send_nowait
+            self._collect_sends = abilities.collect_sends
+            if pushed and self._loop is not None and abilities.thread_sender is not None:
+                self._send_from_thread = abilities.thread_sender.send_from_thread
             if self._send_nowait is None:
                 self._task_group.start_soon(self._writer, name=f"arduinoio writer {self.name}")
             self._task_group.start_soon(self._resyncer, name=f"arduinoio resync {self.name}")
@@ -658,9 +662,8 @@ class Transport:
             if self._session.state is SessionState.CLOSED:
                 return
             self._process(self._session.close(error))
-        detach = getattr(self.stream, "detach", None)
-        if detach is not None:
-            detach()
+        if self.abilities.push is not None:
+            self.abilities.push.detach()
         if self._alarm is not None:
             self._alarm.disarm()
 
