@@ -30,7 +30,7 @@ def test_the_reference_lists_the_everyday_methods() -> None:
     for everyday in (
         "arduinoio_async.board.Board.digital_output",
         "arduinoio_async.board.handles.AnalogInput.read_volts",
-        "arduinoio_async.sync.BlockingBoard.gpio",
+        "arduinoio_async.blocking.BlockingBoard.gpio",
         "arduinoio_async.board.handles.Gpio.watch",
     ):
         assert everyday in names
