@@ -152,6 +152,7 @@ class RemoteByteStream(anyio.abc.ByteStream, PushStream, ImmediateSender, Relayi
 
     @property
     def extra_attributes(self) -> Mapping[Any, Callable[[], Any]]:
+        """The link's name, ``zenoh://0x0007`` (:class:`LinkAttribute`.port)."""
         return {LinkAttribute.port: lambda: self.port}
 
     # ---- push mode: the transport's receive path --------------------------------------

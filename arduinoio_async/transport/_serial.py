@@ -114,6 +114,7 @@ class SerialByteStream(
 
     @property
     def extra_attributes(self) -> Mapping[Any, Callable[[], Any]]:
+        """The port's name and baud rate (:class:`LinkAttribute`)."""
         return _line_attributes(self)
 
     def can_send_nowait(self) -> bool:
@@ -335,6 +336,7 @@ class _ThreadedSerialStream(anyio.abc.ByteStream):
 
     @property
     def extra_attributes(self) -> Mapping[Any, Callable[[], Any]]:
+        """The port's name and baud rate (:class:`LinkAttribute`)."""
         return _line_attributes(self)
 
     def __init__(self, port: serial.SerialBase) -> None:
