@@ -1,4 +1,4 @@
-"""Duty-cycle PWM and DC motors behind H-bridges (issue 26).
+"""Duty-cycle PWM and DC motors behind H-bridges (an extension of the paper).
 
 :class:`DutyPwm` is Arduino's ``analogWrite``: a hardware timer's output compare pin
 (D3, D5, D6, D9, D10) high for a fraction of every period, at a frequency the pin's timer

@@ -135,7 +135,7 @@ def test_a_script_that_never_closes_its_board_still_exits(ending: str) -> None:
 
 
 def test_a_script_drives_a_motor_and_a_wide_servo() -> None:
-    """The blocking pwm/motor/servo limits (issue 26), checked on the fixture's pins."""
+    """The blocking pwm/motor/servo limits, checked on the fixture's pins."""
     with virtual_uno(board_id=0x0032) as uno, open_board(uno.port) as board:
         motor = board.motor(D5, D7, D8, frequency_hz=62500)
         motor.set_speed(-0.5)

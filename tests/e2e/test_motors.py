@@ -1,4 +1,4 @@
-"""Duty-cycle PWM, motors and the full servo range on the virtual Uno (issue 26).
+"""Duty-cycle PWM, motors and the full servo range on the virtual Uno.
 
 Every oracle is the fixture's: the pin's edges timestamped with the simulated cycle
 counter (firmware/sim, pulse capture), never a register or the library's own answer.

@@ -1,4 +1,4 @@
-"""Streams below 1 ms (issue 13, item 6): 250 us where the link carries it.
+"""Streams below 1 ms: 250 us where the link carries it.
 
 Below 1 ms the board converts with a faster ADC clock (docs/protocol.md); the simulated
 ADC is exact at any clock, so the values are checked against the fixture's voltages.

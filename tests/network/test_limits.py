@@ -1,4 +1,4 @@
-"""What one client may cost a served board (issue 28 item 8; see ``network/_limits.py``).
+"""What one client may cost a served board (see ``network/_limits.py``).
 
 A ``BoardServer`` in this process serves a FakeBoard on a Zenoh session that listens
 nowhere; the tests query it on the same session with raw gets, so each query's payload

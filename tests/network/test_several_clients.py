@@ -1,5 +1,5 @@
 """Several clients of one served board: joining while another streams, pins held by one
-client, the failsafe owner across a server restart (issue 25, items 15-17)."""
+client, the failsafe owner across a server restart."""
 
 from __future__ import annotations
 
