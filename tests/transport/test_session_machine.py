@@ -196,7 +196,9 @@ class SessionMachine(RuleBasedStateMachine):
     @invariant()
     def the_window_holds(self) -> None:
         session = self.session
-        assert session.in_flight_bytes <= max(session.window_bytes, 8)
+        # a request larger than the window (a transaction of three writes: 17 bytes) goes
+        # alone; otherwise the bytes in flight stay within the window
+        assert session.in_flight_bytes <= session.window_bytes or session.in_flight == 1
         assert session.in_flight_bytes >= 0
 
 
