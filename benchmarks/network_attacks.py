@@ -55,6 +55,9 @@ from arduinoio_async.sim import VirtualUno
 
 from ._results import command_line, write_result
 
+#: This module in a child process (the attacker).
+SELF = [sys.executable, "-m", "benchmarks.network_attacks"]
+
 BOARD_ID = 1
 PHASES = ("baseline", "oversized", "attachments", "flood", "flood_anonymous")
 #: Longest an attack may run before the bench gives up on it (seconds).
@@ -212,7 +215,7 @@ async def run_phase(
             if kind == "baseline":
                 await anyio.sleep(args.baseline_seconds)
             else:
-                command = [sys.executable, __file__, "--attack", kind, "--endpoint", endpoint]
+                command = [*SELF, "--attack", kind, "--endpoint", endpoint]
                 command += ["--count", str(counts[kind]), "--window", str(args.window)]
                 command += ["--oversize-mb", str(args.oversize_mb)]
                 result = await anyio.run_process(command, check=True)

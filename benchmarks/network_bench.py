@@ -82,6 +82,9 @@ from arduinoio_async.transport import run
 
 from ._results import command_line, write_result
 
+#: This module in a child process (the echo queryable).
+SELF = [sys.executable, "-m", "benchmarks.network_bench"]
+
 ECHO_KEY = "arduinoio/bench/echo"
 ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
 ECHO_HELD_KEY = "arduinoio/bench/echo_held"
@@ -214,7 +217,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
             ]
         )
         echo_loop = ["--uvloop"] if args.uvloop else []
-        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep, *echo_loop])
+        echo, _ = await start([*SELF, "--echo", echo_ep, *echo_loop])
         try:
             session = await anyio.to_thread.run_sync(
                 zenoh.open, zenoh_config(connect=[serve_ep, echo_ep])
