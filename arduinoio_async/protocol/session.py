@@ -481,6 +481,13 @@ class Session:
                 )
                 self._marker = marker
                 self._queue.appendleft(marker)
+            elif self._marker_reply_lost():
+                # More bytes came than every request up to the marker could answer with:
+                # the marker's reply was destroyed too, and nothing else can place the
+                # replies in flight (status polls' replies cannot be told apart).  Resync
+                # now, not at the oldest request's deadline: until then the window fills
+                # and the host falls silent (a failsafe's heartbeat with it).
+                self._lose_sync("the marker's reply was destroyed", out)
 
     def _locate(self, item: Reply | ErrorReply, out: Received) -> None:
         """After noise (or a mismatch): which request in flight does ``item`` answer?"""
@@ -535,12 +542,26 @@ class Session:
         """Could the replies of the first ``k`` requests in flight have become the garbage
         seen?  A damaged reply of L bytes leaves L - 1 (a byte dropped), L (flipped) or
         L + 1 (one inserted) bytes of garbage; one stray byte more is allowed."""
+        low, high = self._noise_bounds(k)
+        return low <= self._noise <= high + 1
+
+    def _noise_bounds(self, k: int) -> tuple[int, int]:
+        """The fewest and most bytes of garbage the first ``k`` replies can leave."""
         low = high = 0
         for exchange in list(self._flight)[:k]:
             layout = exchange.request.REPLY.LAYOUT
             low += layout.base_size - 1 + self._crc
             high += layout.max_size + 1 + self._crc
-        return low <= self._noise <= high + 1
+        return low, high
+
+    def _marker_reply_lost(self) -> bool:
+        """Has more garbage come than the replies up to the marker's could leave?  Replies
+        come in order, so the marker's reply is then destroyed, not late."""
+        marker = self._marker
+        if marker is None or marker.queued:
+            return False
+        _low, high = self._noise_bounds(self._flight.index(marker) + 1)
+        return self._noise > high + 1
 
     def _complete_head(self, reply: Reply | None, error: BoardError | None, out: Received) -> None:
         exchange = self._flight.popleft()
