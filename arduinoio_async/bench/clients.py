@@ -8,8 +8,8 @@ on the same port and the same moment, so every comparison (``arduinoio bench --h
   client pays (no event loop);
 - :func:`minimal_round`: the event loop's own floor: ``os.write``, then a reader
   callback resolves one future per round trip (no library);
-- :func:`library_round`: this library, ``Board.open`` and ``await board.read_id()``:
-  what an application calls.
+- :func:`library_round`: this library, ``await board.read_id()`` (what an application
+  calls) or the transport's ``request`` alone.
 
 Each opens the port afresh (exclusively), makes ``warmup`` untimed round trips, then
 ``samples`` timed ones, and returns the round trip times and the measuring thread's CPU
@@ -25,15 +25,18 @@ import os
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
+from typing import Literal
 
 import anyio
 import serial
 
 from .. import protocol as p
 from ..board import Board
+from ..transport import Transport, open_serial_stream
 
 __all__ = ["CLIENTS", "Round", "bare_round", "library_round", "minimal_round"]
 
+Layer = Literal["board", "link"]
 _REQUEST = p.ReadId().encode()
 _REPLY_SIZE = len(p.ReadIdReply(0).encode())
 
@@ -103,10 +106,24 @@ async def minimal_round(port_path: str, baud: int, samples: int, warmup: int) ->
         port.close()
 
 
-async def library_round(port_path: str, baud: int, samples: int, warmup: int) -> Round:
-    """This library: ``Board.open`` (handshake included, untimed), then ``read_id()``."""
-    async with Board.open(port_path, baudrate=baud) as board:
-        return await _timed(board.read_id, samples, warmup)
+async def library_round(
+    port_path: str, baud: int, samples: int, warmup: int, *, through: Layer = "board"
+) -> Round:
+    """This library's Read ID round trips, ``through`` one of two layers:
+
+    - ``"board"``: ``Board.open`` (handshake untimed), then ``await board.read_id()``:
+      what an application calls (``benchmarks.fast_link``'s goal is stated for it);
+    - ``"link"``: the :class:`~arduinoio_async.transport.Transport` alone and
+      ``link.request(ReadId())``: the library's own round trip without the board layer
+      (``arduinoio bench --host`` compares this with the bare loop; the board layer adds
+      about 15 % of CPU per round trip on top, measured 2026-11-26).
+    """
+    if through == "board":
+        async with Board.open(port_path, baudrate=baud) as board:
+            return await _timed(board.read_id, samples, warmup)
+    stream = await open_serial_stream(port_path, baud)
+    async with Transport(stream, name=port_path) as link:
+        return await _timed(lambda: link.request(p.ReadId()), samples, warmup)
 
 
 async def _timed(trip: Callable[[], Awaitable[object]], samples: int, warmup: int) -> Round:

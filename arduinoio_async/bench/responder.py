@@ -15,6 +15,7 @@ import select
 import subprocess
 import sys
 import time
+import tty
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -137,11 +138,27 @@ def pty_responder(interval: float = 0.0) -> Iterator[str]:
     )
     os.close(master)
     try:
+        _wait_until_answering(slave)
         yield os.ttyname(slave)
     finally:
         os.close(slave)
         child.terminate()
         child.wait()
+
+
+def _wait_until_answering(slave: int, within: float = 30.0) -> None:
+    """One Read ID through the pty (raw mode, as every client sets): a loaded machine can
+    take seconds to start the child, and a client's first read must not time out on it."""
+    tty.setraw(slave)
+    os.write(slave, p.ReadId().encode())
+    want = len(p.ReadIdReply(0).encode())
+    got = b""
+    deadline = time.monotonic() + within
+    while len(got) < want:
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([slave], [], [], left)[0]:
+            raise RuntimeError(f"the pty responder did not answer within {within:g} s")
+        got += os.read(slave, want - len(got))
 
 
 if __name__ == "__main__":
