@@ -19,7 +19,15 @@ from typing import Any
 
 from arduinoio_async.bench.stats import STATS_VERSION
 
-__all__ = ["LINK_JSON", "RESULTS", "command_line", "merge_result", "stamped", "write_result"]
+__all__ = [
+    "LINK_JSON",
+    "RESULTS",
+    "command_line",
+    "merge_result",
+    "report",
+    "stamped",
+    "write_result",
+]
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: The line-fault figures several benchmarks contribute keys to.
@@ -49,6 +57,13 @@ def write_result(path: Path, result: dict[str, Any], *, indent: int | None = 1) 
     separators = (",", ":") if indent is None else None
     text = json.dumps(stamped(result), indent=indent, separators=separators)
     path.write_text(text + "\n")
+
+
+def report(result: dict[str, Any], path: Path | None, *, indent: int | None = 2) -> None:
+    """Print ``result`` and, when ``path`` is given (``--json``), write it there."""
+    print(json.dumps(result, indent=2))
+    if path is not None:
+        write_result(path, result, indent=indent)
 
 
 def merge_result(path: Path, update: Callable[[dict[str, Any]], None]) -> None:

@@ -13,7 +13,6 @@ edges.  Also counted: timeouts at the default timeout, and the rate against one 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 from typing import Any
@@ -25,7 +24,7 @@ from arduinoio_async.errors import BoardTimeoutError, LinkError
 from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
 
-from ._results import command_line, write_result
+from ._results import command_line, report
 
 PIN = DigitalPin(2)
 
@@ -100,9 +99,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     result = anyio.run(measure, args)
-    print(json.dumps(result, indent=2))
-    if args.json:
-        write_result(args.json, result, indent=2)
+    report(result, args.json)
 
 
 if __name__ == "__main__":

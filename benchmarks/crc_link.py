@@ -41,7 +41,7 @@ from arduinoio_async.sim import VirtualUno
 from arduinoio_async.transport import FRAMING_ENV
 
 from . import soak as soak_bench
-from ._results import LINK_JSON, command_line, merge_result, write_result
+from ._results import LINK_JSON, command_line, merge_result, report
 
 
 def set_framing(name: str) -> None:
@@ -269,9 +269,7 @@ def main() -> None:
         record(json.loads(args.record_from.read_text()))
         return
     result = anyio.run(main_async, args)
-    print(json.dumps(result, indent=2))
-    if args.json:
-        write_result(args.json, result, indent=2)
+    report(result, args.json)
     if args.record:
         record(result)
 

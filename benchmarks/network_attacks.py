@@ -53,6 +53,7 @@ from arduinoio_async.network import open_remote_board, zenoh_config
 from arduinoio_async.network._keys import decode_fault, request_key
 from arduinoio_async.sim import VirtualUno
 
+from ._network import serve_command
 from ._results import command_line, write_result
 
 #: This module in a child process (the attacker).
@@ -236,21 +237,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
     endpoint = free_endpoint()
     phases: dict[str, Any] = {}
     async with VirtualUno(board_id=BOARD_ID, baud=args.baud) as uno:
-        server = await start_server(
-            [
-                sys.executable,
-                "-m",
-                "arduinoio_async",
-                "serve",
-                "--no-usb",
-                "--ports",
-                uno.port,
-                "--baud",
-                str(args.baud),
-                "--listen",
-                endpoint,
-            ]
-        )
+        server = await start_server(serve_command(uno.port, args.baud, endpoint))
         try:
             for kind in args.phases:
                 phases[kind] = await run_phase(args, endpoint, server, kind)

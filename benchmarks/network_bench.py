@@ -80,6 +80,7 @@ from arduinoio_async.network._loop import LoopHandle, zenoh_callback
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.transport import run
 
+from ._network import serve_command
 from ._results import command_line, write_result
 
 #: This module in a child process (the echo queryable).
@@ -201,21 +202,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         VirtualUno(board_id=1, baud=args.baud) as served,
         VirtualUno(board_id=2, baud=args.baud) as local_uno,
     ):
-        server, _ = await start(
-            [
-                sys.executable,
-                "-m",
-                "arduinoio_async",
-                "serve",
-                "--no-usb",
-                "--ports",
-                served.port,
-                "--baud",
-                str(args.baud),
-                "--listen",
-                serve_ep,
-            ]
-        )
+        server, _ = await start(serve_command(served.port, args.baud, serve_ep))
         echo_loop = ["--uvloop"] if args.uvloop else []
         echo, _ = await start([*SELF, "--echo", echo_ep, *echo_loop])
         try:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +33,7 @@ from arduinoio_async.protocol.pins import AnalogPin, DigitalPin
 from arduinoio_async.sim import VirtualUno
 
 from . import _soak
-from ._results import command_line, write_result
+from ._results import command_line, report
 from ._soak import Tally, guarded
 
 OUTPUT_PINS = [DigitalPin(n) for n in range(4, 14)]
@@ -127,9 +126,7 @@ def main() -> None:
     args = parser.parse_args()
     args.timeout = None
     result = {"command": command_line(), **anyio.run(soak, args)}
-    print(json.dumps(result, indent=2))
-    if args.json:
-        write_result(args.json, result, indent=2)
+    report(result, args.json)
 
 
 if __name__ == "__main__":

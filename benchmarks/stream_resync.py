@@ -12,7 +12,6 @@ second, and how many failed.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ from arduinoio_async.errors import LinkError
 from arduinoio_async.protocol.pins import AnalogPin
 from arduinoio_async.sim import VirtualUno
 
-from ._results import command_line, write_result
+from ._results import command_line, report
 
 
 async def measure(args: argparse.Namespace) -> dict[str, Any]:
@@ -77,9 +76,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     result = anyio.run(measure, args)
-    print(json.dumps(result, indent=2))
-    if args.json:
-        write_result(args.json, result, indent=2)
+    report(result, args.json)
 
 
 if __name__ == "__main__":

@@ -32,7 +32,6 @@ shared with ``benchmarks.soak``.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -46,7 +45,7 @@ from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
 
 from . import _soak
-from ._results import LINK_JSON, command_line, merge_result, write_result
+from ._results import LINK_JSON, command_line, merge_result, report
 from ._soak import Tally, guarded
 
 OUTPUT_PINS = [DigitalPin(n) for n in range(4, 14)]
@@ -171,9 +170,7 @@ def main() -> None:
     parser.add_argument("--record", action="store_true", help="merge into results/link.json")
     args = parser.parse_args()
     result = {"command": command_line(), **anyio.run(soak, args)}
-    print(json.dumps(result, indent=2))
-    if args.json:
-        write_result(args.json, result, indent=2)
+    report(result, args.json)
     if args.record:
         if args.fault != 1e-3:
             sys.exit("--record stores the 1e-3 figures: run with --fault 1e-3")
