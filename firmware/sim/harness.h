@@ -17,6 +17,14 @@
  *   main.c     options, simavr set-up, resets and MCUSR, bootloader, ready line
  * Every .c file includes this header first (it sets _GNU_SOURCE before any
  * system header); the other headers assume it.  See README.md next to this file.
+ *
+ * Each module owns its state (static) and exposes functions for what others
+ * need of it, and reports its own part of the control channel's "status"
+ * (pacing_status, pty_status, harness_status, wire_status, circuit_status).
+ * What stays shared is declared here: the options (written once, by
+ * parse_args, before the simulation starts) and the simulated core with the
+ * main loop's flags (the avr, halted, reset_seen, announced, quit_flag),
+ * which main.c and pacing.c run together.
  */
 #ifndef VIRTUAL_UNO_HARNESS_H
 #define VIRTUAL_UNO_HARNESS_H
@@ -64,13 +72,12 @@ extern avr_t *avr;
 extern volatile sig_atomic_t quit_flag;
 extern int halted;              /* SLEEP with I=0: core stopped until reset */
 extern volatile int reset_seen; /* set by our wrapper around avr->reset */
-extern unsigned long reset_count;
 extern int announced;           /* ready line printed (after the firmware's RXEN0) */
 
 void logf_(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* PRNG (xorshift64*), deterministic from --seed */
-extern uint64_t rng_state;
+uint64_t rng_swap(uint64_t state); /* a new state (0: 1), the old one back */
 uint64_t rng_next(void);
 double rng_unit(void);
 
@@ -78,8 +85,12 @@ double rng_unit(void);
 void reset_avr(uint8_t flags);
 void after_reset(void);
 void reset_and_run(uint8_t flags);
+void reset_held(uint8_t flags);  /* reset_and_run without a new time base */
 void power_on_reset(void);
 void update_extint_strict(void);
 void announce_when_listening(void);
+
+struct sbuf;
+void harness_status(struct sbuf *r); /* its part of "status": ", key: value..." */
 
 #endif

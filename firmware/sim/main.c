@@ -49,6 +49,7 @@ int opt_16u2;
 int opt_exit_with_parent;
 pid_t orig_ppid;
 uint64_t opt_seed = 1;
+static double opt_fault_drop, opt_fault_insert, opt_fault_flip; /* given to wire.c */
 
 /* ------------------------------------------------------------------ state */
 avr_t *avr;
@@ -57,7 +58,7 @@ static int json_fd = -1;
 int halted;
 volatile int reset_seen;
 static void (*orig_reset)(avr_t *);
-unsigned long reset_count;
+static unsigned long reset_count;
 int announced;
 
 void logf_(const char *fmt, ...)
@@ -70,7 +71,15 @@ void logf_(const char *fmt, ...)
 	va_end(ap);
 }
 
-uint64_t rng_state;
+static uint64_t rng_state;
+
+uint64_t rng_swap(uint64_t state)
+{
+	uint64_t old = rng_state;
+	rng_state = state ? state : 1;
+	return old;
+}
+
 uint64_t rng_next(void)
 {
 	uint64_t x = rng_state;
@@ -156,11 +165,17 @@ void after_reset(void)
 
 void reset_and_run(uint8_t flags)
 {
+	reset_held(flags);
+	rebase();
+}
+
+/* A reset that runs the firmware from its start (the time base is the caller's). */
+void reset_held(uint8_t flags)
+{
 	reset_avr(flags);
 	avr->state = cpu_Running;
 	reset_count++;
 	after_reset();
-	rebase();
 }
 
 void power_on_reset(void)
@@ -202,6 +217,27 @@ static int load_bootloader(const char *path)
 	return 0;
 }
 
+/* ------------------------------------------------------------------ status */
+static const char *state_name(void)
+{
+	if (!pty_plugged()) return "off";
+	if (pty_holding_reset()) return "reset";
+	if (halted) return "halted";
+	if (avr->state == cpu_Sleeping) return "sleeping";
+	if (avr->state == cpu_Running) return "running";
+	return "stopped";
+}
+
+void harness_status(struct sbuf *r)
+{
+	sb_add(r, ", \"state\": \"%s\", \"id\": ", state_name());
+	if (opt_id >= 0) sb_add(r, "%d", opt_id); else sb_add(r, "null");
+	sb_add(r, ", \"baud\": %u, \"fixture\": \"%s\", \"usb_bridge\": \"%s\", \"fast\": %s, "
+		  "\"reset_on_open\": %s, \"resets\": %lu, \"pc\": %u",
+	       opt_baud, fixture_name(), opt_16u2 ? "16u2" : "none", opt_fast ? "true" : "false",
+	       opt_reset_on_open ? "true" : "false", reset_count, (unsigned)avr->pc);
+}
+
 /* ------------------------------------------------------------------ setup */
 static void on_signal(int sig) { quit_flag = 1; }
 
@@ -213,7 +249,7 @@ static void on_signal(int sig) { quit_flag = 1; }
  * simulated time, or when it halts. */
 void announce_when_listening(void)
 {
-	if (plugged && !halted && !(avr->data[UCSR0B_ADDR] & RXEN0_BIT) &&
+	if (pty_plugged() && !halted && !(avr->data[UCSR0B_ADDR] & RXEN0_BIT) &&
 	    avr->cycle < ANNOUNCE_MAX_CYCLES)
 		return;
 	announced = 1;
@@ -224,7 +260,7 @@ void announce_when_listening(void)
 		snprintf(idtxt, sizeof(idtxt), "null");
 	int n = snprintf(line, sizeof(line),
 			 "{\"port\": \"%s\", \"control\": \"%s\", \"pid\": %d, \"id\": %s, \"baud\": %u}\n",
-			 pty_name, ctl_path, (int)getpid(), idtxt, opt_baud);
+			 pty_port(), control_path(), (int)getpid(), idtxt, opt_baud);
 	if (write(json_fd, line, (size_t)n) != n) { /* parent gone: keep running until signalled */ }
 }
 
@@ -265,11 +301,11 @@ static int parse_args(int argc, char **argv)
 			else if (!strcmp(v, "16u2")) opt_16u2 = 1;
 			else { logf_("bad --usb-bridge %s", v); return -1; }
 		}
-		else if (!strcmp(a, "--fault-drop")) { NEEDV(); fault_drop = atof(v); }
-		else if (!strcmp(a, "--fault-insert")) { NEEDV(); fault_insert = atof(v); }
-		else if (!strcmp(a, "--fault-flip")) { NEEDV(); fault_flip = atof(v); }
+		else if (!strcmp(a, "--fault-drop")) { NEEDV(); opt_fault_drop = atof(v); }
+		else if (!strcmp(a, "--fault-insert")) { NEEDV(); opt_fault_insert = atof(v); }
+		else if (!strcmp(a, "--fault-flip")) { NEEDV(); opt_fault_flip = atof(v); }
 		else if (!strcmp(a, "--seed")) { NEEDV(); opt_seed = strtoull(v, NULL, 0); }
-		else if (!strcmp(a, "--control")) { NEEDV(); snprintf(ctl_path, sizeof(ctl_path), "%s", v); }
+		else if (!strcmp(a, "--control")) { NEEDV(); control_set_path(v); }
 		else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { usage(); exit(0); }
 		else { logf_("unknown argument %s", a); usage(); return -1; }
 	}
@@ -286,10 +322,10 @@ int main(int argc, char **argv)
 
 	if (parse_args(argc, argv) < 0) return 2;
 	orig_ppid = getppid();
-	rng_state = opt_seed * 0x9E3779B97F4A7C15ULL + 1;
-	if (!rng_state) rng_state = 1;
+	rng_swap(opt_seed * 0x9E3779B97F4A7C15ULL + 1);
+	wire_set_faults(opt_fault_drop, opt_fault_insert, opt_fault_flip);
 	setup_r2r();
-	byte_cycles = (uint64_t)llround(10.0 * (double)F_CPU / (double)opt_baud);
+	wire_set_byte_time(opt_baud);
 
 	struct sigaction sa = {.sa_handler = on_signal};
 	sigaction(SIGINT, &sa, NULL);
@@ -334,7 +370,7 @@ int main(int argc, char **argv)
 
 	if (setup_control() < 0) return 2;
 	if (open_pty() < 0) return 2;
-	start_ns = now_ns();
+	pacing_start();
 	after_reset();
 	rebase();
 
@@ -343,6 +379,6 @@ int main(int argc, char **argv)
 	trace_close();
 
 	close_control();
-	if (master_fd >= 0) close(master_fd);
+	if (pty_fd() >= 0) close(pty_fd());
 	return 0;
 }
