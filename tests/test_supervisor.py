@@ -46,10 +46,14 @@ class Recorder:
         return [event.kind for event in self.seen]
 
 
-async def test_a_board_is_attached_restored_after_a_reset_and_detached_when_unplugged() -> None:
-    boards: dict[int, Board] = {}
+def fresh() -> tuple[dict[int, Board], Events, Recorder]:
+    """A board collection as a manager keeps one: the boards by ID, their news, a recorder."""
     events = Events(log)
-    record = Recorder(events)
+    return {}, events, Recorder(events)
+
+
+async def test_a_board_is_attached_restored_after_a_reset_and_detached_when_unplugged() -> None:
+    boards, events, record = fresh()
     outcomes: list[LinkOutcome] = []
     async with FakeBoard(board_id=0x0031) as fake, anyio.create_task_group() as tg:
         link = await Board.start_link(fake.host_stream, timeout=0.5, ready_timeout=2)
@@ -78,9 +82,7 @@ async def test_a_board_is_attached_restored_after_a_reset_and_detached_when_unpl
 
 
 async def test_a_board_back_under_another_id_is_given_up_not_restored() -> None:
-    boards: dict[int, Board] = {}
-    events = Events(log)
-    record = Recorder(events)
+    boards, events, record = fresh()
     async with FakeBoard(board_id=0x0011) as fake:
         link = await Board.start_link(fake.host_stream, timeout=0.5, ready_timeout=2)
         async with anyio.create_task_group() as tg:
@@ -100,9 +102,7 @@ async def test_a_board_back_under_another_id_is_given_up_not_restored() -> None:
 
 
 async def test_a_watch_that_returns_gives_the_link_up_with_its_reason() -> None:
-    boards: dict[int, Board] = {}
-    events = Events(log)
-    record = Recorder(events)
+    boards, events, record = fresh()
     give_up = anyio.Event()
 
     async def watch(board: Board) -> str:
@@ -122,9 +122,7 @@ async def test_a_watch_that_returns_gives_the_link_up_with_its_reason() -> None:
 
 
 async def test_a_failed_handshake_ends_unstarted_with_its_reason() -> None:
-    boards: dict[int, Board] = {}
-    events = Events(log)
-    record = Recorder(events)
+    boards, events, record = fresh()
     async with FakeBoard(board_id=0x0007) as fake:
         link = await Board.start_link(fake.host_stream, timeout=0.5, ready_timeout=2)
         await fake.unplug()  # gone before the handshake
