@@ -23,8 +23,8 @@
  * (pacing_status, pty_status, harness_status, wire_status, circuit_status).
  * What stays shared is declared here: the options (written once, by
  * parse_args, before the simulation starts) and the simulated core with the
- * main loop's flags (the avr, halted, reset_seen, announced, quit_flag),
- * which main.c and pacing.c run together.
+ * core's run flags (the avr, halted, reset_seen), which main.c's resets and
+ * pacing.c's loop change instruction by instruction.
  */
 #ifndef VIRTUAL_UNO_HARNESS_H
 #define VIRTUAL_UNO_HARNESS_H
@@ -69,10 +69,8 @@ extern uint64_t opt_seed;
 
 /* the MCU */
 extern avr_t *avr;
-extern volatile sig_atomic_t quit_flag;
 extern int halted;              /* SLEEP with I=0: core stopped until reset */
 extern volatile int reset_seen; /* set by our wrapper around avr->reset */
-extern int announced;           /* ready line printed (after the firmware's RXEN0) */
 
 void logf_(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 

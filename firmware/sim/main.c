@@ -53,13 +53,12 @@ static double opt_fault_drop, opt_fault_insert, opt_fault_flip; /* given to wire
 
 /* ------------------------------------------------------------------ state */
 avr_t *avr;
-volatile sig_atomic_t quit_flag;
 static int json_fd = -1;
 int halted;
 volatile int reset_seen;
 static void (*orig_reset)(avr_t *);
 static unsigned long reset_count;
-int announced;
+static int announced; /* ready line printed (after the firmware's RXEN0) */
 
 void logf_(const char *fmt, ...)
 {
@@ -239,7 +238,7 @@ void harness_status(struct sbuf *r)
 }
 
 /* ------------------------------------------------------------------ setup */
-static void on_signal(int sig) { quit_flag = 1; }
+static void on_signal(int sig) { pacing_quit(); }
 
 /* The ready line goes out once the firmware has switched its UART receiver on
  * (RXEN0), not at power-up: a host that writes a request the moment it learns
@@ -249,6 +248,8 @@ static void on_signal(int sig) { quit_flag = 1; }
  * simulated time, or when it halts. */
 void announce_when_listening(void)
 {
+	if (announced)
+		return;
 	if (pty_plugged() && !halted && !(avr->data[UCSR0B_ADDR] & RXEN0_BIT) &&
 	    avr->cycle < ANNOUNCE_MAX_CYCLES)
 		return;

@@ -63,6 +63,9 @@ static uint64_t last_parent_check_ns;
 static unsigned long runahead_jumps;
 static uint64_t runahead_jump_cycles;
 static uint64_t next_event = UINT64_MAX;
+static volatile sig_atomic_t quit_flag; /* SIGINT/SIGTERM, or the parent died */
+
+void pacing_quit(void) { quit_flag = 1; } /* async-signal-safe */
 
 uint64_t now_ns(void)
 {
@@ -401,8 +404,7 @@ void run_paced(void)
 {
 	last_io_ns = now_ns();
 	while (!quit_flag) {
-		if (!announced)
-			announce_when_listening();
+		announce_when_listening();
 		if (!pty_plugged() || pty_holding_reset() || halted) {
 			uint64_t to = 20000000ULL;
 			if (pty_holding_reset()) {

@@ -20,7 +20,8 @@ void recompute_next_event(void);
 void run_events(void);
 
 void my_run(avr_t *a); /* installed as avr->run */
-void run_paced(void);  /* the main loop, until quit_flag */
+void run_paced(void);  /* the main loop, until pacing_quit() */
+void pacing_quit(void); /* end the main loop (async-signal-safe) */
 
 void pacing_start(void);              /* the wall clock's zero (status: wall_us) */
 void pacing_status(struct sbuf *r);  /* its part of "status": ", key: value..." */
