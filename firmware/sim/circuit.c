@@ -72,7 +72,7 @@ static int pin_bit(int p) { return p < 8 ? p : (p < 14 ? p - 8 : p - 14); }
 
 int loop_partner(int p)
 {
-	if (opt_fixture != FIX_LOOPBACK || p < 2 || p > 13)
+	if (opt->fixture != FIX_LOOPBACK || p < 2 || p > 13)
 		return -1;
 	return (p % 2 == 0) ? p + 1 : p - 1;
 }
@@ -165,7 +165,7 @@ static int input_level(int p)
 	}
 	if (port_bit(p))
 		return 1; /* internal pull-up */
-	if (opt_fixture == FIX_R2R && p >= 14)
+	if (opt->fixture == FIX_R2R && p >= 14)
 		return r2r_mv[p - 14] > 2500.0;
 	return 0;
 }
@@ -194,7 +194,7 @@ void update_analog(void)
 {
 	for (int ch = 0; ch < 8; ch++) {
 		int mv = analog_mv[ch];
-		if (opt_fixture == FIX_R2R && ch < 6) {
+		if (opt->fixture == FIX_R2R && ch < 6) {
 			r2r_mv[ch] = r2r_output(ch);
 			mv = (int)lround(r2r_mv[ch]);
 		}
@@ -216,7 +216,7 @@ void apply_circuit(void)
 	int rounds = 0;
 	do {
 		circuit_again = 0;
-		if (opt_fixture == FIX_R2R)
+		if (opt->fixture == FIX_R2R)
 			update_analog();
 		for (int pi = 0; pi < 3; pi++) {
 			uint8_t mask = 0, value = 0;
@@ -335,11 +335,11 @@ static void read_shadows(void)
 
 void setup_r2r(void)
 {
-	uint64_t saved = rng_swap(opt_seed * 0x9E3779B97F4A7C15ULL + 0x1234567ULL);
+	uint64_t saved = rng_swap(opt->seed * 0x9E3779B97F4A7C15ULL + 0x1234567ULL);
 	const double nominal[4] = {20000.0, 20000.0, 10000.0, 20000.0};
 	for (int k = 0; k < 6; k++)
 		for (int i = 0; i < 4; i++)
-			r2r_res[k][i] = nominal[i] * (1.0 + (2.0 * rng_unit() - 1.0) * opt_r2r_tol / 100.0);
+			r2r_res[k][i] = nominal[i] * (1.0 + (2.0 * rng_unit() - 1.0) * opt->r2r_tol / 100.0);
 	rng_swap(saved);
 }
 
@@ -450,7 +450,7 @@ int run_pulses(uint64_t now)
 }
 
 /* ------------------------------------------------------------------ control channel */
-const char *fixture_name(void) { return fixture_names[opt_fixture]; }
+const char *fixture_name(void) { return fixture_names[opt->fixture]; }
 
 void circuit_set_analog(int ch, int mv)
 {

@@ -81,7 +81,7 @@ static void cmd_set_analog(struct jobj *o, struct sbuf *r)
 	}
 	circuit_set_analog((int)ch, (int)lround(mv));
 	sb_add(r, "{\"ok\": true, \"r2r_override\": %s}",
-	       (opt_fixture == FIX_R2R && ch < 6) ? "true" : "false");
+	       (opt->fixture == FIX_R2R && ch < 6) ? "true" : "false");
 }
 
 static void cmd_set_temperature(struct jobj *o, struct sbuf *r)

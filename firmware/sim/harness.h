@@ -21,10 +21,10 @@
  * Each module owns its state (static) and exposes functions for what others
  * need of it, and reports its own part of the control channel's "status"
  * (pacing_status, pty_status, harness_status, wire_status, circuit_status).
- * What stays shared is declared here: the options (written once, by
- * parse_args, before the simulation starts) and the simulated core with the
- * core's run flags (the avr, halted, reset_seen), which main.c's resets and
- * pacing.c's loop change instruction by instruction.
+ * What stays shared is declared here: the options (read-only outside main.c,
+ * which parses them), the simulated core (avr) and its run flags (halted,
+ * reset_seen), which main.c's resets and pacing.c's loop change instruction by
+ * instruction (a function call there would cost every simulated instruction).
  */
 #ifndef VIRTUAL_UNO_HARNESS_H
 #define VIRTUAL_UNO_HARNESS_H
@@ -52,20 +52,23 @@
 
 enum fixture { FIX_OPEN, FIX_LOOPBACK, FIX_R2R };
 
-/* options (main.c parses them) */
-extern const char *opt_elf;
-extern const char *opt_bootloader; /* optiboot .hex: reset into the boot section */
-extern int opt_id;
-extern unsigned opt_baud;
-extern enum fixture opt_fixture;
-extern double opt_r2r_tol;
-extern int opt_fast;
-extern int opt_reset_on_open;
-extern unsigned opt_boot_delay_ms;
-extern int opt_16u2;
-extern int opt_exit_with_parent;
-extern pid_t orig_ppid;
-extern uint64_t opt_seed;
+/* options: main.c parses them into its own copy; every other module reads */
+struct harness_options {
+	const char *elf;
+	const char *bootloader;     /* optiboot .hex: reset into the boot section */
+	int id;                     /* board ID written to the EEPROM, -1: leave it */
+	unsigned baud;
+	enum fixture fixture;
+	double r2r_tol;
+	int fast;
+	int reset_on_open;
+	unsigned boot_delay_ms;
+	int bridge_16u2;            /* --usb-bridge 16u2 */
+	int exit_with_parent;
+	pid_t parent_pid;           /* for --exit-with-parent */
+	uint64_t seed;
+};
+extern const struct harness_options *const opt;
 
 /* the MCU */
 extern avr_t *avr;

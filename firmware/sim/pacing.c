@@ -101,7 +101,7 @@ int64_t bridge_clock_phase(void) { return bridge_clock_offset; }
 void rebase(void)
 {
 	uint64_t now = now_ns();
-	if (avr && !opt_fast && wall_base_ns)
+	if (avr && !opt->fast && wall_base_ns)
 		bridge_clock_offset += (int64_t)avr->cycle - (int64_t)wall_cycles(now);
 	wall_base_ns = now;
 	cycle_base = avr ? avr->cycle : 0;
@@ -187,7 +187,7 @@ static uint64_t lead_now(uint64_t t, uint64_t *resume)
  * the host is unaffected. */
 void catch_up_wall(void)
 {
-	if (!avr || opt_fast)
+	if (!avr || opt->fast)
 		return;
 	uint64_t t = now_ns();
 	quiet_since_ns = t; /* the idle run-ahead starts from 0 again */
@@ -211,7 +211,7 @@ void catch_up_wall(void)
 uint64_t stimulus_cycle(void)
 {
 	catch_up_wall();
-	if (!avr || opt_fast)
+	if (!avr || opt->fast)
 		return avr ? avr->cycle : 0;
 	uint64_t wc = wall_cycles(now_ns());
 	return wc > avr->cycle ? wc : avr->cycle;
@@ -276,7 +276,7 @@ static int wait_fds(uint64_t timeout_ns)
 	uint64_t deadline = 0;
 	int punctual;
 	uint64_t out = output_wake_cycle(&punctual);
-	if (out != UINT64_MAX && !opt_fast) {
+	if (out != UINT64_MAX && !opt->fast) {
 		uint64_t due = wall_ns_of(out);
 		if (due <= t + timeout_ns) { /* output due within this wait */
 			timeout_ns = due > t ? due - t : 0;
@@ -303,7 +303,7 @@ static uint64_t sleep_for(uint64_t how_long)
 	uint64_t target = avr->cycle + 1 + how_long;
 	if (next_event < target)
 		target = next_event > avr->cycle ? next_event : avr->cycle + 1;
-	if (opt_fast) {
+	if (opt->fast) {
 		uint64_t t = now_ns();
 		if (t - last_io_ns > 200000ULL)
 			io_ready = 1;
@@ -383,10 +383,10 @@ static void service_io(void)
 	}
 	npfds = 0;
 	uint64_t t = now_ns();
-	if (opt_exit_with_parent && t - last_parent_check_ns > 200000000ULL) {
+	if (opt->exit_with_parent && t - last_parent_check_ns > 200000000ULL) {
 		/* launcher died without stopping us (SIGKILL): do not linger */
 		last_parent_check_ns = t;
-		if (getppid() != orig_ppid)
+		if (getppid() != opt->parent_pid)
 			quit_flag = 1;
 	}
 	pty_housekeeping(t);
@@ -437,7 +437,7 @@ void run_paced(void)
 			t = now_ns();
 		}
 		output_service(wall_cycles(t));
-		if (opt_fast) {
+		if (opt->fast) {
 			if (t - last_io_ns > 200000ULL) poll_io(0);
 			continue;
 		}
@@ -467,7 +467,7 @@ void pacing_start(void) { start_ns = now_ns(); }
 void pacing_status(struct sbuf *r)
 {
 	uint64_t t = now_ns();
-	int64_t lag = pty_plugged() && !opt_fast ? (int64_t)wall_cycles(t) - (int64_t)avr->cycle : 0;
+	int64_t lag = pty_plugged() && !opt->fast ? (int64_t)wall_cycles(t) - (int64_t)avr->cycle : 0;
 	sb_add(r, ", \"cycle\": %llu, \"sim_us\": %.3f, \"wall_us\": %.3f, \"lag_us\": %.3f, "
 		  "\"max_lag_us\": %.3f, \"rebases\": %lu, \"runahead_jumps\": %lu, "
 		  "\"runahead_jump_us\": %.3f",

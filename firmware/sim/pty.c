@@ -132,10 +132,10 @@ static void on_slave_open(void)
 	slave_open = 1;
 	open_count++;
 	baud_mismatch_logged = 0;
-	if (opt_reset_on_open && plugged) {
+	if (opt->reset_on_open && plugged) {
 		reset_held(MCUSR_EXTRF);
 		holding_reset = 1;
-		hold_until_ns = now_ns() + (uint64_t)opt_boot_delay_ms * 1000000ULL;
+		hold_until_ns = now_ns() + (uint64_t)opt->boot_delay_ms * 1000000ULL;
 	}
 }
 

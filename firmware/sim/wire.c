@@ -155,10 +155,10 @@ static unsigned due_count(uint64_t wc)
 static int burst_ends_at(unsigned i)
 {
 	uint64_t t = to_pty_due(i);
-	uint64_t gap = opt_16u2 ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
+	uint64_t gap = opt->bridge_16u2 ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
 	if (i + 1 < ring_len(&to_pty))
 		return to_pty_due(i + 1) > t + gap;
-	if (opt_16u2)
+	if (opt->bridge_16u2)
 		return 1;
 	if (!ring_empty(&wire_tx))
 		return ring_peek(&wire_tx)->t > t + gap;
@@ -201,7 +201,7 @@ void output_service(uint64_t wc)
 {
 	if (ring_empty(&to_pty))
 		return;
-	if (opt_fast)
+	if (opt->fast)
 		wc = UINT64_MAX; /* unpaced: no wall clock to wait for */
 	unsigned due = due_count(wc);
 	if (!due)
@@ -245,7 +245,7 @@ uint64_t output_wake_cycle(int *punctual)
  * the end of every reply would wait for the next wait to end. */
 uint64_t output_decided_at(void)
 {
-	if (ring_empty(&to_pty) || opt_16u2 || !ring_empty(&wire_tx))
+	if (ring_empty(&to_pty) || opt->bridge_16u2 || !ring_empty(&wire_tx))
 		return 0;
 	uint64_t t = to_pty.d[(to_pty.head - 1) & (RING - 1)].t + 2 * byte_cycles;
 	return avr->cycle < t && (avr->data[UCSR0B_ADDR] & UDRIE0_BIT) ? t : 0;
@@ -286,7 +286,7 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 		faults_inserted++;
 	}
 	for (int i = 0; i < n; i++) {
-		if (!opt_16u2) {
+		if (!opt->bridge_16u2) {
 			trace_event('T', bytes[i]);
 			to_host(bytes[i], now);
 		} else {
@@ -454,7 +454,7 @@ void wire_after_reset(void)
 void host_bytes_in(const uint8_t *buf, size_t n)
 {
 	uint64_t t = stimulus_cycle(); /* the wall's now, or the simulation's on a busy link */
-	if (opt_16u2)
+	if (opt->bridge_16u2)
 		t = bridge_boundary(t, USB_FRAME_CYCLES);
 	for (size_t i = 0; i < n; i++)
 		if (!ring_push(&host_rx, buf[i], t))
