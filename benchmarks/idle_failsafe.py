@@ -77,7 +77,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
 
     async with (
         VirtualUno(board_id=BOARD_ID, baud=args.baud, seed=args.seed) as uno,
-        BoardManager(ports=[uno.port], usb=False, env=False) as boards,
+        BoardManager(ports=[uno.port], usb=False, env=False, registered=False) as boards,
         anyio.create_task_group() as watchers,
     ):
         boards.subscribe(on_event)

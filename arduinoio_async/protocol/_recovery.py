@@ -138,12 +138,26 @@ class Recovery(SessionCore):
         """Could the replies of the first ``k`` requests in flight have become the garbage
         seen?  A damaged reply of L bytes leaves L - 1 (a byte dropped), L (flipped) or
         L + 1 (one inserted) bytes of garbage; one stray byte more is allowed."""
+        low, high = self._noise_bounds(k)
+        return low <= self._noise <= high + 1
+
+    def _noise_bounds(self, k: int) -> tuple[int, int]:
+        """The fewest and most bytes of garbage the first ``k`` replies can leave."""
         low = high = 0
         for exchange in list(self._flight)[:k]:
             layout = exchange.request.REPLY.LAYOUT
             low += layout.base_size - 1 + self._crc
             high += layout.max_size + 1 + self._crc
-        return low <= self._noise <= high + 1
+        return low, high
+
+    def _marker_reply_lost(self) -> bool:
+        """Has more garbage come than the replies up to the marker's could leave?  Replies
+        come in order, so the marker's reply is then destroyed, not late."""
+        marker = self._marker
+        if marker is None or marker.queued:
+            return False
+        _low, high = self._noise_bounds(self._flight.index(marker) + 1)
+        return self._noise > high + 1
 
     def _lose_sync(
         self,

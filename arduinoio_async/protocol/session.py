@@ -334,6 +334,13 @@ class Session(Recovery, Probing):
                 )
                 self._marker = marker
                 self._queue.appendleft(marker)
+            elif self._marker_reply_lost():
+                # More bytes came than every request up to the marker could answer with:
+                # the marker's reply was destroyed too, and nothing else can place the
+                # replies in flight (status polls' replies cannot be told apart).  Resync
+                # now, not at the oldest request's deadline: until then the window fills
+                # and the host falls silent (a failsafe's heartbeat with it).
+                self._lose_sync("the marker's reply was destroyed", out)
 
     def _locate(self, item: Reply | ErrorReply, out: Received) -> None:
         """After noise (or a mismatch): which request in flight does ``item`` answer?"""
