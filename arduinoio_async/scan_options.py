@@ -2,9 +2,9 @@
 
 ``--ports`` (more places to probe), ``--baud`` and ``--probe-timeout``, and the argument
 types that turn a board ID, a baud rate or a number of seconds into a one-line error
-instead of a traceback.  A public module of its own, below the command line, the monitor
-and the network server, so each of them builds the same options without importing
-another's private module.
+instead of a traceback (``--ports`` itself is the manager's, whose ``patterns`` it fills).
+A public module of its own, below the command line and the monitor, so each of them
+builds the same options without importing another's private module.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from .manager import add_ports_option
 from .protocol import DEFAULT_BAUD
 
 __all__ = ["add_scan_options", "baud_rate", "board_id", "probe_seconds"]
@@ -51,13 +52,7 @@ def probe_seconds(text: str) -> float:
 
 def add_scan_options(parser: argparse.ArgumentParser) -> None:
     """``--ports``, ``--baud`` and ``--probe-timeout`` (the ports a scan probes, and how)."""
-    parser.add_argument(
-        "--ports",
-        action="append",
-        default=[],
-        metavar="PATH_OR_GLOB",
-        help="also probe these ports (repeatable; ARDUINOIO_PORTS works too)",
-    )
+    add_ports_option(parser)
     parser.add_argument("--baud", type=baud_rate, default=DEFAULT_BAUD)
     parser.add_argument(
         "--probe-timeout", type=probe_seconds, default=5.0, help="seconds per port (auto-reset)"

@@ -31,15 +31,15 @@ LAYERS: list[tuple[str, ...]] = [
     # the board (arduinoio_async._schemes); the version.
     ("errors", "_schemes", "_version"),
     ("protocol",),  # sans-IO: command table, codec, session; no asyncio, no subprocess
-    # The shipped data files, the toolchain and the harness build; the scan options the
-    # commands, the monitor and the server share.
-    ("_resources", "scan_options"),
+    ("_resources",),  # the shipped data files, the toolchain and the harness build
     ("_port_registry",),  # the per-user registry of running virtual Unos
     ("transport",),  # byte streams and the request/response engine
     ("_event_queue",),  # bounded queues of pushed events, shared by the board's watches
     ("testing",),  # FakeBoard: a board in memory, on the transport's stream interface
     ("board",),  # Board over BoardCore; handles, changes, streams, transactions, failsafe
+    ("_supervisor",),  # one board's life on one link: attach, keepalive, restore, retry
     ("manager", "sim"),  # boards by ID (discovery, restore); virtual Unos and their demo
+    ("scan_options",),  # the options every command that looks for boards shares
     ("network",),  # boards served over Zenoh and the client
     ("opener",),  # one entry for every kind of address: serial ports, sims, zenoh://
     ("blocking", "bench"),  # the blocking API; the shipped benchmark
@@ -51,14 +51,8 @@ LAYERS: list[tuple[str, ...]] = [
 
 #: Back edges still to be removed, each with who removes it.  Listed edges are left out
 #: of both checks; a test fails once one is gone, so the list only shrinks.
-KNOWN_BACK_EDGES: set[tuple[str, str]] = {
-    # ServedBoard and its failsafe owner type their ``server`` as BoardServer, the parent
-    # that builds them (the server's loop, task group, Zenoh session, live clients).
-    # Issue 24 item 3 splits ServedBoard into admission/ordering and client policy (branch
-    # i24-split) and types it against what it uses; these two lines go then.
-    (f"{PACKAGE}.network._served_board", f"{PACKAGE}.network._server"),
-    (f"{PACKAGE}.network._owner", f"{PACKAGE}.network._server"),
-}
+KNOWN_BACK_EDGES: set[tuple[str, str]] = set()  # none left (the last two went with the
+# ServedBoard split: it and its failsafe owner no longer name the BoardServer that builds them)
 
 Graph = Mapping[str, Iterable[str]]
 
@@ -162,8 +156,8 @@ def upward_edges(graph: Graph, ranks: Mapping[str, int]) -> list[str]:
             here, there = unit_of(module), unit_of(target)
             if here != there and ranks.get(there, -1) >= ranks.get(here, -1):
                 bad.append(
-                    f"{module} -> {target} ({here!r} rank {ranks[here]}, "
-                    f"{there!r} rank {ranks[there]})"
+                    f"{module} -> {target} ({here!r} rank {ranks.get(here)}, "
+                    f"{there!r} rank {ranks.get(there)})"
                 )
     return bad
 
@@ -228,5 +222,5 @@ def test_cycle_finder(graph: dict[str, set[str]], expected: list[list[str]]) -> 
 def test_same_rank_units_are_independent() -> None:
     graph = {f"{PACKAGE}.manager": {f"{PACKAGE}.sim"}, f"{PACKAGE}.sim": set()}
     assert upward_edges(graph, rank_table()) == [
-        f"{PACKAGE}.manager -> {PACKAGE}.sim ('manager' rank 8, 'sim' rank 8)"
+        f"{PACKAGE}.manager -> {PACKAGE}.sim ('manager' rank 9, 'sim' rank 9)"
     ]

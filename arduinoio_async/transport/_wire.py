@@ -13,7 +13,7 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any
 
 import anyio
@@ -131,7 +131,10 @@ class Wire:
             elif self._loop is None:
                 waiter.set()
             elif not waiter.done():
-                waiter.set_result(None)
+                try:  # noqa: SIM105 - the hot path: no context manager object per reply
+                    waiter.set_result(None)
+                except asyncio.InvalidStateError:
+                    pass  # cancelled since the check: see _wake
             if self._watchers:
                 self._sync_state()
             return
@@ -167,7 +170,7 @@ class Wire:
                 continue
             if isinstance(waiter, asyncio.Future):
                 if not waiter.done():
-                    waiter.set_result(None)
+                    _wake(waiter)
             else:
                 waiter.set()
         if out.events:
@@ -222,3 +225,12 @@ class Wire:
             self.abilities.push.detach()
         if self._alarm is not None:
             self._alarm.disarm()
+
+
+def _wake(waiter: asyncio.Future[None]) -> None:
+    """Complete a caller's future that was pending a moment ago.  It may have been
+    cancelled since: asyncio's Ctrl-C handler runs between any two bytecodes of a
+    callback and cancels the main task, and with it the future that task awaits (seen
+    as an ``InvalidStateError`` traceback above ``arduinoio bench``'s one-line error)."""
+    with suppress(asyncio.InvalidStateError):
+        waiter.set_result(None)
