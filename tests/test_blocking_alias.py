@@ -6,9 +6,15 @@ import subprocess
 import sys
 
 
+def run_fresh(script: str) -> str:
+    """``script``'s output in a fresh interpreter (a module warns on its first import only,
+    and another test of this process may have imported it already)."""
+    return subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60, check=True
+    ).stdout
+
+
 def test_the_old_path_warns_and_gives_the_same_objects() -> None:
-    # A fresh interpreter: the module warns when it is first imported, and another test
-    # of this process may have imported it already.
     script = (
         "import warnings\n"
         "warnings.simplefilter('error', DeprecationWarning)\n"
@@ -22,9 +28,7 @@ def test_the_old_path_warns_and_gives_the_same_objects() -> None:
         "assert old.BlockingBoard is new.BlockingBoard and old.__all__ == new.__all__\n"
         "print('same objects')\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60, check=True
-    ).stdout
+    out = run_fresh(script)
     assert "warned: arduinoio_async.sync is deprecated: import arduinoio_async.blocking" in out
     assert "same objects" in out
 
@@ -36,7 +40,4 @@ def test_the_new_path_does_not_warn() -> None:
         "import arduinoio_async.blocking\n"
         "print('quiet')\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60, check=True
-    ).stdout
-    assert out.strip() == "quiet"
+    assert run_fresh(script).strip() == "quiet"
