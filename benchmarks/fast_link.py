@@ -1,6 +1,6 @@
 """Fast links without a bridge: one request's round trip, and pipelined writes per second.
 
-Issue 13's "no bridge" goals: sequential read ID p50 at most 0.15 ms at 2,000,000 baud
+The "no bridge" speed goals: sequential read ID p50 at most 0.15 ms at 2,000,000 baud
 through the library, and the host's share of pipelined write-pin at least 28,000/s.
 
 *Round trips* (``await board.read_id()`` one after another): on one virtual Uno per baud

@@ -1,4 +1,4 @@
-"""Exact firmware cycle counts (issue 13, items 5 and 7), no host and no wall clock.
+"""Exact firmware cycle counts, no host and no wall clock.
 
 Builds ``benchmarks/firmware_cycles.c`` against libsimavr and runs it on each ELF:
 

@@ -1,4 +1,4 @@
-"""Pipelined GPIO WRITE through the virtual Uno's pty (issue 13, item 5).
+"""Pipelined GPIO WRITE through the virtual Uno's pty.
 
 The host keeps ``--window`` write-pin requests in flight (raw pyserial, no library, so
 the host is never the limit) and counts simulated CPU cycles with the harness's

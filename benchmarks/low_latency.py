@@ -1,4 +1,4 @@
-"""Low-latency mode behind the 16U2 bridge model (issue 13, item 3): read ID latency.
+"""Low-latency mode behind the 16U2 bridge model: read ID latency.
 
 Sequential READ_ID round trips (one in flight, each after a random pause) on the project
 firmware behind the virtual Uno's 16U2 model (``--usb-bridge 16u2``: board-to-host bytes
@@ -8,7 +8,7 @@ every round starts a fresh board per baud rate, so a busy moment of the shared m
 hits both modes.  ``--cpu-idle both`` adds the CPU idle states as a second dimension
 (the CPUs' default idle states, or held out of deep ones: :mod:`arduinoio_async.bench.cpu_idle`),
 interleaved the same way.
-Goal (issue 13): 2 Mbaud, low-latency mode, mean at most 1.8 ms.
+Goal: 2 Mbaud, low-latency mode, mean at most 1.8 ms.
 
     .venv/bin/python -m benchmarks.low_latency --cpu-idle both \
         --json benchmarks/results/low_latency.json

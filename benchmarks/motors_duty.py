@@ -1,4 +1,4 @@
-"""Duty-cycle PWM accuracy on the virtual Uno (issue 26): ``duty_error_ticks_max``.
+"""Duty-cycle PWM accuracy on the virtual Uno: ``duty_error_ticks_max``.
 
 For every frequency each timer offers (D5: Timer0, D9: Timer1, D3: Timer2) and duties of
 1, 37, 50 and 99 %, the fixture captures the pin's edges (simulated cycle counter) while

@@ -1,5 +1,5 @@
 """The served board under attack: the legitimate client's latency and the server's memory
-(issue 28 item 8).
+under the per-client limits of ``network/_limits.py``.
 
 One virtual Uno is served by ``arduinoio serve`` in a process of its own (loopback TCP).
 A legitimate client in this process (``open_remote_board``) calls ``read_id()`` one after

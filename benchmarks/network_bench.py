@@ -1,4 +1,4 @@
-"""Remote round trip against local, next to Zenoh's own get/queryable floor (issue 15).
+"""Remote round trip against local, next to Zenoh's own get/queryable floor.
 
 Two virtual Unos with the same firmware and baud rate: board 1 is served by
 ``arduinoio serve`` in a process of its own and reached over Zenoh (loopback TCP); board

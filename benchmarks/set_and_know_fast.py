@@ -1,4 +1,4 @@
-"""Peer test (a) "host sets D2 -> host knows D3" at the fast baud rates (issue 13, items 1-2).
+"""Peer test (a) "host sets D2 -> host knows D3" at the fast baud rates.
 
 The peer benchmark (``benchmarks.peers.peer_bench``) runs the project at 115200 baud,
 where each way's byte count decides; this runs the same four client functions on the

@@ -1,4 +1,4 @@
-"""Streams below 1 ms on the virtual Uno (issue 13, item 6): gaps over a timed run.
+"""Streams below 1 ms on the virtual Uno: gaps over a timed run.
 
 Each case streams analog channels at a period and counts what arrives in ``--seconds``
 of simulated time (the sample count, so a simulation running behind the wall clock on a

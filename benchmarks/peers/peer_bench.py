@@ -58,7 +58,7 @@ REPO = HERE.parents[1]
 WORKER = HERE / "firmata_clients.py"
 PEER_PYTHON = REPO / ".venv-peers" / "bin" / "python"
 LINKS = ("none", "16u2")
-#: The project at its default configuration (issue 13's goals are about it) ...
+#: The project at its default configuration (the speed goals are about it) ...
 PROJECT_BAUD = p.DEFAULT_BAUD
 #: ... and other choices, marked NOT_DEFAULT in the client name: 2 Mbaud for (c), the
 #: low-latency mode off behind the 16U2 for (a) and (b).

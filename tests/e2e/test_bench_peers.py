@@ -77,7 +77,7 @@ def test_peer_benchmark_tiny_run_writes_rows_and_renders(tmp_path: Path) -> None
         assert all(r["baud"] == 57600 for r in firmata)
         raw_writes = [r for r in firmata if r["test"] == "d" and r["client"] == "raw"]
         assert [r["n"] for r in raw_writes] == [40, 40]  # no write lost on the way
-        assert "Issue 13's goals" in doc.read_text()
+        assert "The speed goals" in doc.read_text()
     else:
         assert not firmata
     text = doc.read_text()
