@@ -22,6 +22,7 @@
 #include "sim_core.h"
 #include "sim_io.h"
 
+#include "bridges.h"
 #include "circuit.h"
 #include "control.h"
 #include "json.h"
@@ -84,8 +85,9 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 		  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u, "
 		  "\"last_host_byte_us\": %.3f, \"lost\": {\"to_board\": %lu, \"to_host\": %lu}, "
 		  "\"host_rx_stalls\": %lu, \"host_rx_queued\": %u, \"bridge_full_releases\": %lu, "
-		  "\"runahead_jumps\": %lu, \"runahead_jump_us\": %.3f, \"baud_mismatch_bytes\": %lu}",
-	       opt_baud, fixture_names[opt_fixture], opt_16u2 ? "16u2" : "none",
+		  "\"runahead_jumps\": %lu, \"runahead_jump_us\": %.3f, \"baud_mismatch_bytes\": %lu, "
+		  "\"ftdi\": {\"latency_ms\": %u, \"timer_releases\": %lu, \"full_releases\": %lu}}",
+	       opt_baud, fixture_names[opt_fixture], bridge_model_name(),
 	       opt_fast ? "true" : "false", opt_reset_on_open ? "true" : "false",
 	       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded, pty_writes,
 	       fault_drop, fault_insert, fault_flip, faults_dropped, faults_inserted,
@@ -93,7 +95,8 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 	       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc,
 	       (double)last_host_byte_t / CYC_PER_US, lost_to_board, lost_to_host,
 	       host_rx_stalls, host_rx_queued(), bridge_full_releases, runahead_jumps,
-	       (double)runahead_jump_cycles / CYC_PER_US, baud_mismatch_bytes);
+	       (double)runahead_jump_cycles / CYC_PER_US, baud_mismatch_bytes,
+	       ftdi_latency_ms, ftdi_timer_releases, ftdi_full_releases);
 }
 
 static void cmd_set_analog(struct jobj *o, struct sbuf *r)
@@ -321,6 +324,7 @@ static const struct command commands[] = {
 	{"eeprom", 1, cmd_eeprom},
 	{"ping", 1, cmd_ping},
 	{"peek", 1, cmd_peek},
+	{"set_latency_timer", 0, cmd_set_latency_timer}, /* bridges.c */
 };
 
 static const struct command *find_command(const char *name)

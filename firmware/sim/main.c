@@ -26,6 +26,7 @@
 #include "sim_hex.h"
 #include "sim_io.h"
 
+#include "bridges.h"
 #include "circuit.h"
 #include "control.h"
 #include "pacing.h"
@@ -233,7 +234,7 @@ static void usage(void)
 	fprintf(stderr,
 		"usage: virtual-uno --elf PATH|--bootloader HEX [--elf PATH] [--id N] [--baud 115200|1000000] [--fixture open|loopback|r2r]\n"
 		"       [--r2r-tolerance PCT] [--fast] [--reset-on-open] [--boot-delay-ms MS]\n"
-		"       [--usb-bridge none|16u2] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
+		"       [--usb-bridge none|16u2|ftdi|ch340] [--ftdi-latency-ms MS] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
 		"       [--seed N] [--control SOCKET_PATH] [--exit-with-parent]\n");
 }
 
@@ -261,10 +262,9 @@ static int parse_args(int argc, char **argv)
 		else if (!strcmp(a, "--boot-delay-ms")) { NEEDV(); opt_boot_delay_ms = (unsigned)strtoul(v, NULL, 0); }
 		else if (!strcmp(a, "--usb-bridge")) {
 			NEEDV();
-			if (!strcmp(v, "none")) opt_16u2 = 0;
-			else if (!strcmp(v, "16u2")) opt_16u2 = 1;
-			else { logf_("bad --usb-bridge %s", v); return -1; }
+			if (bridge_parse(v) < 0) { logf_("bad --usb-bridge %s", v); return -1; }
 		}
+		else if (!strcmp(a, "--ftdi-latency-ms")) { NEEDV(); long n = strtol(v, NULL, 0); if (n < 1 || n > 255) { logf_("--ftdi-latency-ms must be 1..255"); return -1; } ftdi_latency_ms = (unsigned)n; }
 		else if (!strcmp(a, "--fault-drop")) { NEEDV(); fault_drop = atof(v); }
 		else if (!strcmp(a, "--fault-insert")) { NEEDV(); fault_insert = atof(v); }
 		else if (!strcmp(a, "--fault-flip")) { NEEDV(); fault_flip = atof(v); }

@@ -30,6 +30,10 @@ extern uint64_t fw_last;
 void wire_attach(void);      /* UART hooks, once at start */
 void wire_after_reset(void);
 
+/* for bridges.c: the first tick after t of a bridge clock; a byte reaches the host side */
+uint64_t bridge_boundary(uint64_t t, uint64_t period);
+void wire_to_host(uint8_t b, uint64_t due);
+
 /* for pty.c */
 size_t host_rx_room(void);
 void host_bytes_in(const uint8_t *buf, size_t n);

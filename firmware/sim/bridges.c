@@ -1,0 +1,171 @@
+/*
+ * bridges.c - models of the USB bridges on Nano-class clones (issue 29 item 4):
+ * how long a byte the board sent waits in the bridge before the host can read
+ * it.  The Uno's ATmega16U2 model (4.096 ms tick, 96 bytes) is in wire.c; the
+ * figures and their sources: docs/boards.md.
+ *
+ * FTDI (FT232R, FT231X) under Linux's ftdi_sio: a byte that enters the chip's
+ * empty receive buffer starts the latency timer (16 ms by default, settable
+ * 1..255 ms: --ftdi-latency-ms or the control channel's set_latency_timer, the
+ * way the host's sysfs latency_timer or ASYNC_LOW_LATENCY set it on a real
+ * chip); what waits goes to the host when the timer expires or at once when a
+ * 62-byte packet (64 bytes less 2 status bytes) has filled, in the next 1 ms
+ * USB frame.
+ *
+ * CH340/CH341 with Linux's ch341 driver (which sets the bit that turns the
+ * chip's 32-byte packet buffering off): no published latency figure was found,
+ * so the model is an assumption, documented as such: every byte goes to the
+ * host in the next 1 ms USB frame.
+ *
+ * Host->board bytes go at the next USB frame for every bridge (wire.c:
+ * host_bytes_in); nothing here holds them.
+ */
+#include "harness.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "bridges.h"
+#include "json.h"
+#include "pacing.h"
+#include "trace.h"
+#include "wire.h"
+
+#define USB_FRAME_CYCLES 16000ULL /* USB full-speed 1 ms frame */
+#define FTDI_PACKET 62            /* 64-byte bulk packet less the 2 modem-status bytes */
+#define CYCLES_PER_MS 16000ULL
+#define QUEUE 8192
+
+enum bridge_model opt_bridge_model;
+unsigned ftdi_latency_ms = 16;
+unsigned long ftdi_timer_releases, ftdi_full_releases;
+
+/* bytes with the time they reach the host side */
+static struct { uint8_t b[QUEUE]; uint64_t t[QUEUE]; unsigned head, tail; } out;
+static unsigned held;       /* FTDI: bytes at the tail of `out` still held (t unset) */
+static uint64_t timer_at;   /* FTDI: latency timer expiry, 0 = not running */
+
+static unsigned out_len(void) { return (out.head - out.tail) & (QUEUE - 1); }
+
+static int out_push(uint8_t b, uint64_t t)
+{
+	unsigned n = (out.head + 1) & (QUEUE - 1);
+	if (n == out.tail)
+		return 0;
+	out.b[out.head] = b;
+	out.t[out.head] = t;
+	out.head = n;
+	return 1;
+}
+
+int usb_bridge_on(void)
+{
+	return opt_16u2 || opt_bridge_model != BRIDGE_NONE;
+}
+
+const char *bridge_model_name(void)
+{
+	if (opt_16u2)
+		return "16u2";
+	return opt_bridge_model == BRIDGE_FTDI ? "ftdi" : opt_bridge_model == BRIDGE_CH340 ? "ch340" : "none";
+}
+
+int bridge_parse(const char *name)
+{
+	opt_16u2 = 0;
+	opt_bridge_model = BRIDGE_NONE;
+	if (!strcmp(name, "16u2"))
+		opt_16u2 = 1;
+	else if (!strcmp(name, "ftdi"))
+		opt_bridge_model = BRIDGE_FTDI;
+	else if (!strcmp(name, "ch340"))
+		opt_bridge_model = BRIDGE_CH340;
+	else if (strcmp(name, "none"))
+		return -1;
+	return 0;
+}
+
+/* FTDI: the held bytes go out in the next USB frame. */
+static void ftdi_release(uint64_t now)
+{
+	uint64_t frame = bridge_boundary(now, USB_FRAME_CYCLES);
+	for (unsigned i = out.head - held; held; held--, i++)
+		out.t[i & (QUEUE - 1)] = frame;
+	timer_at = 0;
+}
+
+int bridge_model_take(uint8_t b, uint64_t now)
+{
+	if (opt_bridge_model == BRIDGE_NONE)
+		return 0;
+	trace_event('B', b);
+	if (opt_bridge_model == BRIDGE_CH340) {
+		if (!out_push(b, bridge_boundary(now, USB_FRAME_CYCLES)))
+			lost_to_host++;
+		return 1;
+	}
+	if (!out_push(b, UINT64_MAX)) {
+		lost_to_host++;
+		return 1;
+	}
+	if (!held++)
+		timer_at = now + (uint64_t)ftdi_latency_ms * CYCLES_PER_MS;
+	if (held >= FTDI_PACKET) {
+		ftdi_full_releases++;
+		ftdi_release(now);
+	}
+	return 1;
+}
+
+void bridge_model_schedule(void)
+{
+	if (timer_at)
+		schedule(timer_at);
+	if (out_len() > held)
+		schedule(out.t[out.tail]);
+}
+
+int bridge_model_run(uint64_t now)
+{
+	int progress = 0;
+	if (timer_at && timer_at <= now) {
+		ftdi_timer_releases++;
+		ftdi_release(now);
+		progress = 1;
+	}
+	while (out_len() > held && out.t[out.tail] <= now) {
+		wire_to_host(out.b[out.tail], out.t[out.tail]);
+		out.tail = (out.tail + 1) & (QUEUE - 1);
+		progress = 1;
+	}
+	return progress;
+}
+
+int bridge_model_empty(void)
+{
+	return out_len() == 0;
+}
+
+void bridge_model_clear(void)
+{
+	out.head = out.tail = 0;
+	held = 0;
+	timer_at = 0;
+}
+
+/* {"cmd": "set_latency_timer", "ms": N}: what the host's driver would send the
+ * chip when its latency_timer is written (the next byte's timer uses it). */
+void cmd_set_latency_timer(struct jobj *o, struct sbuf *r)
+{
+	double ms;
+	if (opt_bridge_model != BRIDGE_FTDI) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs --usb-bridge ftdi\"}");
+		return;
+	}
+	if (!get_num(o, "ms", &ms) || ms < 1 || ms > 255 || ms != (double)(unsigned)ms) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs ms 1..255\"}");
+		return;
+	}
+	ftdi_latency_ms = (unsigned)ms;
+	sb_add(r, "{\"ok\": true, \"latency_ms\": %u}", ftdi_latency_ms);
+}
