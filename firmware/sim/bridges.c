@@ -38,7 +38,22 @@
 
 enum bridge_model opt_bridge_model;
 unsigned ftdi_latency_ms = 16;
-unsigned long ftdi_timer_releases, ftdi_full_releases;
+static unsigned long ftdi_timer_releases, ftdi_full_releases;
+
+/* How long bytes waited in the model, in simulated cycles: from the UART's stop
+ * bit of the first byte of a release to the USB frame that carries it (the
+ * figure the docs give for each model, free of the host's and the machine's
+ * speed). */
+static struct { unsigned long n; uint64_t min, max, sum; } hold;
+static uint64_t first_t; /* FTDI: when the oldest held byte came */
+
+static void hold_add(uint64_t cycles)
+{
+	if (!hold.n || cycles < hold.min) hold.min = cycles;
+	if (cycles > hold.max) hold.max = cycles;
+	hold.sum += cycles;
+	hold.n++;
+}
 
 /* bytes with the time they reach the host side */
 static struct { uint8_t b[QUEUE]; uint64_t t[QUEUE]; unsigned head, tail; } out;
@@ -89,6 +104,7 @@ int bridge_parse(const char *name)
 static void ftdi_release(uint64_t now)
 {
 	uint64_t frame = bridge_boundary(now, USB_FRAME_CYCLES);
+	hold_add(frame - first_t);
 	for (unsigned i = out.head - held; held; held--, i++)
 		out.t[i & (QUEUE - 1)] = frame;
 	timer_at = 0;
@@ -100,16 +116,20 @@ int bridge_model_take(uint8_t b, uint64_t now)
 		return 0;
 	trace_event('B', b);
 	if (opt_bridge_model == BRIDGE_CH340) {
-		if (!out_push(b, bridge_boundary(now, USB_FRAME_CYCLES)))
+		uint64_t frame = bridge_boundary(now, USB_FRAME_CYCLES);
+		if (!out_push(b, frame))
 			lost_to_host++;
+		hold_add(frame - now);
 		return 1;
 	}
 	if (!out_push(b, UINT64_MAX)) {
 		lost_to_host++;
 		return 1;
 	}
-	if (!held++)
+	if (!held++) {
+		first_t = now;
 		timer_at = now + (uint64_t)ftdi_latency_ms * CYCLES_PER_MS;
+	}
 	if (held >= FTDI_PACKET) {
 		ftdi_full_releases++;
 		ftdi_release(now);
@@ -153,8 +173,19 @@ void bridge_model_clear(void)
 	timer_at = 0;
 }
 
+void bridge_status_json(struct sbuf *r)
+{
+	sb_add(r, ", \"bridge\": {\"model\": \"%s\", \"latency_ms\": %u, \"timer_releases\": %lu, "
+		  "\"full_releases\": %lu, \"holds\": %lu, \"hold_min_us\": %.3f, \"hold_max_us\": %.3f, "
+		  "\"hold_mean_us\": %.3f}",
+	       bridge_model_name(), ftdi_latency_ms, ftdi_timer_releases, ftdi_full_releases, hold.n,
+	       (double)hold.min / CYC_PER_US, (double)hold.max / CYC_PER_US,
+	       hold.n ? (double)hold.sum / (double)hold.n / CYC_PER_US : 0.0);
+}
+
 /* {"cmd": "set_latency_timer", "ms": N}: what the host's driver would send the
- * chip when its latency_timer is written (the next byte's timer uses it). */
+ * chip when its latency_timer is written (the next byte's timer uses it).  The
+ * hold statistics start again, so they describe the new setting only. */
 void cmd_set_latency_timer(struct jobj *o, struct sbuf *r)
 {
 	double ms;
@@ -167,5 +198,7 @@ void cmd_set_latency_timer(struct jobj *o, struct sbuf *r)
 		return;
 	}
 	ftdi_latency_ms = (unsigned)ms;
+	hold.n = 0;
+	hold.min = hold.max = hold.sum = 0;
 	sb_add(r, "{\"ok\": true, \"latency_ms\": %u}", ftdi_latency_ms);
 }

@@ -10,7 +10,6 @@ enum bridge_model { BRIDGE_NONE, BRIDGE_FTDI, BRIDGE_CH340 };
 
 extern enum bridge_model opt_bridge_model; /* --usb-bridge ftdi|ch340 (16u2: opt_16u2) */
 extern unsigned ftdi_latency_ms;           /* the FTDI model's latency timer, 1..255 */
-extern unsigned long ftdi_timer_releases, ftdi_full_releases;
 
 /* Any USB bridge (16U2 included): host bytes and board bytes move in 1 ms USB
  * frames, and a frame's last byte ends its burst. */
@@ -29,5 +28,6 @@ void bridge_model_clear(void);  /* the cable is pulled */
 struct jobj;
 struct sbuf;
 void cmd_set_latency_timer(struct jobj *o, struct sbuf *r);
+void bridge_status_json(struct sbuf *r); /* appends , "bridge": {...} to the status */
 
 #endif

@@ -85,8 +85,7 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 		  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u, "
 		  "\"last_host_byte_us\": %.3f, \"lost\": {\"to_board\": %lu, \"to_host\": %lu}, "
 		  "\"host_rx_stalls\": %lu, \"host_rx_queued\": %u, \"bridge_full_releases\": %lu, "
-		  "\"runahead_jumps\": %lu, \"runahead_jump_us\": %.3f, \"baud_mismatch_bytes\": %lu, "
-		  "\"ftdi\": {\"latency_ms\": %u, \"timer_releases\": %lu, \"full_releases\": %lu}}",
+		  "\"runahead_jumps\": %lu, \"runahead_jump_us\": %.3f, \"baud_mismatch_bytes\": %lu",
 	       opt_baud, fixture_names[opt_fixture], bridge_model_name(),
 	       opt_fast ? "true" : "false", opt_reset_on_open ? "true" : "false",
 	       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded, pty_writes,
@@ -95,8 +94,9 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 	       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc,
 	       (double)last_host_byte_t / CYC_PER_US, lost_to_board, lost_to_host,
 	       host_rx_stalls, host_rx_queued(), bridge_full_releases, runahead_jumps,
-	       (double)runahead_jump_cycles / CYC_PER_US, baud_mismatch_bytes,
-	       ftdi_latency_ms, ftdi_timer_releases, ftdi_full_releases);
+	       (double)runahead_jump_cycles / CYC_PER_US, baud_mismatch_bytes);
+	bridge_status_json(r); /* bridges.c */
+	sb_add(r, "}");
 }
 
 static void cmd_set_analog(struct jobj *o, struct sbuf *r)
