@@ -109,7 +109,8 @@ BRIDGES: Final[tuple[Bridge, ...]] = (
             (0x10C4, 0xEA71),  # CP2108
         ),
         behaviour="passes bytes on at the next USB poll; no latency timer to tune",
-        baud_rates="CP2102/CP2104 up to 921,600 (its rate table); CP2102N up to 3 Mbaud",
+        baud_rates="CP2102: 300 baud to 1 Mbaud (older chips quantise to AN205's rate table); "
+        "CP2104: up to 2 Mbaud; CP2102N: up to 3 Mbaud",
     ),
 )
 

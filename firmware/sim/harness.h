@@ -8,6 +8,7 @@
  *              wait on every descriptor (the main loop)
  *   wire.c     UART0 <-> host: the modelled wire, line faults, the 16U2
  *              bridge, firmware time measurement
+ *   bridges.c  the FTDI and CH340 USB bridge models
  *   pty.c      the port the host opens (auto-reset on open, back-pressure)
  *              and the cable (unplug/replug)
  *   circuit.c  fixtures, driven levels, analog and temperature inputs, R2R

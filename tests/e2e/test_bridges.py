@@ -17,13 +17,17 @@ chip.
 
 from __future__ import annotations
 
+import io
+import json
 import time
 from pathlib import Path
 
 import anyio
 import pytest
+from rich.console import Console
 
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.sim import SimulatorError, VirtualUno
 from arduinoio_async.sim.cli import main as sim_main
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -33,6 +37,14 @@ from arduinoio_async.transport import _latency
 pytestmark = pytest.mark.sim
 
 FRAME_US = 1000.0  # a USB full-speed frame: the models release at the next one
+
+
+async def run_cli(*argv: str) -> tuple[int, str]:
+    """The ``arduinoio`` command in a worker thread (it starts its own event loop)."""
+    buffer = io.StringIO()
+    console = Console(file=buffer, width=300)
+    code = await anyio.to_thread.run_sync(lambda: cli_main(list(argv), console=console))
+    return code, buffer.getvalue()
 
 
 async def round_trips_ms(board: Board, n: int) -> list[float]:
@@ -116,3 +128,36 @@ async def test_bridge_options_are_checked(
         sim_main(["--bridge", "ch340", "--ftdi-latency-ms", "1"])
     assert exited.value.code == 2
     assert "--ftdi-latency-ms needs --usb-bridge ftdi" in capsys.readouterr().err
+
+
+async def test_info_says_the_bridge_and_the_fix_when_the_timer_stays_at_16_ms(
+    virtual_uno_factory: VirtualUnoFactory, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """sysfs refuses the write (a root-owned file) and the pty refuses TIOCGSERIAL as a
+    driver without the flag would: ``arduinoio info`` shows the bridge and the command."""
+    uno = await virtual_uno_factory(board_id=0x0031, usb_bridge="ftdi")
+    sysfs = FakeSysfs(tmp_path / "sys")
+    await anyio.to_thread.run_sync(sysfs.add_device_of, uno.port, 0x0403, 0x6015)
+    monkeypatch.setattr(_latency, "SYSFS_ROOT", str(sysfs.root))
+    monkeypatch.setattr(_latency, "_warned", set())
+
+    def refuse(path: str, text: str) -> None:
+        raise PermissionError(13, "Permission denied", path)
+
+    monkeypatch.setattr(_latency, "sysfs_write", refuse)
+    code, out = await run_cli("info", "--json", "--id", "0x31", "--ports", uno.port)
+    assert code == 0
+    bridge = json.loads(out)["usb_bridge"]
+    assert bridge["kind"] == "ftdi" and not bridge["set"]
+    assert "echo 1 | sudo tee" in bridge["problem"] and "latency_timer" in bridge["problem"]
+    code, out = await run_cli("info", "--id", "0x31", "--ports", uno.port)
+    assert code == 0 and "USB bridge" in out and "sudo tee" in out
+    assert (await uno.status())["bridge"]["latency_ms"] == 16  # nothing reached the chip
+
+
+async def test_info_on_a_plain_pty_says_there_is_no_usb_bridge(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=0x0032)
+    code, out = await run_cli("info", "--json", "--id", "0x32", "--ports", uno.port)
+    assert code == 0 and json.loads(out)["usb_bridge"] is None
