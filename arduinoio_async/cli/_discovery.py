@@ -81,12 +81,20 @@ async def list_boards(args: argparse.Namespace, console: Console) -> int:
                             "firmware": f"{caps.firmware_major}.{caps.firmware_minor}",
                             "protocol": caps.protocol_version,
                             "baud": caps.baud,
+                            **_bridge_cell(port),
                             "status": "ok",
                         }
                     )
                 else:
                     status = result.error or "not answering"
-                    rows.append({"port": port, "id": result.board_id, "status": status})
+                    rows.append(
+                        {
+                            "port": port,
+                            "id": result.board_id,
+                            **_bridge_cell(port),
+                            "status": status,
+                        }
+                    )
     return _print_listing(console, rows, args.json)
 
 
@@ -103,12 +111,24 @@ def _print_listing(console: Console, rows: list[dict[str, Any]], as_json: bool) 
         ("protocol", "protocol"),
         ("baud", "baud"),
         ("status", "status"),
+        ("bridge", "USB bridge"),
     ]
     print_rows(console, "arduinoio boards", columns, rows, as_json=as_json, shown=shown)
     if not any(row["status"] == "ok" for row in rows):
         print(f"no board answered on {len(rows)} port(s)", file=sys.stderr)
         return 1
     return 0
+
+
+def _bridge_cell(port: str) -> dict[str, str]:
+    """``list``'s USB bridge column (absent without a bridge): the bridge's kind, and a
+    pointer to ``info`` when the fastest link could not be set (an FTDI's timer)."""
+    tuning = last_tuning(port)
+    if tuning is None or tuning.bridge is None:
+        return {}
+    if tuning.problem:
+        return {"bridge": f"{tuning.bridge.kind}: latency timer not lowered (`arduinoio info`)"}
+    return {"bridge": tuning.bridge.kind}
 
 
 def _usb_bridge(port: str) -> tuple[dict[str, str] | None, str | None]:

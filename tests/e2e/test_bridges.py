@@ -152,6 +152,8 @@ async def test_info_says_the_bridge_and_the_fix_when_the_timer_stays_at_16_ms(
     assert "echo 1 | sudo tee" in bridge["problem"] and "latency_timer" in bridge["problem"]
     code, out = await run_cli("info", "--id", "0x31", "--ports", uno.port)
     assert code == 0 and "USB bridge" in out and "sudo tee" in out
+    code, out = await run_cli("list", "--json", "--ports", uno.port)
+    assert code == 0 and "latency timer not lowered" in json.loads(out)[0]["bridge"]
     assert (await uno.status())["bridge"]["latency_ms"] == 16  # nothing reached the chip
 
 
@@ -161,3 +163,7 @@ async def test_info_on_a_plain_pty_says_there_is_no_usb_bridge(
     uno = await virtual_uno_factory(board_id=0x0032)
     code, out = await run_cli("info", "--json", "--id", "0x32", "--ports", uno.port)
     assert code == 0 and json.loads(out)["usb_bridge"] is None
+    code, out = await run_cli("info", "--id", "0x32", "--ports", uno.port)
+    assert code == 0 and "no USB device" in out
+    code, out = await run_cli("list", "--ports", uno.port)
+    assert code == 0 and "0x0032" in out and "None" not in out
