@@ -28,6 +28,7 @@ from __future__ import annotations
 import array
 import logging
 import os
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -84,6 +85,8 @@ class LinkTuning:
 
 _last: dict[str, LinkTuning] = {}
 _warned: set[str] = set()
+#: The manager opens ports concurrently, each in its own worker thread.
+_lock = threading.Lock()
 
 
 def last_tuning(port: str) -> LinkTuning | None:
@@ -189,10 +192,13 @@ def tune_link(
     if bridge is not None and bridge.latency_timer:
         applied, problem = _tune_ftdi(port, fd, root, ioctl or serial_ioctl, write or sysfs_write)
     tuning = LinkTuning(port, bridge, applied, problem)
-    _last[port] = tuning
-    if problem:
-        if port not in _warned:
+    with _lock:
+        _last[port] = tuning
+        first = port not in _warned
+        if problem:
             _warned.add(port)
+    if problem:
+        if first:
             logger.warning("%s", problem)
     elif bridge is not None:
         logger.debug("%s: %s bridge: %s", port, bridge.kind, applied or "nothing to set")
