@@ -382,5 +382,13 @@ async def open_serial_stream(
     if not _has_fileno(port):
         return _ThreadedSerialStream(port)
     # The bridge's fastest safe link (an FTDI's 1 ms latency timer); a pty has no bridge.
-    await anyio.to_thread.run_sync(tune_link, url, port.fd)
+    # A cancel that came while a worker thread held the open port is taken here, closing
+    # the port: returned, it would stay open and locked with nobody to close it.
+    try:
+        await anyio.to_thread.run_sync(tune_link, url, port.fd)
+        await anyio.lowlevel.checkpoint_if_cancelled()
+    except BaseException:
+        with contextlib.suppress(OSError, serial.SerialException):
+            port.close()
+        raise
     return SerialByteStream(port)

@@ -12,6 +12,7 @@ import array
 import errno
 import logging
 import os
+import threading
 from pathlib import Path
 
 import anyio
@@ -23,6 +24,7 @@ from arduinoio_async.transport import (
     BRIDGES,
     TICK_HOLDING_BRIDGES,
     _latency,
+    _serial,
     bridge_for_ids,
     last_tuning,
     open_serial_stream,
@@ -256,3 +258,48 @@ async def test_opening_a_port_tunes_it_and_a_pty_is_left_alone(
     stream = await open_serial_stream(port)
     await stream.aclose()
     assert await anyio.to_thread.run_sync(sysfs.latency_timer, name) == 1
+
+
+def test_concurrent_opens_warn_once(sysfs: FakeSysfs, caplog: pytest.LogCaptureFixture) -> None:
+    """The manager probes ports from concurrent worker threads."""
+    sysfs.add_port("ttyUSB0", *FTDI)
+
+    def tune() -> None:
+        tune_link("/dev/ttyUSB0", 5, ioctl=FtdiSioIoctl(errno.ENOTTY), write=refuse)
+
+    with caplog.at_level(logging.WARNING, logger=_latency.__name__):
+        threads = [threading.Thread(target=tune) for _ in range(8)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    assert len(caplog.records) == 1
+
+
+async def test_an_open_cancelled_while_the_link_is_tuned_leaves_the_port_free(
+    pty: tuple[int, str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Cancelled (a probe's deadline) after pyserial opened and locked the port: the port
+    is closed, not leaked, so the next open does not find it busy."""
+    _, port = pty
+    started = threading.Event()
+    release = threading.Event()
+
+    def slow_tune(url: str, fd: int | None) -> None:
+        started.set()
+        release.wait(5)
+
+    monkeypatch.setattr(_serial, "tune_link", slow_tune)
+
+    async def open_it() -> None:
+        await open_serial_stream(port)
+        pytest.fail("the open was to be cancelled")
+
+    async with anyio.create_task_group() as tg:
+        tg.start_soon(open_it)
+        await anyio.to_thread.run_sync(started.wait, 5)
+        tg.cancel_scope.cancel()
+        release.set()
+    monkeypatch.setattr(_serial, "tune_link", tune_link)
+    stream = await open_serial_stream(port)  # PortBusyError if the first open leaked
+    await stream.aclose()
