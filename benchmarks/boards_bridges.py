@@ -16,17 +16,14 @@ Goal (issue 29): the library's FTDI setting within 1.5x of the 16U2 low-latency 
 same baud rate.  The harness's own figure of how long replies waited in the model
 (``status.bridge.hold_*``, simulated time) is recorded next to the host's.
 
-    .venv/bin/python benchmarks/boards_bridges.py --json benchmarks/results/boards.json
+    .venv/bin/python -m benchmarks.boards_bridges --json benchmarks/results/boards.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import random
-import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -34,11 +31,14 @@ from typing import Any
 
 import anyio
 
-from arduinoio_async.bench.runner import blocking_pause
+from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.testing._fake_sysfs import FakeSysfs
 from arduinoio_async.transport import _latency
+
+from ._results import command_line, write_result
+from ._timing import blocking_pause
 
 GOAL_RATIO = 1.5
 #: Random pause before each request: two 16U2 ticks (and so whole USB frames).
@@ -46,18 +46,11 @@ PAUSE_S = 0.008192
 
 
 def figures(samples: list[float]) -> dict[str, Any]:
-    ordered = sorted(samples)
-
-    def pct(q: float) -> float:
-        return round(ordered[round(q * (len(ordered) - 1))], 3)
-
+    """The percentiles of ``arduinoio_async.bench.stats`` and the extremes, in ms."""
     return {
-        "n": len(samples),
-        "p50_ms": pct(0.5),
-        "mean_ms": round(statistics.fmean(samples), 3),
-        "p90_ms": pct(0.9),
-        "min_ms": round(ordered[0], 3),
-        "max_ms": round(ordered[-1], 3),
+        **summarize(samples).rounded(3, "_ms"),
+        "min_ms": round(min(samples), 3),
+        "max_ms": round(max(samples), 3),
     }
 
 
@@ -157,7 +150,7 @@ async def main(args: argparse.Namespace) -> int:
         )
     if args.json:
         result = {
-            "command": " ".join([".venv/bin/python", *sys.argv]),
+            "command": command_line(),
             "machine": {
                 "cpus": os.cpu_count(),
                 "load_average_before": load_before,
@@ -167,7 +160,7 @@ async def main(args: argparse.Namespace) -> int:
             "goals": goals,
             "rows": rows,
         }
-        args.json.write_text(json.dumps(result, indent=1) + "\n")
+        write_result(args.json, result)
     return 0
 
 

@@ -295,12 +295,11 @@ class VirtualUno:
         if process is not None:
             with anyio.CancelScope(shield=True):
                 if process.returncode is None:
-                    with suppress(ProcessLookupError):
-                        process.send_signal(signal.SIGTERM)
+                    _signal(process.pid, signal.SIGTERM)
                     with anyio.move_on_after(5):
                         await process.wait()
                     if process.returncode is None:
-                        process.kill()
+                        _signal(process.pid, signal.SIGKILL)
                         await process.wait()
                 await process.aclose()
         self._close_stderr()
@@ -475,3 +474,14 @@ async def start_virtual_unos(
         with anyio.CancelScope(shield=True):
             for board in boards:
                 await board.stop()
+
+
+def _signal(pid: int, signum: int) -> None:
+    """Signal the harness without reaping it.  ``Process.send_signal`` first polls the
+    child (``Popen.send_signal`` does), and a harness that had just died -- Ctrl-C reaches
+    the whole process group -- was reaped there, behind the back of asyncio's child
+    watcher, which then printed "Unknown child process pid ..." under the CLI's one-line
+    error.  A child that died stays a zombie until the watcher reaps it (and sets the
+    returncode the caller checked), so its pid is not reused meanwhile."""
+    with suppress(ProcessLookupError):
+        os.kill(pid, signum)

@@ -36,8 +36,9 @@
 #define CYCLES_PER_MS 16000ULL
 #define QUEUE 8192
 
-enum bridge_model opt_bridge_model;
-unsigned ftdi_latency_ms = 16;
+/* The model is opt->usb_bridge (BRIDGE_FTDI or BRIDGE_CH340; main.c parses it
+ * with bridge_parse); everything else here is the model's own state. */
+static unsigned ftdi_latency_ms = 16; /* --ftdi-latency-ms, set_latency_timer */
 static unsigned long ftdi_timer_releases, ftdi_full_releases;
 
 /* How long bytes waited in the model, in simulated cycles: from the UART's stop
@@ -73,30 +74,38 @@ static int out_push(uint8_t b, uint64_t t)
 	return 1;
 }
 
+static const char *const names[] = {
+	[BRIDGE_NONE] = "none", [BRIDGE_16U2] = "16u2", [BRIDGE_FTDI] = "ftdi", [BRIDGE_CH340] = "ch340",
+};
+
 int usb_bridge_on(void)
 {
-	return opt_16u2 || opt_bridge_model != BRIDGE_NONE;
+	return opt->usb_bridge != BRIDGE_NONE;
 }
 
-const char *bridge_model_name(void)
+const char *bridge_name(enum usb_bridge b)
 {
-	if (opt_16u2)
-		return "16u2";
-	return opt_bridge_model == BRIDGE_FTDI ? "ftdi" : opt_bridge_model == BRIDGE_CH340 ? "ch340" : "none";
+	return names[b];
 }
 
-int bridge_parse(const char *name)
+int bridge_parse(const char *name, enum usb_bridge *b)
 {
-	opt_16u2 = 0;
-	opt_bridge_model = BRIDGE_NONE;
-	if (!strcmp(name, "16u2"))
-		opt_16u2 = 1;
-	else if (!strcmp(name, "ftdi"))
-		opt_bridge_model = BRIDGE_FTDI;
-	else if (!strcmp(name, "ch340"))
-		opt_bridge_model = BRIDGE_CH340;
-	else if (strcmp(name, "none"))
+	for (unsigned i = 0; i < sizeof(names) / sizeof(names[0]); i++)
+		if (!strcmp(name, names[i])) {
+			*b = (enum usb_bridge)i;
+			return 0;
+		}
+	return -1;
+}
+
+/* The hold statistics start again, so they describe the new setting only. */
+int bridge_set_latency_ms(long ms)
+{
+	if (ms < 1 || ms > 255)
 		return -1;
+	ftdi_latency_ms = (unsigned)ms;
+	hold.n = 0;
+	hold.min = hold.max = hold.sum = 0;
 	return 0;
 }
 
@@ -112,18 +121,18 @@ static void ftdi_release(uint64_t now)
 
 int bridge_model_take(uint8_t b, uint64_t now)
 {
-	if (opt_bridge_model == BRIDGE_NONE)
+	if (opt->usb_bridge != BRIDGE_FTDI && opt->usb_bridge != BRIDGE_CH340)
 		return 0;
 	trace_event('B', b);
-	if (opt_bridge_model == BRIDGE_CH340) {
+	if (opt->usb_bridge == BRIDGE_CH340) {
 		uint64_t frame = bridge_boundary(now, USB_FRAME_CYCLES);
 		if (!out_push(b, frame))
-			lost_to_host++;
+			wire_lost_to_host();
 		hold_add(frame - now);
 		return 1;
 	}
 	if (!out_push(b, UINT64_MAX)) {
-		lost_to_host++;
+		wire_lost_to_host();
 		return 1;
 	}
 	if (!held++) {
@@ -173,32 +182,12 @@ void bridge_model_clear(void)
 	timer_at = 0;
 }
 
-void bridge_status_json(struct sbuf *r)
+void bridge_status(struct sbuf *r)
 {
 	sb_add(r, ", \"bridge\": {\"model\": \"%s\", \"latency_ms\": %u, \"timer_releases\": %lu, "
 		  "\"full_releases\": %lu, \"holds\": %lu, \"hold_min_us\": %.3f, \"hold_max_us\": %.3f, "
 		  "\"hold_mean_us\": %.3f}",
-	       bridge_model_name(), ftdi_latency_ms, ftdi_timer_releases, ftdi_full_releases, hold.n,
+	       bridge_name(opt->usb_bridge), ftdi_latency_ms, ftdi_timer_releases, ftdi_full_releases, hold.n,
 	       (double)hold.min / CYC_PER_US, (double)hold.max / CYC_PER_US,
 	       hold.n ? (double)hold.sum / (double)hold.n / CYC_PER_US : 0.0);
-}
-
-/* {"cmd": "set_latency_timer", "ms": N}: what the host's driver would send the
- * chip when its latency_timer is written (the next byte's timer uses it).  The
- * hold statistics start again, so they describe the new setting only. */
-void cmd_set_latency_timer(struct jobj *o, struct sbuf *r)
-{
-	double ms;
-	if (opt_bridge_model != BRIDGE_FTDI) {
-		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs --usb-bridge ftdi\"}");
-		return;
-	}
-	if (!get_num(o, "ms", &ms) || ms < 1 || ms > 255 || ms != (double)(unsigned)ms) {
-		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs ms 1..255\"}");
-		return;
-	}
-	ftdi_latency_ms = (unsigned)ms;
-	hold.n = 0;
-	hold.min = hold.max = hold.sum = 0;
-	sb_add(r, "{\"ok\": true, \"latency_ms\": %u}", ftdi_latency_ms);
 }
