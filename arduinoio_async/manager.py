@@ -55,6 +55,7 @@ from .errors import (
     DuplicateBoardError,
 )
 from .transport import DEFAULT_TIMEOUT, Transport, open_serial_stream
+from .transport._bridges import DISCOVERY_IDS
 from .transport._ready import wait_ready
 
 __all__ = [
@@ -72,16 +73,9 @@ logger = logging.getLogger(__name__)
 #: Deployments list ports here: paths or glob patterns separated by ``os.pathsep`` or ",".
 ENV_PORTS = "ARDUINOIO_PORTS"
 
-#: (vendor ID, product ID or None for any) of the USB serial bridges Unos ship with.
-USB_IDS: tuple[tuple[int, int | None], ...] = (
-    (0x2341, None),  # Arduino SA (Uno R3's ATmega16U2 and others)
-    (0x2A03, None),  # Arduino.org
-    (0x1A86, 0x7523),  # WCH CH340
-    (0x1A86, 0x55D4),  # WCH CH9102
-    (0x0403, None),  # FTDI
-    (0x10C4, 0xEA60),  # Silicon Labs CP210x
-    (0x03EB, 0x2FEF),  # Atmel ATmega16U2 DFU / clones
-)
+#: (vendor ID, product ID or None for any) of the USB devices probed: the bridges boards
+#: ship with (``transport._bridges.BRIDGES``) and Arduino's other devices.
+USB_IDS: tuple[tuple[int, int | None], ...] = DISCOVERY_IDS
 
 RESCAN_INTERVAL = 1.0
 

@@ -10,6 +10,8 @@ thread declares it by inheriting the interfaces of :mod:`._streams` (:class:`Pus
 """
 
 from ._backend import backend_options, run
+from ._bridges import BRIDGES, Bridge, BridgeKind, bridge_for_ids
+from ._latency import LinkTuning, last_tuning, port_bridge, tune_link
 from ._link import (
     DEFAULT_TIMEOUT,
     FRAMING_ENV,
@@ -37,16 +39,20 @@ from ._streams import (
 from ._usb import TICK_HOLDING_BRIDGES, tick_holding_bridge
 
 __all__ = [
+    "BRIDGES",
     "DEFAULT_TIMEOUT",
     "FRAMING_ENV",
     "QUIET_TIME",
     "TICK_HOLDING_BRIDGES",
     "Abilities",
+    "Bridge",
+    "BridgeKind",
     "CollectedWrites",
     "ImmediateSender",
     "LinkAttribute",
     "LinkState",
     "LinkStats",
+    "LinkTuning",
     "MemoryByteStream",
     "PushStream",
     "RelayingStream",
@@ -58,9 +64,13 @@ __all__ = [
     "abilities_of",
     "backend_options",
     "board_error",
+    "bridge_for_ids",
     "default_framing",
+    "last_tuning",
     "memory_link",
     "open_serial_stream",
+    "port_bridge",
     "run",
     "tick_holding_bridge",
+    "tune_link",
 ]

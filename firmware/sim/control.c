@@ -22,6 +22,7 @@
 #include "sim_core.h"
 #include "sim_io.h"
 
+#include "bridges.h"
 #include "circuit.h"
 #include "control.h"
 #include "json.h"
@@ -60,7 +61,8 @@ static int get_pin(struct jobj *o, const char *k)
 }
 
 /* ------------------------------------------------------------------ handlers */
-/* Each module reports its own part (pacing, pty, the harness core, wire, circuit). */
+/* Each module reports its own part (pacing, pty, the harness core, wire, bridge
+ * models, circuit). */
 static void cmd_status(struct jobj *o, struct sbuf *r)
 {
 	sb_add(r, "{\"ok\": true");
@@ -68,6 +70,7 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 	pty_status(r);
 	harness_status(r);
 	wire_status(r);
+	bridge_status(r);
 	circuit_status(r);
 	sb_add(r, "}");
 }
@@ -196,6 +199,23 @@ static void cmd_firmware_cycles(struct jobj *o, struct sbuf *r)
 	wire_firmware_cycles(r, jget(o, "clear") != NULL);
 }
 
+/* {"cmd": "set_latency_timer", "ms": N}: what the host's driver would send an
+ * FTDI chip when its latency_timer is written (bridges.c) */
+static void cmd_set_latency_timer(struct jobj *o, struct sbuf *r)
+{
+	double ms;
+	if (opt->usb_bridge != BRIDGE_FTDI) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs --usb-bridge ftdi\"}");
+		return;
+	}
+	if (!get_num(o, "ms", &ms) || ms < 1 || ms > 255 || ms != floor(ms)) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs ms 1..255\"}");
+		return;
+	}
+	bridge_set_latency_ms((long)ms);
+	sb_add(r, "{\"ok\": true, \"latency_ms\": %u}", (unsigned)ms);
+}
+
 /* bytes of the I2C EEPROM (size 256) or of the AVR's own EEPROM (1024) */
 static void reply_eeprom(struct jobj *o, struct sbuf *r, int size)
 {
@@ -264,6 +284,7 @@ static const struct command commands[] = {
 	{"eeprom", 1, cmd_eeprom},
 	{"ping", 1, cmd_ping},
 	{"peek", 1, cmd_peek},
+	{"set_latency_timer", 0, cmd_set_latency_timer},
 };
 
 static const struct command *find_command(const char *name)

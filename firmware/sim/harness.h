@@ -8,6 +8,7 @@
  *              wait on every descriptor (the main loop)
  *   wire.c     UART0 <-> host: the modelled wire, line faults, the 16U2
  *              bridge, firmware time measurement
+ *   bridges.c  the FTDI and CH340 USB bridge models
  *   pty.c      the port the host opens (auto-reset on open, back-pressure)
  *              and the cable (unplug/replug)
  *   circuit.c  fixtures, driven levels, analog and temperature inputs, R2R
@@ -51,6 +52,8 @@
 #define MCUSR_EXTRF 0x02
 
 enum fixture { FIX_OPEN, FIX_LOOPBACK, FIX_R2R };
+/* --usb-bridge: the Uno's 16U2 (wire.c), an FTDI or a CH340 (bridges.c) */
+enum usb_bridge { BRIDGE_NONE, BRIDGE_16U2, BRIDGE_FTDI, BRIDGE_CH340 };
 
 /* options: main.c parses them into its own copy; every other module reads */
 struct harness_options {
@@ -63,7 +66,7 @@ struct harness_options {
 	int fast;
 	int reset_on_open;
 	unsigned boot_delay_ms;
-	int bridge_16u2;            /* --usb-bridge 16u2 */
+	enum usb_bridge usb_bridge; /* --usb-bridge, parsed by bridges.c's bridge_parse */
 	int exit_with_parent;
 	pid_t parent_pid;           /* for --exit-with-parent */
 	uint64_t seed;

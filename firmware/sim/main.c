@@ -26,6 +26,7 @@
 #include "sim_hex.h"
 #include "sim_io.h"
 
+#include "bridges.h"
 #include "circuit.h"
 #include "control.h"
 #include "pacing.h"
@@ -224,7 +225,7 @@ void harness_status(struct sbuf *r)
 	if (options.id >= 0) sb_add(r, "%d", options.id); else sb_add(r, "null");
 	sb_add(r, ", \"baud\": %u, \"fixture\": \"%s\", \"usb_bridge\": \"%s\", \"fast\": %s, "
 		  "\"reset_on_open\": %s, \"resets\": %lu, \"pc\": %u",
-	       options.baud, fixture_name(), options.bridge_16u2 ? "16u2" : "none", options.fast ? "true" : "false",
+	       options.baud, fixture_name(), bridge_name(options.usb_bridge), options.fast ? "true" : "false",
 	       options.reset_on_open ? "true" : "false", reset_count, (unsigned)avr->pc);
 }
 
@@ -261,7 +262,7 @@ static void usage(void)
 	fprintf(stderr,
 		"usage: virtual-uno --elf PATH|--bootloader HEX [--elf PATH] [--id N] [--baud 115200|1000000] [--fixture open|loopback|r2r]\n"
 		"       [--r2r-tolerance PCT] [--fast] [--reset-on-open] [--boot-delay-ms MS]\n"
-		"       [--usb-bridge none|16u2] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
+		"       [--usb-bridge none|16u2|ftdi|ch340] [--ftdi-latency-ms MS] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
 		"       [--seed N] [--control SOCKET_PATH] [--exit-with-parent]\n");
 }
 
@@ -289,10 +290,9 @@ static int parse_args(int argc, char **argv)
 		else if (!strcmp(a, "--boot-delay-ms")) { NEEDV(); options.boot_delay_ms = (unsigned)strtoul(v, NULL, 0); }
 		else if (!strcmp(a, "--usb-bridge")) {
 			NEEDV();
-			if (!strcmp(v, "none")) options.bridge_16u2 = 0;
-			else if (!strcmp(v, "16u2")) options.bridge_16u2 = 1;
-			else { logf_("bad --usb-bridge %s", v); return -1; }
+			if (bridge_parse(v, &options.usb_bridge) < 0) { logf_("bad --usb-bridge %s", v); return -1; }
 		}
+		else if (!strcmp(a, "--ftdi-latency-ms")) { NEEDV(); if (bridge_set_latency_ms(strtol(v, NULL, 0)) < 0) { logf_("--ftdi-latency-ms must be 1..255"); return -1; } }
 		else if (!strcmp(a, "--fault-drop")) { NEEDV(); opt_fault_drop = atof(v); }
 		else if (!strcmp(a, "--fault-insert")) { NEEDV(); opt_fault_insert = atof(v); }
 		else if (!strcmp(a, "--fault-flip")) { NEEDV(); opt_fault_flip = atof(v); }

@@ -15,6 +15,7 @@
 #include "sim_io.h"
 #include "sim_irq.h"
 
+#include "bridges.h"
 #include "pacing.h"
 #include "pty.h"
 #include "trace.h"
@@ -97,13 +98,14 @@ int wire_idle(void)
  * (to_pty): the simulation has nothing more to compute for them. */
 int wire_only_delivering(void)
 {
-	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&bridge_buf) && ring_empty(&usb_out);
+	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&bridge_buf) && ring_empty(&usb_out)
+	       && bridge_model_empty();
 }
 
 /* The first tick after t (strictly) of a bridge clock with this period: the
  * USB frames and the 16U2's Timer0 keep wall time across time base moves
  * (pacing.c: bridge_clock_offset). */
-static uint64_t bridge_boundary(uint64_t t, uint64_t period)
+uint64_t bridge_boundary(uint64_t t, uint64_t period)
 {
 	int64_t phase = ((int64_t)t - bridge_clock_phase()) % (int64_t)period;
 	if (phase < 0)
@@ -128,7 +130,7 @@ static uint64_t bridge_boundary(uint64_t t, uint64_t period)
  *    (a reply of up to 9 bytes still goes in one write).
  * pacing.c waits for output_wake_cycle() and spins the last few
  * microseconds to a reply's end (a wait in ppoll() oversleeps by ~20 us here). */
-static void to_host(uint8_t b, uint64_t due)
+void wire_to_host(uint8_t b, uint64_t due)
 {
 	if (!ring_push(&to_pty, b, due))
 		lost_to_host++; /* host not reading and 8 KiB already waiting */
@@ -155,10 +157,10 @@ static unsigned due_count(uint64_t wc)
 static int burst_ends_at(unsigned i)
 {
 	uint64_t t = to_pty_due(i);
-	uint64_t gap = opt->bridge_16u2 ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
+	uint64_t gap = usb_bridge_on() ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
 	if (i + 1 < ring_len(&to_pty))
 		return to_pty_due(i + 1) > t + gap;
-	if (opt->bridge_16u2)
+	if (usb_bridge_on())
 		return 1;
 	if (!ring_empty(&wire_tx))
 		return ring_peek(&wire_tx)->t > t + gap;
@@ -245,7 +247,7 @@ uint64_t output_wake_cycle(int *punctual)
  * the end of every reply would wait for the next wait to end. */
 uint64_t output_decided_at(void)
 {
-	if (ring_empty(&to_pty) || opt->bridge_16u2 || !ring_empty(&wire_tx))
+	if (ring_empty(&to_pty) || usb_bridge_on() || !ring_empty(&wire_tx))
 		return 0;
 	uint64_t t = to_pty.d[(to_pty.head - 1) & (RING - 1)].t + 2 * byte_cycles;
 	return avr->cycle < t && (avr->data[UCSR0B_ADDR] & UDRIE0_BIT) ? t : 0;
@@ -286,9 +288,11 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 		faults_inserted++;
 	}
 	for (int i = 0; i < n; i++) {
-		if (!opt->bridge_16u2) {
+		if (bridge_model_take(bytes[i], now)) {
+			/* an FTDI or CH340 model (bridges.c) holds it */
+		} else if (opt->usb_bridge != BRIDGE_16U2) {
 			trace_event('T', bytes[i]);
-			to_host(bytes[i], now);
+			wire_to_host(bytes[i], now);
 		} else {
 			if (!ring_push(&bridge_buf, bytes[i], now))
 				lost_to_host++;
@@ -317,6 +321,7 @@ void wire_schedule_events(void)
 		schedule(tick_at);
 	if (!ring_empty(&usb_out))
 		schedule(ring_peek(&usb_out)->t);
+	bridge_model_schedule();
 }
 
 /* One pass over the wire's due events; returns whether any was. */
@@ -351,11 +356,11 @@ int wire_run_events(uint64_t now)
 		progress = 1;
 	}
 	while (!ring_empty(&usb_out) && ring_peek(&usb_out)->t <= now) {
-		to_host(ring_peek(&usb_out)->b, ring_peek(&usb_out)->t);
+		wire_to_host(ring_peek(&usb_out)->b, ring_peek(&usb_out)->t);
 		ring_pop(&usb_out);
 		progress = 1;
 	}
-	return progress;
+	return progress | bridge_model_run(now);
 }
 
 /* After the events: bytes that just reached the host side may already be due
@@ -454,7 +459,7 @@ void wire_after_reset(void)
 void host_bytes_in(const uint8_t *buf, size_t n)
 {
 	uint64_t t = stimulus_cycle(); /* the wall's now, or the simulation's on a busy link */
-	if (opt->bridge_16u2)
+	if (usb_bridge_on())
 		t = bridge_boundary(t, USB_FRAME_CYCLES);
 	for (size_t i = 0; i < n; i++)
 		if (!ring_push(&host_rx, buf[i], t))
@@ -486,10 +491,12 @@ void wire_unplug(void)
 	ring_clear(&bridge_buf);
 	ring_clear(&usb_out);
 	tick_at = 0;
+	bridge_model_clear();
 }
 
 /* ------------------------------------------------------------------ state, for the other modules */
 uint64_t wire_last_host_byte(void) { return last_host_byte_t; }
+void wire_lost_to_host(void) { lost_to_host++; }
 void wire_discarded(unsigned long n) { bytes_discarded += n; }
 
 void wire_set_byte_time(unsigned baud)

@@ -11,6 +11,10 @@
 void wire_attach(void);      /* UART hooks, once at start */
 void wire_after_reset(void);
 
+/* for bridges.c: the first tick after t of a bridge clock; a byte reaches the host side */
+uint64_t bridge_boundary(uint64_t t, uint64_t period);
+void wire_to_host(uint8_t b, uint64_t due);
+
 /* for pty.c */
 size_t host_rx_room(void);
 void host_bytes_in(const uint8_t *buf, size_t n);
@@ -32,6 +36,7 @@ uint64_t output_wake_cycle(int *punctual); /* when output_service next writes, U
 /* for the control channel and the other modules: the wire's state is its own */
 unsigned host_rx_queued(void);
 uint64_t wire_last_host_byte(void); /* cycle the last host byte entered the UART */
+void wire_lost_to_host(void);       /* a bridge model's queue was full: counted in lost.to_host */
 void wire_discarded(unsigned long n);   /* host bytes thrown away (no board to take them) */
 void wire_set_byte_time(unsigned baud); /* 10 bit times at baud */
 void wire_faults(double *drop, double *insert, double *flip);
