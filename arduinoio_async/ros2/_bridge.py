@@ -1,0 +1,274 @@
+"""The bridge: each configured board as a ROS 2 node, its pins as topics.
+
+Per board (:class:`BoardNode`): digital inputs publish ``std_msgs/Bool`` at start and on
+every change the board reports; analog inputs publish ``std_msgs/Float32`` volts (or a
+``sensor_msgs/BatteryState``) every ``period``; digital outputs take ``Bool`` and servos
+``Float64`` radians (0 = centre, +-pi/2 = the ends).  An output with a ``timeout`` goes to
+its safe state when no command came for that long (the freshness a ros2_control
+hardware interface promises) and stays there until the next command; the diagnostics
+(``/diagnostics``, ``diagnostic_msgs/DiagnosticArray``) say which outputs timed out.
+
+Commands are *latest wins*: a command that arrives while the previous write is still on
+the wire replaces any command waiting behind it, so a fast publisher never builds a
+queue of stale set-points.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import anyio
+import zenoh
+
+from ..errors import ArduinoIOError
+from . import _messages as msgs
+from ._clock import BoardClock
+from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
+from ._endpoints import Context, Node, Publisher
+from ._wire import Attachment
+
+__all__ = ["BoardNode", "run_bridge"]
+
+log = logging.getLogger(__name__)
+
+#: Where every node publishes its diagnostics (the ROS convention, an absolute name).
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+
+async def run_bridge(
+    session: zenoh.Session,
+    config: BridgeConfig,
+    boards: Mapping[int, Any],
+    *,
+    task_status: anyio.abc.TaskStatus[list[BoardNode]] = anyio.TASK_STATUS_IGNORED,
+) -> None:
+    """Serve every configured board (``boards``: board ID -> open Board) until cancelled.
+
+    ``task_status.started`` gets the nodes once every node, publisher and subscription
+    is declared and each input published its first value.
+    """
+    context = Context(session, config.domain_id)
+    nodes = [
+        BoardNode(context, config, board_config, boards[board_config.board_id])
+        for board_config in config.boards
+    ]
+    try:
+        async with anyio.create_task_group() as tg:
+            for node in nodes:
+                await tg.start(node.run)
+            task_status.started(nodes)
+    finally:
+        for node in nodes:
+            node.close()
+
+
+class _Command:
+    """One output: the newest command waiting to be written, and its freshness."""
+
+    def __init__(self, config: OutputConfig, handle: Any) -> None:
+        self.config = config
+        self.handle = handle
+        self.pending: float | bool | None = None
+        self.wake = anyio.Event()
+        #: Set by the first command: until then the output rests in its safe state.
+        self.first = anyio.Event()
+        self.last_command = 0.0
+        self.timed_out = False
+        self.commands = 0
+
+    def offer(self, value: float | bool) -> None:
+        self.pending = value
+        self.last_command = time.monotonic()
+        self.commands += 1
+        self.wake.set()
+        self.first.set()
+
+
+class BoardNode:
+    """One board as the ROS 2 node ``<namespace>/<name>``."""
+
+    def __init__(
+        self, context: Context, bridge: BridgeConfig, config: BoardConfig, board: Any
+    ) -> None:
+        self.config = config
+        self.board = board
+        self.node = Node(context, bridge.namespace, config.name)
+        self.clock = BoardClock()
+        self.outputs: list[_Command] = []
+        self.published = 0
+        self.command_errors = 0
+        self._diagnostics = self.node.publisher(DIAGNOSTICS_TOPIC, msgs.DIAGNOSTIC_ARRAY)
+
+    def close(self) -> None:
+        self.node.close()
+
+    async def run(
+        self, *, task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED
+    ) -> None:
+        async with anyio.create_task_group() as tg:
+            for output in self.config.outputs:
+                command = await self._set_up_output(output)
+                self.outputs.append(command)
+                tg.start_soon(self._write_commands, command)
+                if output.timeout is not None:
+                    tg.start_soon(self._watch_freshness, command)
+            for source in self.config.inputs:
+                await tg.start(self._publish_input, source)
+            tg.start_soon(self._publish_diagnostics)
+            task_status.started()
+
+    # ---- outputs -------------------------------------------------------------------------
+
+    async def _set_up_output(self, config: OutputConfig) -> _Command:
+        if config.kind == "bool":
+            handle = await self.board.digital_output(config.pin, initial=bool(config.safe))
+            ros_type = msgs.BOOL
+        else:
+            handle = await self.board.servo(config.pin)
+            if config.safe is not None:
+                await handle.set_angle(_degrees(float(config.safe)))
+            ros_type = msgs.FLOAT64
+        command = _Command(config, handle)
+
+        def on_message(message: Any, attachment: Attachment | None) -> None:
+            command.offer(message.data)
+
+        self.node.subscribe(config.topic, ros_type, on_message)
+        return command
+
+    async def _write_commands(self, command: _Command) -> None:
+        while True:
+            await command.wake.wait()
+            command.wake = anyio.Event()
+            value, command.pending = command.pending, None
+            if value is None:
+                continue
+            command.timed_out = False
+            await self._write(command, value)
+
+    async def _write(self, command: _Command, value: float | bool | None) -> None:
+        """Write ``value`` (None: a servo's safe state without pulses) to the output."""
+        try:
+            if command.config.kind == "bool":
+                await command.handle.write(bool(value))
+            elif value is None:
+                await command.handle.stop()
+            else:
+                await command.handle.set_angle(_degrees(float(value)))
+        except (ArduinoIOError, ValueError) as exc:
+            self.command_errors += 1
+            log.warning(
+                "%s: %s <- %r failed: %s", self.config.name, command.config.topic, value, exc
+            )
+
+    async def _watch_freshness(self, command: _Command) -> None:
+        timeout = command.config.timeout
+        assert timeout is not None
+        await command.first.wait()
+        while True:
+            left = command.last_command + timeout - time.monotonic()
+            if left > 0:
+                await anyio.sleep(left)
+                continue
+            if not command.timed_out:
+                command.timed_out = True
+                log.warning(
+                    "%s: no command on %s for %.3f s: safe state %r",
+                    self.config.name,
+                    command.config.topic,
+                    timeout,
+                    command.config.safe,
+                )
+                await self._write(command, command.config.safe)
+            await anyio.sleep(timeout)
+
+    # ---- inputs --------------------------------------------------------------------------
+
+    def _publisher(self, source: InputConfig) -> Publisher:
+        ros_type = {"bool": msgs.BOOL, "volts": msgs.FLOAT32, "battery": msgs.BATTERY_STATE}
+        return self.node.publisher(source.topic, ros_type[source.kind])
+
+    def _put(self, publisher: Publisher, payload: bytes) -> None:
+        publisher.publish(payload)
+        self.published += 1
+
+    async def _publish_input(
+        self,
+        source: InputConfig,
+        *,
+        task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED,
+    ) -> None:
+        publisher = self._publisher(source)
+        if source.kind == "bool":
+            pin = await self.board.digital_input(source.pin, pull_up=source.pull_up)
+            async with pin.watch() as changes:
+                self._put(publisher, msgs.bool_msg(bool(await pin.read())))
+                task_status.started()
+                async for change in changes:
+                    host_ns = time.time_ns() - int((time.monotonic() - change.host_time) * 1e9)
+                    self.clock.observe(change.board_time_us, host_ns)
+                    self._put(publisher, msgs.bool_msg(change.level))
+            return
+        analog = self.board.analog(source.pin)
+        started = False
+        while True:
+            try:
+                volts = await analog.read_volts() * source.scale
+            except ArduinoIOError as exc:
+                log.warning("%s: %s: %s", self.config.name, source.topic, exc)
+            else:
+                if source.kind == "volts":
+                    payload = msgs.float32_msg(volts)
+                else:
+                    stamp = msgs.Stamp(time.time_ns())
+                    payload = msgs.battery_state(stamp, self.config.frame_id, volts)
+                self._put(publisher, payload)
+            if not started:
+                started = True
+                task_status.started()
+            await anyio.sleep(source.period)
+
+    # ---- diagnostics ---------------------------------------------------------------------
+
+    async def _publish_diagnostics(self) -> None:
+        while True:
+            self._put(
+                self._diagnostics,
+                msgs.diagnostic_array(msgs.Stamp(time.time_ns()), [await self.status()]),
+            )
+            await anyio.sleep(self.config.diagnostics_period)
+
+    async def status(self) -> msgs.Status:
+        """The board's ``DiagnosticStatus``: ERROR when unplugged or its link failsafe
+        fired, WARN while an output is in its safe state for want of commands."""
+        timed_out = [c.config.topic for c in self.outputs if c.timed_out]
+        values = {
+            "board_id": f"0x{self.config.board_id:04X}",
+            "connected": str(bool(self.board.connected)).lower(),
+            "link_failsafe_tripped": str(bool(self.board.failsafe_tripped)).lower(),
+            "command_timeouts": " ".join(timed_out),
+            "command_errors": str(self.command_errors),
+            "published": str(self.published),
+            "clock_drift_ppm": f"{self.clock.drift_ppm:.1f}",
+        }
+        try:
+            values["temperature_c"] = f"{await self.board.temperature():.1f}"
+        except ArduinoIOError as exc:
+            values["temperature_c"] = f"unknown ({exc})"
+        if not self.board.connected or self.board.failsafe_tripped:
+            level, text = msgs.DIAG_ERROR, "board unplugged or link failsafe fired"
+        elif timed_out:
+            level, text = msgs.DIAG_WARN, "no fresh command: safe state on " + ", ".join(timed_out)
+        else:
+            level, text = msgs.DIAG_OK, "ok"
+        name = f"{self.node.namespace.rstrip('/')}/{self.config.name}"
+        return msgs.Status(level, name, text, values["board_id"], values)
+
+
+def _degrees(radians: float) -> float:
+    """Servo radians (0 = centre) -> the 0-180 degrees ``set_angle`` takes."""
+    return 90.0 + math.degrees(radians)
