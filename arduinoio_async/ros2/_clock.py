@@ -8,7 +8,8 @@ by the frame's transit (serial, USB, the event loop), never early.  So the pairs
 least transit lie on a line ``host = offset + (1 + drift) * board`` and every other pair
 lies above it: the estimator keeps the earliest pair of each ``bucket`` of board time
 (the lower envelope) and fits the line through the newest ``buckets`` of them by least
-squares.  Until two buckets exist it uses the earliest pair alone with drift 0.
+squares (leaving out the bucket still filling once there are two others).  Until two
+buckets exist it uses the earliest pair alone with drift 0.
 
 The error of a stamp (documented in ``docs/ros2.md``, measured in
 ``tests/ros2/test_clock.py``): the stamp is late by the least transit in its buckets
@@ -78,6 +79,8 @@ class BoardClock:
 
     def _refit(self) -> None:
         points = list(self._envelope)
+        if len(points) >= 3:
+            points.pop()  # the current bucket: its earliest pair may still come
         origin = points[0][0]
         xs = [(board - origin) * 1000.0 for board, _ in points]
         ys = [float(host) for _, host in points]

@@ -18,6 +18,7 @@ from typing import Any
 
 import zenoh
 
+from ..network._keys import undeclare
 from ..network._loop import LoopHandle
 from . import _messages
 from ._wire import (
@@ -119,11 +120,7 @@ class Node:
     def close(self) -> None:
         """Undeclare every token, publisher and subscriber of the node (newest first)."""
         while self._undeclare:
-            entity = self._undeclare.pop()
-            try:
-                entity.undeclare()
-            except zenoh.ZError as exc:  # the session closed first
-                log.debug("%s: undeclare: %s", self.name, exc)
+            undeclare(self._undeclare.pop())  # a no-op once the session closed
 
 
 class Publisher:

@@ -1,0 +1,173 @@
+"""The bridge against peers nobody here wrote: zenoh-ros2-sdk in a separate process, and a
+raw Zenoh subscriber decoding with rosbags.
+
+The virtual Uno's loopback fixture jumpers D2 to D3, so a ROS message on the D2 topic
+that reaches the pin comes back as a Bool on the D3 topic; the fixture's view of D2 is the
+oracle that the level really changed (and, after a command timeout, really went safe).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import anyio
+import pytest
+import zenoh
+
+from arduinoio_async import FakeBoard
+from arduinoio_async.board import Board
+from arduinoio_async.network import zenoh_config
+from arduinoio_async.network._keys import undeclare
+from arduinoio_async.ros2 import _messages as msgs
+from arduinoio_async.ros2 import parse
+from arduinoio_async.ros2._wire import decode_attachment, topic_key
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+from .conftest import DEADLINE, running_bridge, sdk_peer
+
+pytest.importorskip("zenoh_ros2_sdk")
+
+BOOL = "std_msgs/msg/Bool"
+
+
+def loopback_config(timeout: float | None = None) -> Any:
+    d2: dict[str, Any] = {"pin": "D2", "type": "bool", "topic": "d2"}
+    if timeout is not None:
+        d2["timeout"] = timeout
+    return parse(
+        {
+            "namespace": "/robot",
+            "boards": [
+                {
+                    "name": "uno",
+                    "id": 1,
+                    "inputs": [{"pin": "D3", "type": "bool", "topic": "d3"}],
+                    "outputs": [d2],
+                }
+            ],
+        }
+    )
+
+
+def is_d3(level: bool) -> Any:
+    return lambda item: item.get("topic") == "/robot/uno/d3" and item["data"] is level
+
+
+@pytest.mark.sim
+async def test_d2_from_a_ros_message_reaches_d3_and_comes_back_as_a_bool(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=1, fixture="loopback")
+    async with (
+        Board.open(uno.port, baudrate=uno.baud) as board,
+        running_bridge(loopback_config(), {1: board}) as (port, _),
+        sdk_peer(port) as peer,
+    ):
+        await peer.subscribe("/robot/uno/d3", BOOL)
+        for level in (True, False, True):
+            await peer.publish("/robot/uno/d2", BOOL, level)
+            await peer.message(is_d3(level))
+            assert (await uno.pin(2)).level == level  # the fixture saw the pin move
+
+        # The graph as the peer reads it from the liveliness tokens.
+        topics = await peer.topics()
+        assert topics["/robot/uno/d2"] == [BOOL]
+        assert topics["/robot/uno/d3"] == [BOOL]
+        assert topics["/diagnostics"] == ["diagnostic_msgs/msg/DiagnosticArray"]
+        d3 = await peer.info("/robot/uno/d3")
+        assert ["/robot", "uno"] in d3["publishers"]
+        d2 = await peer.info("/robot/uno/d2")
+        assert ["/robot", "uno"] in d2["subscribers"]
+
+
+@pytest.mark.sim
+async def test_a_command_timeout_puts_the_output_in_its_safe_state(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=1, fixture="loopback")
+    async with (
+        Board.open(uno.port, baudrate=uno.baud) as board,
+        running_bridge(loopback_config(timeout=0.3), {1: board}) as (port, nodes),
+        sdk_peer(port) as peer,
+    ):
+        await peer.subscribe("/robot/uno/d3", BOOL)
+        await peer.publish("/robot/uno/d2", BOOL, True)
+        sent = time.time_ns()
+        high = await peer.message(is_d3(True))
+        assert (await uno.pin(2)).level == 1
+        # No further command: the output falls to its safe level (low) by itself.
+        low = await peer.message(is_d3(False))
+        assert (await uno.pin(2)).level == 0
+        assert low["received_ns"] - sent >= 300_000_000  # not before the timeout
+        assert low["received_ns"] > high["received_ns"]
+        status = await nodes[0].status()
+        assert status.level == msgs.DIAG_WARN
+        assert status.values["command_timeouts"] == "/robot/uno/d2"
+        # A fresh command ends the safe state.
+        await peer.publish("/robot/uno/d2", BOOL, True)
+        await peer.message(is_d3(True))
+        assert (await nodes[0].status()).level == msgs.DIAG_OK
+
+
+async def test_a_raw_zenoh_subscriber_sees_cdr_and_consecutive_sequence_numbers() -> None:
+    config = parse(
+        {
+            "boards": [
+                {
+                    "name": "fake",
+                    "id": 1,
+                    "inputs": [
+                        {"pin": "D3", "type": "bool", "topic": "d3"},
+                        {"pin": "A0", "type": "volts", "topic": "a0", "period": 0.01},
+                    ],
+                }
+            ]
+        }
+    )
+    received: list[tuple[str, bytes, bytes]] = []
+    got, volts_seen = anyio.Event(), anyio.Event()
+
+    async with FakeBoard(board_id=1) as fake, Board.connect(fake.host_stream) as board:
+        fake.analog[0] = 512
+        async with running_bridge(config, {1: board}) as (port, _):
+            config_ = zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
+            listener = await anyio.to_thread.run_sync(zenoh.open, config_)
+            try:
+                d3_key = topic_key(0, "/fake/d3", BOOL, msgs.type_hash(BOOL))
+                a0_key = topic_key(0, "/fake/a0", msgs.FLOAT32, msgs.type_hash(msgs.FLOAT32))
+                token = anyio.lowlevel.current_token()
+
+                def on_sample(sample: zenoh.Sample) -> None:
+                    assert sample.attachment is not None
+                    item = (str(sample.key_expr), sample.payload.to_bytes(),
+                            sample.attachment.to_bytes())  # fmt: skip
+                    received.append(item)
+                    if item[0] == a0_key:
+                        anyio.from_thread.run_sync(volts_seen.set, token=token)
+                    if sum(key == d3_key for key, _, _ in received) >= 4:
+                        anyio.from_thread.run_sync(got.set, token=token)
+
+                subscriber = listener.declare_subscriber(d3_key, on_sample)
+                a0 = listener.declare_subscriber(a0_key, on_sample)
+                with anyio.fail_after(DEADLINE):
+                    await volts_seen.wait()  # the subscribers are known to the bridge
+                    for level in (True, False, True, False):
+                        fake.drive(3, level)
+                    await got.wait()
+                undeclare(subscriber)
+                undeclare(a0)
+            finally:
+                await anyio.to_thread.run_sync(listener.close)
+
+    d3 = [(msgs.decode(BOOL, payload).data, decode_attachment(att))
+          for key, payload, att in received if key == d3_key]  # fmt: skip
+    assert [level for level, _ in d3][-4:] == [True, False, True, False]
+    sequences = [att.sequence for _, att in d3]
+    assert sequences == list(range(sequences[0], sequences[0] + len(sequences)))
+    assert len({att.gid for _, att in d3}) == 1
+    stamps = [att.timestamp_ns for _, att in d3]
+    assert stamps == sorted(stamps)
+    volts = [msgs.decode(msgs.FLOAT32, payload).data
+             for key, payload, _ in received if key == a0_key]  # fmt: skip
+    assert volts[0] == pytest.approx(512 * 5.0 / 1024, abs=0.01)
