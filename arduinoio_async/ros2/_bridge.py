@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import anyio
@@ -101,6 +101,10 @@ class BoardNode:
         self.outputs: list[_Command] = []
         self.published = 0
         self.command_errors = 0
+        #: Called as ``on_change(topic, sequence, stamp_ns)`` after each change an input
+        #: published: its attachment's sequence number and the board's time of the edge in
+        #: host nanoseconds (:class:`BoardClock`); for measurements and logging.
+        self.on_change: Callable[[str, int, int], None] | None = None
         self._diagnostics = self.node.publisher(DIAGNOSTICS_TOPIC, msgs.DIAGNOSTIC_ARRAY)
 
     def close(self) -> None:
@@ -210,8 +214,11 @@ class BoardNode:
                 task_status.started()
                 async for change in changes:
                     host_ns = time.time_ns() - int((time.monotonic() - change.host_time) * 1e9)
-                    self.clock.observe(change.board_time_us, host_ns)
+                    board_us = self.clock.observe(change.board_time_us, host_ns)
                     self._put(publisher, msgs.bool_msg(change.level))
+                    if self.on_change is not None:
+                        stamp = self.clock.to_host_ns(board_us)
+                        self.on_change(source.topic, publisher.sequence, stamp)
             return
         analog = self.board.analog(source.pin)
         started = False
@@ -224,8 +231,8 @@ class BoardNode:
                 if source.kind == "volts":
                     payload = msgs.float32_msg(volts)
                 else:
-                    stamp = msgs.Stamp(time.time_ns())
-                    payload = msgs.battery_state(stamp, self.config.frame_id, volts)
+                    now = msgs.Stamp(time.time_ns())
+                    payload = msgs.battery_state(now, self.config.frame_id, volts)
                 self._put(publisher, payload)
             if not started:
                 started = True

@@ -11,6 +11,8 @@ with JSON lines on stdout:
     {"op": "pub", "topic": ..., "type": ..., "data": true}  -> {"op": "published"}
     {"op": "topics"}  -> {"op": "topics", "topics": [[name, [types]], ...]}
     {"op": "info", "topic": ...}  -> {"op": "info", "publishers": [[ns, node], ...], ...}
+    {"op": "echo"}  -> {"op": "echoing"}; then every sample on bench/ping is put back on
+        bench/pong (the plain Zenoh round trip the ROS latency is compared with)
 
 ``python sdk_peer.py PORT`` connects to the bridge's Zenoh endpoint on 127.0.0.1:PORT.
 """
@@ -77,6 +79,15 @@ def main() -> None:
                 )
             publishers[topic].publish(data=order["data"])
             say({"op": "published"})
+        elif op == "echo":  # plain Zenoh on the SDK's session: bench/ping -> bench/pong
+            session = sdk.ZenohSession.get_instance(router_port=port).session
+            pong = session.declare_publisher("bench/pong")
+
+            def echo(sample: Any, pong: Any = pong) -> None:
+                pong.put(sample.payload)
+
+            keep += [pong, session.declare_subscriber("bench/ping", echo)]
+            say({"op": "echoing"})
         elif op == "topics":
             found = sdk.get_topic_names_and_types(router_port=port, timeout=1.0)
             say({"op": "topics", "topics": [[name, types] for name, types in found]})
