@@ -25,6 +25,7 @@ import anyio
 import zenoh
 
 from ..errors import ArduinoIOError
+from ..protocol import VCC_MV
 from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
@@ -35,6 +36,8 @@ __all__ = ["BoardNode", "run_bridge"]
 
 log = logging.getLogger(__name__)
 
+#: Volts of one ADC count (AVCC 5 V over 1024 steps, as ``AnalogInput.read_volts``).
+VOLTS_PER_COUNT = VCC_MV / 1000 / 1024
 #: Where every node publishes its diagnostics (the ROS convention, an absolute name).
 DIAGNOSTICS_TOPIC = "/diagnostics"
 
@@ -120,8 +123,14 @@ class BoardNode:
                 tg.start_soon(self._write_commands, command)
                 if output.timeout is not None:
                     tg.start_soon(self._watch_freshness, command)
+            streamed = [s for s in self.config.inputs if s.kind != "bool"]
+            if self.config.stream_ms is None:
+                streamed = []
             for source in self.config.inputs:
-                await tg.start(self._publish_input, source)
+                if source not in streamed:
+                    await tg.start(self._publish_input, source)
+            if streamed:
+                await tg.start(self._publish_stream, streamed)
             tg.start_soon(self._publish_diagnostics)
             task_status.started()
 
@@ -238,6 +247,32 @@ class BoardNode:
                 started = True
                 task_status.started()
             await anyio.sleep(source.period)
+
+    async def _publish_stream(
+        self,
+        sources: list[InputConfig],
+        *,
+        task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED,
+    ) -> None:
+        """The analog inputs from one firmware-timed stream, each sample stamped with the
+        board's time of sampling in host time (BatteryState's ``header.stamp``)."""
+        publishers = [(source, self._publisher(source)) for source in sources]
+        period_ms = self.config.stream_ms
+        assert period_ms is not None
+        pins = [source.pin for source in sources]
+        async with self.board.stream(analog=pins, period_ms=period_ms) as samples:
+            task_status.started()
+            async for sample in samples:
+                host_ns = time.time_ns() - int((time.monotonic() - sample.host_time) * 1e9)
+                board_us = self.clock.observe(sample.board_time_us, host_ns)
+                stamp = msgs.Stamp(self.clock.to_host_ns(board_us))
+                for source, publisher in publishers:
+                    volts = sample.analog[source.pin] * VOLTS_PER_COUNT * source.scale
+                    if source.kind == "volts":
+                        payload = msgs.float32_msg(volts)
+                    else:
+                        payload = msgs.battery_state(stamp, self.config.frame_id, volts)
+                    self._put(publisher, payload)
 
     # ---- diagnostics ---------------------------------------------------------------------
 

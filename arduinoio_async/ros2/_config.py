@@ -63,6 +63,9 @@ class BoardConfig:
     inputs: tuple[InputConfig, ...] = ()
     outputs: tuple[OutputConfig, ...] = ()
     diagnostics_period: float = 1.0
+    #: Sample the analog inputs with the board's timer every ``stream_ms`` (stamped by the
+    #: board clock) instead of reading each one every ``period`` (None).
+    stream_ms: float | None = None
 
 
 @dataclass(frozen=True)
@@ -129,7 +132,7 @@ def _mapping(data: object, where: str, allowed: set[str]) -> Mapping[str, Any]:
 
 
 def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> BoardConfig:
-    allowed = {"name", "id", "frame_id", "inputs", "outputs", "diagnostics_period"}
+    allowed = {"name", "id", "frame_id", "inputs", "outputs", "diagnostics_period", "stream_ms"}
     item = _mapping(data, where, allowed)
     name = item.get("name")
     if not isinstance(name, str) or not name.isidentifier():
@@ -151,7 +154,20 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
     frame_id = item.get("frame_id", name)
     if not isinstance(frame_id, str):
         raise ConfigError(f"{where}.frame_id: {frame_id!r} is not a string")
-    return BoardConfig(name, board_id, frame_id, inputs, outputs, period)
+    stream_ms = item.get("stream_ms")
+    if stream_ms is not None and (
+        isinstance(stream_ms, bool) or not isinstance(stream_ms, int | float) or stream_ms < 0.25
+    ):
+        raise ConfigError(f"{where}.stream_ms: {stream_ms!r} is not a period of 0.25 ms or more")
+    return BoardConfig(
+        name,
+        board_id,
+        frame_id,
+        inputs,
+        outputs,
+        period,
+        None if stream_ms is None else float(stream_ms),
+    )
 
 
 def _list(item: Mapping[str, Any], key: str, where: str) -> list[Any]:

@@ -171,3 +171,54 @@ async def test_a_raw_zenoh_subscriber_sees_cdr_and_consecutive_sequence_numbers(
     volts = [msgs.decode(msgs.FLOAT32, payload).data
              for key, payload, _ in received if key == a0_key]  # fmt: skip
     assert volts[0] == pytest.approx(512 * 5.0 / 1024, abs=0.01)
+
+
+async def test_streamed_analog_inputs_carry_the_boards_sampling_time_as_header_stamp() -> None:
+    """``stream_ms``: one firmware-timed stream feeds the analog inputs; each BatteryState's
+    stamp is the sampling instant on the board's clock, converted to host time."""
+    config = parse(
+        {
+            "boards": [
+                {
+                    "name": "fake",
+                    "id": 1,
+                    "stream_ms": 5,
+                    "inputs": [{"pin": "A1", "type": "battery", "topic": "battery", "scale": 3}],
+                }
+            ]
+        }
+    )
+    battery = msgs.BATTERY_STATE
+    key = topic_key(0, "/fake/battery", battery, msgs.type_hash(battery))
+    received: list[tuple[bytes, int]] = []
+    enough = anyio.Event()
+    async with FakeBoard(board_id=1) as fake, Board.connect(fake.host_stream) as board:
+        fake.analog[1] = 256
+        async with running_bridge(config, {1: board}) as (port, _):
+            config_ = zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
+            listener = await anyio.to_thread.run_sync(zenoh.open, config_)
+            token = anyio.lowlevel.current_token()
+
+            def on_sample(sample: zenoh.Sample) -> None:
+                received.append((sample.payload.to_bytes(), time.time_ns()))
+                if len(received) == 100:
+                    anyio.from_thread.run_sync(enough.set, token=token)
+
+            try:
+                subscriber = listener.declare_subscriber(key, on_sample)
+                with anyio.fail_after(DEADLINE):
+                    await enough.wait()
+                undeclare(subscriber)
+            finally:
+                await anyio.to_thread.run_sync(listener.close)
+    messages = [(msgs.decode(battery, payload), at) for payload, at in received[:100]]
+    assert {round(m.voltage, 3) for m, _ in messages} == {round(256 * 5 / 1024 * 3, 3)}
+    stamps = [m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec for m, _ in messages]
+    steps = [b - a for a, b in zip(stamps, stamps[1:], strict=False)]
+    # The fake board's clock is the event loop's: each stamp is its sampling instant (every
+    # 5 ms, later when the loaded loop sleeps longer), never in the future of the receipt.
+    assert all(step > 0 for step in steps)
+    assert sum(steps) / len(steps) >= 4_500_000
+    assert all(
+        0 <= at - stamp < 1_000_000_000 for stamp, (_, at) in zip(stamps, messages, strict=True)
+    )

@@ -78,6 +78,7 @@ def test_the_example_configuration_loads() -> None:
         ({"outputs": [{"pin": "D9", "type": "servo", "topic": "a", "safe": 3}]},
          r"outputs\[0\]\.safe: 3 is not an angle in radians"),
         ({"id": 70000}, r"boards\[0\]\.id: 70000 is not a board ID"),
+        ({"stream_ms": 0.1}, r"boards\[0\]\.stream_ms: 0.1 is not a period of 0.25 ms or more"),
     ],
 )  # fmt: skip
 def test_mistakes_are_named_with_their_place(board: dict[str, Any], message: str) -> None:
