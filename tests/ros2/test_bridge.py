@@ -8,6 +8,7 @@ oracle that the level really changed (and, after a command timeout, really went 
 
 from __future__ import annotations
 
+import itertools
 import time
 from typing import Any
 
@@ -214,7 +215,7 @@ async def test_streamed_analog_inputs_carry_the_boards_sampling_time_as_header_s
     messages = [(msgs.decode(battery, payload), at) for payload, at in received[:100]]
     assert {round(m.voltage, 3) for m, _ in messages} == {round(256 * 5 / 1024 * 3, 3)}
     stamps = [m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec for m, _ in messages]
-    steps = [b - a for a, b in zip(stamps, stamps[1:], strict=False)]
+    steps = [b - a for a, b in itertools.pairwise(stamps)]
     # The fake board's clock is the event loop's: each stamp is its sampling instant (every
     # 5 ms, later when the loaded loop sleeps longer), never in the future of the receipt.
     assert all(step > 0 for step in steps)
