@@ -52,16 +52,34 @@ def figures(samples_ms: list[float]) -> dict[str, Any]:
     }
 
 
-async def edges(uno: VirtualUno, peer: Peer, stamps: list[int], n: int) -> list[float]:
-    """Drive ``n`` edges on D3, one at a time; each one's edge-to-receipt latency (ms)."""
+async def edges(
+    uno: VirtualUno,
+    peer: Peer,
+    stamps: list[int],
+    n: int,
+    windows: list[tuple[int, int]],
+    drive_to_receipt: list[float],
+) -> list[float]:
+    """Drive ``n`` edges on D3, one at a time; each one's edge-to-receipt latency (ms).
+
+    ``windows`` gets, per edge, the stamp's place against the host's clock around the
+    harness's drive command: (stamp - time before the command, time after its reply -
+    stamp), both >= 0 when the converted stamp lies where the edge truly happened;
+    ``drive_to_receipt`` the time (ms) from before the drive command to the receipt, which
+    needs no clock estimate (and includes the harness's command round trip).
+    """
     latencies = []
     level = True
     base = len(stamps)  # the bridge appends the stamp of each edge it publishes
     for index in range(base, base + n):
+        before = time.time_ns()
         await uno.drive(3, level)
+        after = time.time_ns()
         got = await peer.message(lambda m: m.get("topic") == "/uno/d3")
         assert got["data"] is level, (index, got)
         latencies.append((got["received_ns"] - stamps[index]) / 1e6)
+        windows.append((stamps[index] - before, after - stamps[index]))
+        drive_to_receipt.append((got["received_ns"] - before) / 1e6)
         level = not level
         await anyio.sleep(0.005)  # pacing between edges, not a wait for a condition
     return latencies
@@ -111,11 +129,14 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
                 await peer.subscribe("/uno/d3", "std_msgs/msg/Bool")
                 await peer._send({"op": "echo"})
                 await peer._answer("echoing")
-                await edges(uno, peer, stamps, 20)  # warm-up: routes, the clock's envelope
+                windows: list[tuple[int, int]] = []
+                driven: list[float] = []
+                await edges(uno, peer, stamps, 20, windows, driven)  # warm-up: routes, clock
+                del windows[:], driven[:]
                 ros: list[float] = []
                 plain: list[float] = []
                 for _ in range(args.rounds):  # interleaved: a busy moment hits both
-                    ros += await edges(uno, peer, stamps, args.n // args.rounds)
+                    ros += await edges(uno, peer, stamps, args.n // args.rounds, windows, driven)
                     plain += await round_trips(session, args.n // args.rounds)
                 drift = nodes[0].clock.drift_ppm
                 spread = nodes[0].clock.spread_ns
@@ -130,8 +151,17 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
         "zenoh_ros2_sdk": importlib.metadata.version("zenoh-ros2-sdk"),
         "link": "virtual Uno, no 16U2 model, 1,000,000 baud; Zenoh TCP loopback",
         "edge_to_ros_subscriber": ros_figures,
+        "drive_command_to_ros_subscriber": figures(driven),
         "plain_zenoh_round_trip": plain_figures,
-        "board_clock": {"drift_ppm": round(drift, 1), "spread_us": round(spread / 1000, 1)},
+        "board_clock": {
+            "drift_ppm": round(drift, 1),
+            "spread_us": round(spread / 1000, 1),
+            # Against the harness: the edge happened between the drive command's send and
+            # its reply; how far the converted stamp fell outside that window.
+            "stamp_early_ms": figures([max(0, -early) / 1e6 for early, _ in windows]),
+            "stamp_late_ms": figures([max(0, -late) / 1e6 for _, late in windows]),
+            "drive_window_ms": figures([(e + lt) / 1e6 for e, lt in windows]),
+        },
     }
     result["ratio_p50"] = round(ros_figures["p50_ms"] / plain_figures["p50_ms"], 2)
     return result
