@@ -19,7 +19,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import anyio
 import zenoh
@@ -31,6 +31,11 @@ from ._clock import BoardClock
 from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
 from ._endpoints import Context, Node, Publisher
 from ._wire import Attachment
+
+if TYPE_CHECKING:
+    from .. import DigitalOutput, Motor, Servo
+    from ..board import Board
+    from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin
 
 __all__ = ["BoardNode", "run_bridge"]
 
@@ -45,7 +50,7 @@ DIAGNOSTICS_TOPIC = "/diagnostics"
 async def run_bridge(
     session: zenoh.Session,
     config: BridgeConfig,
-    boards: Mapping[int, Any],
+    boards: Mapping[int, Board],
     *,
     task_status: anyio.abc.TaskStatus[list[BoardNode]] = anyio.TASK_STATUS_IGNORED,
 ) -> None:
@@ -95,7 +100,7 @@ class BoardNode:
     """One board as the ROS 2 node ``<namespace>/<name>``."""
 
     def __init__(
-        self, context: Context, bridge: BridgeConfig, config: BoardConfig, board: Any
+        self, context: Context, bridge: BridgeConfig, config: BoardConfig, board: Board
     ) -> None:
         self.config = config
         self.board = board
@@ -123,7 +128,7 @@ class BoardNode:
                 tg.start_soon(self._write_commands, command)
                 if output.timeout is not None:
                     tg.start_soon(self._watch_freshness, command)
-            streamed = [s for s in self.config.inputs if s.kind != "bool"]
+            streamed = [s for s in self.config.inputs if s.kind in ("volts", "battery")]
             if self.config.stream_ms is None:
                 streamed = []
             for source in self.config.inputs:
@@ -137,11 +142,18 @@ class BoardNode:
     # ---- outputs -------------------------------------------------------------------------
 
     async def _set_up_output(self, config: OutputConfig) -> _Command:
+        # The configuration checked each pin against Table III: the casts restate that.
+        handle: DigitalOutput | Motor | Servo
         if config.kind == "bool":
             handle = await self.board.digital_output(config.pin, initial=bool(config.safe))
             ros_type = msgs.BOOL
+        elif config.kind == "motor":
+            assert config.direction is not None
+            pwm = cast("DutyPwmPin", config.pin)
+            handle = await self.board.motor(pwm, config.direction, config.direction2)
+            ros_type = msgs.FLOAT64
         else:
-            handle = await self.board.servo(config.pin)
+            handle = await self.board.servo(cast("ServoPin", config.pin))
             if config.safe is not None:
                 await handle.set_angle(_degrees(float(config.safe)))
             ros_type = msgs.FLOAT64
@@ -168,6 +180,8 @@ class BoardNode:
         try:
             if command.config.kind == "bool":
                 await command.handle.write(bool(value))
+            elif command.config.kind == "motor":
+                await command.handle.set_speed(float(value or 0.0))
             elif value is None:
                 await command.handle.stop()
             else:
@@ -202,7 +216,12 @@ class BoardNode:
     # ---- inputs --------------------------------------------------------------------------
 
     def _publisher(self, source: InputConfig) -> Publisher:
-        ros_type = {"bool": msgs.BOOL, "volts": msgs.FLOAT32, "battery": msgs.BATTERY_STATE}
+        ros_type = {
+            "bool": msgs.BOOL,
+            "volts": msgs.FLOAT32,
+            "battery": msgs.BATTERY_STATE,
+            "counter": msgs.INT64,
+        }
         return self.node.publisher(source.topic, ros_type[source.kind])
 
     def _put(self, publisher: Publisher, payload: bytes) -> None:
@@ -217,7 +236,9 @@ class BoardNode:
     ) -> None:
         publisher = self._publisher(source)
         if source.kind == "bool":
-            pin = await self.board.digital_input(source.pin, pull_up=source.pull_up)
+            pin = await self.board.digital_input(
+                cast("DigitalPin", source.pin), pull_up=source.pull_up
+            )
             async with pin.watch() as changes:
                 self._put(publisher, msgs.bool_msg(bool(await pin.read())))
                 task_status.started()
@@ -229,7 +250,16 @@ class BoardNode:
                         stamp = self.clock.to_host_ns(board_us)
                         self.on_change(source.topic, publisher.sequence, stamp)
             return
-        analog = self.board.analog(source.pin)
+        if source.kind == "counter":
+            counter = await self.board.counter(cast("CounterPin", source.pin))
+            task_status.started()
+            while True:
+                try:
+                    self._put(publisher, msgs.int64_msg(await counter.read()))
+                except ArduinoIOError as exc:
+                    log.warning("%s: %s: %s", self.config.name, source.topic, exc)
+                await anyio.sleep(source.period)
+        analog = self.board.analog(cast("AnalogPin", source.pin))
         started = False
         while True:
             try:
@@ -259,7 +289,7 @@ class BoardNode:
         publishers = [(source, self._publisher(source)) for source in sources]
         period_ms = self.config.stream_ms
         assert period_ms is not None
-        pins = [source.pin for source in sources]
+        pins = [cast("AnalogPin", source.pin) for source in sources]
         async with self.board.stream(analog=pins, period_ms=period_ms) as samples:
             task_status.started()
             async for sample in samples:
@@ -267,7 +297,11 @@ class BoardNode:
                 board_us = self.clock.observe(sample.board_time_us, host_ns)
                 stamp = msgs.Stamp(self.clock.to_host_ns(board_us))
                 for source, publisher in publishers:
-                    volts = sample.analog[source.pin] * VOLTS_PER_COUNT * source.scale
+                    volts = (
+                        sample.analog[cast("AnalogPin", source.pin)]
+                        * VOLTS_PER_COUNT
+                        * source.scale
+                    )
                     if source.kind == "volts":
                         payload = msgs.float32_msg(volts)
                     else:

@@ -24,10 +24,16 @@ from ._wire import fully_qualified
 __all__ = ["BoardConfig", "BridgeConfig", "ConfigError", "InputConfig", "OutputConfig", "load"]
 
 #: Input kinds -> the pins they need.
-INPUT_KINDS = {"bool": "digital", "volts": "analog", "battery": "analog"}
+INPUT_KINDS = {"bool": "digital", "volts": "analog", "battery": "analog", "counter": "counter"}
 #: Output kinds -> the pins they need.
-OUTPUT_KINDS = {"bool": "digital", "servo": "servo"}
-_PIN_TEXT = {"digital": "D2-D13", "analog": "A0-A5", "servo": "D9, D10"}
+OUTPUT_KINDS = {"bool": "digital", "servo": "servo", "motor": "duty"}
+_PIN_TEXT = {
+    "digital": "D2-D13",
+    "analog": "A0-A5",
+    "servo": "D9, D10",
+    "counter": "D2, D3",
+    "duty": "D3, D5, D6, D9, D10",
+}
 
 
 class ConfigError(UsageError):
@@ -51,8 +57,12 @@ class OutputConfig:
     topic: str  # fully qualified
     #: Seconds without a fresh command before the output goes to ``safe`` (None: never).
     timeout: float | None = None
-    #: The safe state: a level for ``bool``, radians for ``servo`` (None: no pulses).
+    #: The safe state: a level for ``bool``, radians for ``servo`` (None: no pulses), a
+    #: speed -1..1 for ``motor``.
     safe: bool | float | None = None
+    #: A motor's direction input(s) (IN1, and IN2 for drivers that can brake).
+    direction: DigitalPin | None = None
+    direction2: DigitalPin | None = None
 
 
 @dataclass(frozen=True)
@@ -200,6 +210,8 @@ def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | Analog
         "digital": isinstance(pin, DigitalPin),
         "analog": isinstance(pin, AnalogPin),
         "servo": pin in capable_pins(Function.SERVO_PWM),
+        "counter": pin in capable_pins(Function.COUNTER),
+        "duty": pin in capable_pins(Function.DUTY_PWM),
     }[need]
     if not ok:
         raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({_PIN_TEXT[need]} can)")
@@ -253,11 +265,25 @@ def _input(
 def _output(
     data: object, where: str, node_ns: str, topics: dict[str, str], pins: set[int]
 ) -> OutputConfig:
-    item = _mapping(data, where, {"pin", "type", "topic", "timeout", "safe"})
+    allowed = {"pin", "type", "topic", "timeout", "safe", "direction", "direction2"}
+    item = _mapping(data, where, allowed)
     kind = _kind(item.get("type"), OUTPUT_KINDS, where)
     pin = _pin(item.get("pin"), kind, OUTPUT_KINDS[kind], where)
     _claim(pin, pins, where)
-    assert isinstance(pin, DigitalPin)  # both output kinds need a digital pin
+    assert isinstance(pin, DigitalPin)  # every output kind needs a digital pin
+    directions: list[DigitalPin | None] = []
+    for key in ("direction", "direction2"):
+        if key not in item:
+            directions.append(None)
+            continue
+        if kind != "motor":
+            raise ConfigError(f"{where}.{key}: only a motor has direction pins")
+        direction = _pin(item[key], kind, "digital", f"{where}.{key}")
+        _claim(direction, pins, f"{where}.{key}")
+        assert isinstance(direction, DigitalPin)
+        directions.append(direction)
+    if kind == "motor" and directions[0] is None:
+        raise ConfigError(f"{where}.direction: a motor needs its direction pin (IN1)")
     timeout = item.get("timeout")
     if timeout is not None:
         timeout = _positive(timeout, f"{where}.timeout")
@@ -270,7 +296,13 @@ def _output(
         and (isinstance(safe, bool) or not isinstance(safe, int | float) or abs(safe) > math.pi / 2)
     ):
         raise ConfigError(f"{where}.safe: {safe!r} is not an angle in radians, -pi/2..pi/2")
-    if timeout is not None and kind == "bool" and safe is None:
-        safe = False
+    if (
+        kind == "motor"
+        and safe is not None
+        and (isinstance(safe, bool) or not isinstance(safe, int | float) or abs(safe) > 1)
+    ):
+        raise ConfigError(f"{where}.safe: {safe!r} is not a speed -1..1")
+    if timeout is not None and safe is None and kind != "servo":
+        safe = False if kind == "bool" else 0.0
     topic = _topic(item.get("topic"), node_ns, topics, where)
-    return OutputConfig(pin, kind, topic, timeout, safe)
+    return OutputConfig(pin, kind, topic, timeout, safe, directions[0], directions[1])

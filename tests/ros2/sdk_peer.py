@@ -32,6 +32,7 @@ DEFINITIONS = {
     "std_msgs/msg/Bool": "bool data\n",
     "std_msgs/msg/Float32": "float32 data\n",
     "std_msgs/msg/Float64": "float64 data\n",
+    "std_msgs/msg/Int64": "int64 data\n",
 }
 
 _out = threading.Lock()

@@ -17,6 +17,7 @@ import pytest
 import zenoh
 
 from arduinoio_async import FakeBoard
+from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.network import zenoh_config
 from arduinoio_async.network._keys import undeclare
@@ -223,3 +224,49 @@ async def test_streamed_analog_inputs_carry_the_boards_sampling_time_as_header_s
     assert all(
         0 <= at - stamp < 1_000_000_000 for stamp, (_, at) in zip(stamps, messages, strict=True)
     )
+
+
+async def wait_until(condition: Any) -> None:
+    """Poll the fake board's state (it has no event for it) until ``condition()`` holds."""
+    with anyio.fail_after(DEADLINE):
+        while not condition():  # noqa: ASYNC110 (the fake board has no event for it)
+            await anyio.sleep(0.005)
+
+
+async def test_a_motor_follows_float64_commands_and_stops_when_they_stop() -> None:
+    config = parse(
+        {
+            "boards": [
+                {
+                    "name": "fake",
+                    "id": 1,
+                    "inputs": [{"pin": "D2", "type": "counter", "topic": "count", "period": 0.02}],
+                    "outputs": [
+                        {"pin": "D9", "type": "motor", "topic": "wheel", "direction": "D7",
+                         "timeout": 0.3},
+                    ],
+                }
+            ]
+        }
+    )  # fmt: skip
+
+    def duty() -> float:
+        return fake.duties.get(9, (0, 0))[1] / p.DUTY_FULL
+
+    async with (
+        FakeBoard(board_id=1) as fake,
+        Board.connect(fake.host_stream) as board,
+        running_bridge(config, {1: board}) as (port, _),
+        sdk_peer(port) as peer,
+    ):
+        await peer.publish("/fake/wheel", msgs.FLOAT64, -0.5)
+        await wait_until(lambda: abs(duty() - 0.5) < 0.01)
+        assert fake.levels[7] is False  # IN1 low: reverse
+        # No further command: the motor stops by itself after the timeout.
+        await wait_until(lambda: duty() == 0)
+        # Counter: edges on D2 reach the Int64 topic.
+        await peer.subscribe("/fake/count", msgs.INT64)
+        for _ in range(3):
+            fake.drive(2, True)
+            fake.drive(2, False)
+        await peer.message(lambda m: m.get("topic") == "/fake/count" and m["data"] == 3)
