@@ -128,6 +128,8 @@ class BoardNode:
                 tg.start_soon(self._write_commands, command)
                 if output.timeout is not None:
                     tg.start_soon(self._watch_freshness, command)
+            if self.config.link_failsafe_ms is not None:
+                await self._arm_link_failsafe(self.config.link_failsafe_ms)
             streamed = [s for s in self.config.inputs if s.kind in ("volts", "battery")]
             if self.config.stream_ms is None:
                 streamed = []
@@ -164,6 +166,26 @@ class BoardNode:
 
         self.node.subscribe(config.topic, ros_type, on_message)
         return command
+
+    async def _arm_link_failsafe(self, timeout_ms: int) -> None:
+        """Arm the board's watchdog with every output's safe state (the same states the
+        command timeout applies): a dead bridge or a pulled cable makes them safe too."""
+        states: dict[Any, bool | float] = {}
+        for command in self.outputs:
+            safe = command.config.safe
+            if command.config.kind == "bool":
+                states[command.handle] = bool(safe)
+            elif command.config.kind == "motor":
+                states[command.handle] = 0.0  # a motor's failsafe state is stopped
+            else:  # servo: the safe angle's pulse width, or no pulses
+                servo = command.handle
+                degrees = None if safe is None else _degrees(float(safe))
+                states[servo] = (
+                    0
+                    if degrees is None
+                    else round(servo.min_us + (servo.max_us - servo.min_us) * degrees / 180)
+                )
+        await self.board.arm_failsafe(timeout_ms, states)
 
     async def _write_commands(self, command: _Command) -> None:
         while True:

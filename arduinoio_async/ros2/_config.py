@@ -18,6 +18,7 @@ from typing import Any
 import yaml
 
 from ..errors import UsageError
+from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._wire import fully_qualified
 
@@ -76,6 +77,9 @@ class BoardConfig:
     #: Sample the analog inputs with the board's timer every ``stream_ms`` (stamped by the
     #: board clock) instead of reading each one every ``period`` (None).
     stream_ms: float | None = None
+    #: Arm the board's link failsafe with the outputs' safe states: a dead bridge process
+    #: or a pulled cable puts them safe after this many ms (None: not armed).
+    link_failsafe_ms: int | None = None
 
 
 @dataclass(frozen=True)
@@ -142,7 +146,10 @@ def _mapping(data: object, where: str, allowed: set[str]) -> Mapping[str, Any]:
 
 
 def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> BoardConfig:
-    allowed = {"name", "id", "frame_id", "inputs", "outputs", "diagnostics_period", "stream_ms"}
+    allowed = {
+        "name", "id", "frame_id", "inputs", "outputs", "diagnostics_period", "stream_ms",
+        "link_failsafe_ms",
+    }  # fmt: skip
     item = _mapping(data, where, allowed)
     name = item.get("name")
     if not isinstance(name, str) or not name.isidentifier():
@@ -169,6 +176,14 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
         isinstance(stream_ms, bool) or not isinstance(stream_ms, int | float) or stream_ms < 0.25
     ):
         raise ConfigError(f"{where}.stream_ms: {stream_ms!r} is not a period of 0.25 ms or more")
+    link_ms = item.get("link_failsafe_ms")
+    low, high = FAILSAFE_MIN_TIMEOUT_MS, FAILSAFE_MAX_TIMEOUT_MS
+    if link_ms is not None and (
+        isinstance(link_ms, bool) or not isinstance(link_ms, int) or not low <= link_ms <= high
+    ):
+        raise ConfigError(
+            f"{where}.link_failsafe_ms: {link_ms!r} is not a whole number of ms, {low}-{high}"
+        )
     return BoardConfig(
         name,
         board_id,
@@ -177,6 +192,7 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
         outputs,
         period,
         None if stream_ms is None else float(stream_ms),
+        link_ms,
     )
 
 

@@ -270,3 +270,38 @@ async def test_a_motor_follows_float64_commands_and_stops_when_they_stop() -> No
             fake.drive(2, True)
             fake.drive(2, False)
         await peer.message(lambda m: m.get("topic") == "/fake/count" and m["data"] == 3)
+
+
+async def test_the_link_failsafe_is_armed_with_the_outputs_safe_states() -> None:
+    """``link_failsafe_ms``: a host that falls silent leaves the outputs as the command
+    timeout would; the diagnostics say the link failsafe fired."""
+    config = parse(
+        {
+            "boards": [
+                {
+                    "name": "fake",
+                    "id": 1,
+                    "link_failsafe_ms": 200,
+                    "outputs": [
+                        {"pin": "D2", "type": "bool", "topic": "d2", "timeout": 5, "safe": True},
+                        {"pin": "D9", "type": "servo", "topic": "pan", "safe": 0.0},
+                    ],
+                }
+            ]
+        }
+    )
+    async with (
+        FakeBoard(board_id=1) as fake,
+        Board.connect(fake.host_stream) as board,
+        running_bridge(config, {1: board}) as (_, nodes),
+    ):
+        armed = board.failsafe
+        assert armed is not None and armed.timeout_ms == 200
+        fake.pulses[9] = 1234
+        await fake.expire_failsafe()  # as if the host had been silent for 200 ms
+        assert fake.levels[2] is True
+        assert fake.pulses[9] == 1500  # the centre of 1,000-2,000 us: 0 rad
+        await wait_until(lambda: board.failsafe_tripped)
+        status = await nodes[0].status()
+        assert status.level == msgs.DIAG_ERROR
+        assert status.values["link_failsafe_tripped"] == "true"

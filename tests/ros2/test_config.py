@@ -88,6 +88,8 @@ def test_the_example_configuration_loads() -> None:
          r"outputs\[0\]\.direction\.pin: D9 is used twice"),
         ({"inputs": [{"pin": "D4", "type": "counter", "topic": "c"}]},
          r"inputs\[0\]\.pin: D4 cannot be a 'counter' \(D2, D3 can\)"),
+        ({"link_failsafe_ms": 5},
+         r"boards\[0\]\.link_failsafe_ms: 5 is not a whole number of ms, 20-10000"),
         ({"stream_ms": 0.1}, r"boards\[0\]\.stream_ms: 0.1 is not a period of 0.25 ms or more"),
     ],
 )  # fmt: skip
