@@ -23,7 +23,7 @@ from arduinoio_async.network import zenoh_config
 from arduinoio_async.network._keys import undeclare
 from arduinoio_async.ros2 import _messages as msgs
 from arduinoio_async.ros2 import parse
-from arduinoio_async.ros2._wire import decode_attachment, topic_key
+from arduinoio_async.ros2._wire import decode_attachment, graph_key, topic_key
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
 from .conftest import DEADLINE, running_bridge, sdk_peer
@@ -305,3 +305,56 @@ async def test_the_link_failsafe_is_armed_with_the_outputs_safe_states() -> None
         status = await nodes[0].status()
         assert status.level == msgs.DIAG_ERROR
         assert status.values["link_failsafe_tripped"] == "true"
+
+
+async def test_the_node_token_and_the_diagnostics_as_a_raw_zenoh_peer_sees_them() -> None:
+    config = parse({"namespace": "/robot", "boards": [{"name": "fake", "id": 7}]})
+    diagnostics = msgs.DIAGNOSTIC_ARRAY
+    key = topic_key(0, "/diagnostics", diagnostics, msgs.type_hash(diagnostics))
+    arrived: list[bytes] = []
+    got = anyio.Event()
+    async with (
+        FakeBoard(board_id=7) as fake,
+        Board.connect(fake.host_stream) as board,
+        running_bridge(config, {7: board}) as (port, _),
+    ):
+        config_ = zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
+        listener = await anyio.to_thread.run_sync(zenoh.open, config_)
+        token = anyio.lowlevel.current_token()
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            arrived.append(sample.payload.to_bytes())
+            anyio.from_thread.run_sync(got.set, token=token)
+
+        def graph() -> list[str]:
+            replies = listener.liveliness().get(graph_key(0), timeout=5)
+            return [str(reply.ok.key_expr) for reply in replies if reply.ok is not None]
+
+        try:
+            subscriber = listener.declare_subscriber(key, on_sample)
+            with anyio.fail_after(DEADLINE):
+                await got.wait()
+            undeclare(subscriber)
+            tokens = await anyio.to_thread.run_sync(graph)
+        finally:
+            await anyio.to_thread.run_sync(listener.close)
+    nodes = [t.split("/") for t in tokens if t.split("/")[5] == "NN"]
+    assert [(n[3] == n[4], n[6:]) for n in nodes] == [(True, ["%", "%robot", "fake"])]
+    publishers = [t for t in tokens if t.split("/")[5] == "MP"]
+    assert any(
+        "/%diagnostics/diagnostic_msgs::msg::dds_::DiagnosticArray_/" in t for t in publishers
+    )
+    status = msgs.decode(diagnostics, arrived[0]).status[0]
+    assert (status.level, status.name, status.hardware_id) == (
+        msgs.DIAG_OK,
+        "/robot/fake",
+        "0x0007",
+    )
+    values = {kv.key: kv.value for kv in status.values}
+    assert values["connected"] == "true"
+    assert values["temperature_c"] == f"{board_temperature(fake):.1f}"
+
+
+def board_temperature(fake: FakeBoard) -> float:
+    """The temperature the fake board reports, as the protocol converts it."""
+    return float(p.ReadTemperatureReply(fake.temperature_raw).celsius)
