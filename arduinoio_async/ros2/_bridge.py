@@ -25,7 +25,8 @@ import anyio
 import zenoh
 
 from ..errors import ArduinoIOError
-from ..protocol import VCC_MV
+from ..protocol import VCC_MV, I2CSpeed
+from . import _imu
 from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
@@ -243,6 +244,7 @@ class BoardNode:
             "volts": msgs.FLOAT32,
             "battery": msgs.BATTERY_STATE,
             "counter": msgs.INT64,
+            "imu": msgs.IMU,
         }
         return self.node.publisher(source.topic, ros_type[source.kind])
 
@@ -272,6 +274,9 @@ class BoardNode:
                         stamp = self.clock.to_host_ns(board_us)
                         self.on_change(source.topic, publisher.sequence, stamp)
             return
+        if source.kind == "imu":
+            await self._publish_imu(source, publisher, task_status)
+            return
         if source.kind == "counter":
             counter = await self.board.counter(cast("CounterPin", source.pin))
             task_status.started()
@@ -298,6 +303,35 @@ class BoardNode:
             if not started:
                 started = True
                 task_status.started()
+            await anyio.sleep(source.period)
+
+    async def _publish_imu(
+        self, source: InputConfig, publisher: Publisher, task_status: anyio.abc.TaskStatus[None]
+    ) -> None:
+        """An MPU-6050 read every ``period``, stamped with the middle of each read."""
+        bus = await self.board.i2c(I2CSpeed.KHZ_400)
+        who = (await bus.read(source.address, _imu.WHO_AM_I, 1))[0]
+        if who != _imu.MPU6050_ID:
+            log.warning("%s: I2C 0x%02X answers WHO_AM_I 0x%02X, not an MPU-6050's 0x68",
+                        self.config.name, source.address, who)  # fmt: skip
+        await bus.write(source.address, _imu.PWR_MGMT_1, b"\x00")  # wake up
+        task_status.started()
+        while True:
+            sent = time.time_ns()
+            try:
+                data = await bus.read(source.address, _imu.ACCEL_XOUT_H, _imu.LENGTH)
+            except ArduinoIOError as exc:
+                log.warning("%s: %s: %s", self.config.name, source.topic, exc)
+            else:
+                stamp = msgs.Stamp((sent + time.time_ns()) // 2)
+                reading = _imu.decode(data)
+                payload = msgs.imu(
+                    stamp,
+                    self.config.frame_id,
+                    reading.angular_velocity,
+                    reading.linear_acceleration,
+                )
+                self._put(publisher, payload)
             await anyio.sleep(source.period)
 
     async def _publish_stream(

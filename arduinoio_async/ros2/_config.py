@@ -25,7 +25,13 @@ from ._wire import fully_qualified
 __all__ = ["BoardConfig", "BridgeConfig", "ConfigError", "InputConfig", "OutputConfig", "load"]
 
 #: Input kinds -> the pins they need.
-INPUT_KINDS = {"bool": "digital", "volts": "analog", "battery": "analog", "counter": "counter"}
+INPUT_KINDS = {
+    "bool": "digital",
+    "volts": "analog",
+    "battery": "analog",
+    "counter": "counter",
+    "imu": "i2c",
+}
 #: Output kinds -> the pins they need.
 OUTPUT_KINDS = {"bool": "digital", "servo": "servo", "motor": "duty"}
 _PIN_TEXT = {
@@ -34,6 +40,7 @@ _PIN_TEXT = {
     "servo": "D9, D10",
     "counter": "D2, D3",
     "duty": "D3, D5, D6, D9, D10",
+    "i2c": "A4",
 }
 
 
@@ -49,6 +56,7 @@ class InputConfig:
     pull_up: bool = False
     period: float = 0.1  # analog: seconds between readings
     scale: float = 1.0  # analog: volts at the pin -> published volts (a divider)
+    address: int = 0x68  # imu: the MPU-6050's I2C address
 
 
 @dataclass(frozen=True)
@@ -228,6 +236,7 @@ def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | Analog
         "servo": pin in capable_pins(Function.SERVO_PWM),
         "counter": pin in capable_pins(Function.COUNTER),
         "duty": pin in capable_pins(Function.DUTY_PWM),
+        "i2c": pin is AnalogPin.A4,
     }[need]
     if not ok:
         raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({_PIN_TEXT[need]} can)")
@@ -263,10 +272,21 @@ def _kind(value: object, kinds: Mapping[str, str], where: str) -> str:
 def _input(
     data: object, where: str, node_ns: str, topics: dict[str, str], pins: set[int]
 ) -> InputConfig:
-    item = _mapping(data, where, {"pin", "type", "topic", "pull_up", "period", "scale"})
+    allowed = {"pin", "type", "topic", "pull_up", "period", "scale", "address"}
+    item = _mapping(data, where, allowed)
     kind = _kind(item.get("type"), INPUT_KINDS, where)
-    pin = _pin(item.get("pin"), kind, INPUT_KINDS[kind], where)
+    # An IMU sits on the I2C bridge: SDA A4 and SCL A5, both taken.
+    pin = _pin(
+        item.get("pin", "A4") if kind == "imu" else item.get("pin"), kind, INPUT_KINDS[kind], where
+    )
     _claim(pin, pins, where)
+    if kind == "imu":
+        _claim(AnalogPin.A5, pins, where)
+    address = item.get("address", 0x68)
+    if kind != "imu" and "address" in item:
+        raise ConfigError(f"{where}.address: only an imu has an I2C address")
+    if address not in (0x68, 0x69):
+        raise ConfigError(f"{where}.address: {address!r} is not an MPU-6050 address (0x68, 0x69)")
     pull_up = item.get("pull_up", False)
     if not isinstance(pull_up, bool):
         raise ConfigError(f"{where}.pull_up: {pull_up!r} is not true or false")
@@ -275,7 +295,7 @@ def _input(
     if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale):
         raise ConfigError(f"{where}.scale: {scale!r} is not a number")
     topic = _topic(item.get("topic"), node_ns, topics, where)
-    return InputConfig(pin, kind, topic, pull_up, period, float(scale))
+    return InputConfig(pin, kind, topic, pull_up, period, float(scale), address)
 
 
 def _output(

@@ -9,6 +9,7 @@ oracle that the level really changed (and, after a command timeout, really went 
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from typing import Any
 
@@ -358,3 +359,48 @@ async def test_the_node_token_and_the_diagnostics_as_a_raw_zenoh_peer_sees_them(
 def board_temperature(fake: FakeBoard) -> float:
     """The temperature the fake board reports, as the protocol converts it."""
     return float(p.ReadTemperatureReply(fake.temperature_raw).celsius)
+
+
+async def test_an_mpu6050_on_i2c_arrives_as_imu_in_si_units() -> None:
+    """The fake board's I2C device at 0x68 holds an MPU-6050's registers: 1 g on x and
+    1 deg/s about z at the power-on ranges; the bridge wakes it and publishes Imu."""
+    config = parse(
+        {"boards": [{"name": "fake", "id": 1,
+                     "inputs": [{"type": "imu", "topic": "imu", "period": 0.005}]}]}
+    )  # fmt: skip
+    imu = msgs.IMU
+    key = topic_key(0, "/fake/imu", imu, msgs.type_hash(imu))
+    received: list[tuple[bytes, bytes]] = []
+    enough = anyio.Event()
+    async with FakeBoard(board_id=1) as fake, Board.connect(fake.host_stream) as board:
+        registers = bytearray(256)
+        registers[0x75], registers[0x6B] = 0x68, 0x40  # WHO_AM_I; asleep after power-on
+        registers[0x3B:0x3D] = (16384).to_bytes(2, "big")  # ACCEL_XOUT: 1 g
+        registers[0x47:0x49] = (-131).to_bytes(2, "big", signed=True)  # GYRO_ZOUT: -1 deg/s
+        fake.i2c_devices[0x68] = registers
+        async with running_bridge(config, {1: board}) as (port, _):
+            config_ = zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
+            listener = await anyio.to_thread.run_sync(zenoh.open, config_)
+            token = anyio.lowlevel.current_token()
+
+            def on_sample(sample: zenoh.Sample) -> None:
+                assert sample.attachment is not None
+                received.append((sample.payload.to_bytes(), sample.attachment.to_bytes()))
+                if len(received) == 20:
+                    anyio.from_thread.run_sync(enough.set, token=token)
+
+            try:
+                subscriber = listener.declare_subscriber(key, on_sample)
+                with anyio.fail_after(DEADLINE):
+                    await enough.wait()
+                undeclare(subscriber)
+            finally:
+                await anyio.to_thread.run_sync(listener.close)
+    assert registers[0x6B] == 0  # woken up
+    messages = [msgs.decode(imu, payload) for payload, _ in received[:20]]
+    assert [m.linear_acceleration.x for m in messages] == pytest.approx([9.80665] * 20)
+    assert [m.angular_velocity.z for m in messages] == pytest.approx([-math.pi / 180] * 20)
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in messages]
+    assert stamps == sorted(stamps) and len(set(stamps)) == len(stamps)
+    sequences = [decode_attachment(att).sequence for _, att in received[:20]]
+    assert sequences == list(range(sequences[0], sequences[0] + 20))
