@@ -30,7 +30,7 @@ import zenoh
 
 from arduinoio_async.board import Board
 from arduinoio_async.network import zenoh_config
-from arduinoio_async.ros2 import parse, run_bridge
+from arduinoio_async.ros2 import BoardClock, parse, run_bridge
 from arduinoio_async.sim import VirtualUno
 
 REPO = Path(__file__).resolve().parents[1]
@@ -125,6 +125,7 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
         ):
             nodes = await tg.start(run_bridge, session, parse(CONFIG), {1: board})
             nodes[0].on_change = lambda topic, seq, stamp: stamps.append(stamp)
+            nodes[0].clock = BoardClock(bucket_s=args.bucket_s, buckets=args.buckets)
             async with sdk_peer(port) as peer:
                 await peer.subscribe("/uno/d3", "std_msgs/msg/Bool")
                 await peer._send({"op": "echo"})
@@ -154,6 +155,8 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
         "drive_command_to_ros_subscriber": figures(driven),
         "plain_zenoh_round_trip": plain_figures,
         "board_clock": {
+            "bucket_s": args.bucket_s,
+            "buckets": args.buckets,
             "drift_ppm": round(drift, 1),
             "spread_us": round(spread / 1000, 1),
             # Against the harness: the edge happened between the drive command's send and
@@ -172,6 +175,8 @@ if __name__ == "__main__":
     parser.add_argument("-n", type=int, default=1000, help="edges (and round trips)")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--bucket-s", type=float, default=0.25, help="BoardClock's bucket (s)")
+    parser.add_argument("--buckets", type=int, default=20, help="BoardClock's window (buckets)")
     args = parser.parse_args()
     result = anyio.run(main, args)
     print(json.dumps(result, indent=1))

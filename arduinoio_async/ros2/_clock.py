@@ -11,10 +11,15 @@ lies above it: the estimator keeps the earliest pair of each ``bucket`` of board
 squares (leaving out the bucket still filling once there are two others).  Until two
 buckets exist it uses the earliest pair alone with drift 0.
 
+The window is short (20 buckets of 0.25 s by default: 5 s of board time while events
+come often, longer when they are sparse) because a clock that wanders, as the virtual
+Uno's simulated time does on a loaded machine, is only linear over a few seconds
+(``benchmarks/ros2_latency.py``: a 30 s window left stamps up to 56 ms early there).
+
 The error of a stamp (documented in ``docs/ros2.md``, measured in
-``tests/ros2/test_clock.py``): the stamp is late by the least transit in its buckets
-(which the fit cannot see) plus the scatter of the envelope around the line, which
-:attr:`BoardClock.spread_ns` reports.
+``tests/ros2/test_clock.py`` and against the harness in ``benchmarks/ros2_latency.py``):
+late by the least transit in its buckets (which the fit cannot see), give or take the
+scatter of the envelope around the line, which :attr:`BoardClock.spread_ns` reports.
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ class _Fit:
 class BoardClock:
     """Maps one board's microsecond ticks to host nanoseconds; feed it every stamped frame."""
 
-    def __init__(self, *, bucket_s: float = 1.0, buckets: int = 30) -> None:
+    def __init__(self, *, bucket_s: float = 0.25, buckets: int = 20) -> None:
         self._bucket_us = int(bucket_s * 1_000_000)
         #: (unwrapped board us, host ns), the earliest of each bucket, newest last.
         self._envelope: collections.deque[tuple[int, int]] = collections.deque(maxlen=buckets)
