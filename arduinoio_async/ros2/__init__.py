@@ -11,6 +11,11 @@ the library imports it.
 
 from __future__ import annotations
 
+# The ros2 extra's own packages first: without them ``arduinoio ros2`` names that extra
+# (cli._entry.EXTRAS), not the network extra of the zenoh the bridge imports next.
+import rosbags  # noqa: F401
+import yaml  # noqa: F401
+
 from ._bridge import BoardNode, run_bridge
 from ._clock import BoardClock
 from ._config import BridgeConfig, ConfigError, load, parse
