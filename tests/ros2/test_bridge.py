@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from pathlib import Path
 from typing import Any
 
 import anyio
@@ -23,7 +24,7 @@ from arduinoio_async.board import Board
 from arduinoio_async.network import zenoh_config
 from arduinoio_async.network._keys import undeclare
 from arduinoio_async.ros2 import _messages as msgs
-from arduinoio_async.ros2 import parse
+from arduinoio_async.ros2 import load, parse
 from arduinoio_async.ros2._wire import decode_attachment, graph_key, topic_key
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -404,3 +405,20 @@ async def test_an_mpu6050_on_i2c_arrives_as_imu_in_si_units() -> None:
     assert stamps == sorted(stamps) and len(set(stamps)) == len(stamps)
     sequences = [decode_attachment(att).sequence for _, att in received[:20]]
     assert sequences == list(range(sequences[0], sequences[0] + 20))
+
+
+async def test_the_example_robot_comes_up_on_two_fake_boards() -> None:
+    """examples/ros2_two_boards.yaml sets up every pin it names on boards 1 and 2."""
+    config = load(Path(__file__).parents[2] / "examples" / "ros2_two_boards.yaml")
+    async with (
+        FakeBoard(board_id=1) as front,
+        FakeBoard(board_id=2) as rear,
+        Board.connect(front.host_stream) as front_board,
+        Board.connect(rear.host_stream) as rear_board,
+    ):
+        front.i2c_devices[0x68] = bytearray(256)
+        front.i2c_devices[0x68][0x75] = 0x68
+        async with running_bridge(config, {1: front_board, 2: rear_board}) as (_, nodes):
+            assert [n.config.name for n in nodes] == ["front", "rear"]
+            assert front_board.failsafe is not None and rear_board.failsafe is not None
+            assert front.role(13) == "output" and rear.role(4) == "output"
