@@ -44,6 +44,8 @@ log = logging.getLogger(__name__)
 
 #: Volts of one ADC count (AVCC 5 V over 1024 steps, as ``AnalogInput.read_volts``).
 VOLTS_PER_COUNT = VCC_MV / 1000 / 1024
+#: Seconds between looks at a board whose link failed (a Board has no event for its return).
+RECONNECT_POLL = 0.25
 #: Where every node publishes its diagnostics (the ROS convention, an absolute name).
 DIAGNOSTICS_TOPIC = "/diagnostics"
 
@@ -263,17 +265,21 @@ class BoardNode:
             pin = await self.board.digital_input(
                 cast("DigitalPin", source.pin), pull_up=source.pull_up
             )
-            async with pin.watch() as changes:
-                self._put(publisher, msgs.bool_msg(bool(await pin.read())))
-                task_status.started()
-                async for change in changes:
-                    host_ns = time.time_ns() - int((time.monotonic() - change.host_time) * 1e9)
-                    board_us = self.clock.observe(change.board_time_us, host_ns)
-                    self._put(publisher, msgs.bool_msg(change.level))
-                    if self.on_change is not None:
-                        stamp = self.clock.to_host_ns(board_us)
-                        self.on_change(source.topic, publisher.sequence, stamp)
-            return
+            started = False
+            while True:  # again after the link failed and the board came back
+                try:
+                    async with pin.watch() as changes:
+                        self._put(publisher, msgs.bool_msg(bool(await pin.read())))
+                        if not started:
+                            started = True
+                            task_status.started()
+                        async for change in changes:
+                            self._publish_change(source.topic, publisher, change)
+                except ArduinoIOError as exc:
+                    if not started:
+                        raise  # at start: the bridge does not come up, with this error
+                    await self._link_lost(source.topic, exc)
+
         if source.kind == "imu":
             await self._publish_imu(source, publisher, task_status)
             return
@@ -284,7 +290,7 @@ class BoardNode:
                 try:
                     self._put(publisher, msgs.int64_msg(await counter.read()))
                 except ArduinoIOError as exc:
-                    log.warning("%s: %s: %s", self.config.name, source.topic, exc)
+                    await self._read_failed(source.topic, exc)
                 await anyio.sleep(source.period)
         analog = self.board.analog(cast("AnalogPin", source.pin))
         started = False
@@ -292,7 +298,7 @@ class BoardNode:
             try:
                 volts = await analog.read_volts() * source.scale
             except ArduinoIOError as exc:
-                log.warning("%s: %s: %s", self.config.name, source.topic, exc)
+                await self._read_failed(source.topic, exc)
             else:
                 if source.kind == "volts":
                     payload = msgs.float32_msg(volts)
@@ -304,6 +310,29 @@ class BoardNode:
                 started = True
                 task_status.started()
             await anyio.sleep(source.period)
+
+    def _publish_change(self, topic: str, publisher: Publisher, change: Any) -> None:
+        host_ns = time.time_ns() - int((time.monotonic() - change.host_time) * 1e9)
+        board_us = self.clock.observe(change.board_time_us, host_ns)
+        self._put(publisher, msgs.bool_msg(change.level))
+        if self.on_change is not None:
+            self.on_change(topic, publisher.sequence, self.clock.to_host_ns(board_us))
+
+    async def _read_failed(self, what: str, exc: ArduinoIOError) -> None:
+        """A periodic read failed: once per lost link (then wait for the board), else once
+        per failure."""
+        if self.board.connected:
+            log.warning("%s: %s: %s", self.config.name, what, exc)
+        else:
+            await self._link_lost(what, exc)
+
+    async def _link_lost(self, what: str, exc: ArduinoIOError) -> None:
+        """A watch or stream ended with the link (unplugged, reset): wait until the board is
+        connected again (the BoardManager re-adopts it and restores its pins)."""
+        log.warning("%s: %s: %s; again once the board is back", self.config.name, what, exc)
+        await anyio.sleep(RECONNECT_POLL)
+        while not self.board.connected:  # noqa: ASYNC110 (a Board has no event for it)
+            await anyio.sleep(RECONNECT_POLL)
 
     async def _publish_imu(
         self, source: InputConfig, publisher: Publisher, task_status: anyio.abc.TaskStatus[None]
@@ -321,7 +350,7 @@ class BoardNode:
             try:
                 data = await bus.read(source.address, _imu.ACCEL_XOUT_H, _imu.LENGTH)
             except ArduinoIOError as exc:
-                log.warning("%s: %s: %s", self.config.name, source.topic, exc)
+                await self._read_failed(source.topic, exc)
             else:
                 stamp = msgs.Stamp((sent + time.time_ns()) // 2)
                 reading = _imu.decode(data)
@@ -346,23 +375,31 @@ class BoardNode:
         period_ms = self.config.stream_ms
         assert period_ms is not None
         pins = [cast("AnalogPin", source.pin) for source in sources]
-        async with self.board.stream(analog=pins, period_ms=period_ms) as samples:
-            task_status.started()
-            async for sample in samples:
-                host_ns = time.time_ns() - int((time.monotonic() - sample.host_time) * 1e9)
-                board_us = self.clock.observe(sample.board_time_us, host_ns)
-                stamp = msgs.Stamp(self.clock.to_host_ns(board_us))
-                for source, publisher in publishers:
-                    volts = (
-                        sample.analog[cast("AnalogPin", source.pin)]
-                        * VOLTS_PER_COUNT
-                        * source.scale
-                    )
-                    if source.kind == "volts":
-                        payload = msgs.float32_msg(volts)
-                    else:
-                        payload = msgs.battery_state(stamp, self.config.frame_id, volts)
-                    self._put(publisher, payload)
+        started = False
+        while True:  # again after the link failed and the board came back
+            try:
+                async with self.board.stream(analog=pins, period_ms=period_ms) as samples:
+                    if not started:
+                        started = True
+                        task_status.started()
+                    async for sample in samples:
+                        self._publish_sample(publishers, sample)
+            except ArduinoIOError as exc:
+                if not started:
+                    raise
+                await self._link_lost("stream", exc)
+
+    def _publish_sample(self, publishers: list[tuple[InputConfig, Publisher]], sample: Any) -> None:
+        host_ns = time.time_ns() - int((time.monotonic() - sample.host_time) * 1e9)
+        board_us = self.clock.observe(sample.board_time_us, host_ns)
+        stamp = msgs.Stamp(self.clock.to_host_ns(board_us))
+        for source, publisher in publishers:
+            volts = sample.analog[cast("AnalogPin", source.pin)] * VOLTS_PER_COUNT * source.scale
+            if source.kind == "volts":
+                payload = msgs.float32_msg(volts)
+            else:
+                payload = msgs.battery_state(stamp, self.config.frame_id, volts)
+            self._put(publisher, payload)
 
     # ---- diagnostics ---------------------------------------------------------------------
 

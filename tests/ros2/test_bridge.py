@@ -422,3 +422,51 @@ async def test_the_example_robot_comes_up_on_two_fake_boards() -> None:
             assert [n.config.name for n in nodes] == ["front", "rear"]
             assert front_board.failsafe is not None and rear_board.failsafe is not None
             assert front.role(13) == "output" and rear.role(4) == "output"
+
+
+async def test_an_unplugged_board_leaves_the_bridge_up_and_says_so() -> None:
+    """The watch and the periodic reads end with the link; the node stays on the graph,
+    its diagnostics turn ERROR, and the bridge ends cleanly when asked."""
+    config = parse(
+        {
+            "boards": [
+                {
+                    "name": "fake",
+                    "id": 1,
+                    "diagnostics_period": 0.05,
+                    "stream_ms": 10,
+                    "inputs": [
+                        {"pin": "D3", "type": "bool", "topic": "d3"},
+                        {"pin": "A0", "type": "volts", "topic": "a0"},
+                        {"pin": "D2", "type": "counter", "topic": "n", "period": 0.02},
+                    ],
+                }
+            ]
+        }
+    )
+    diagnostics = msgs.DIAGNOSTIC_ARRAY
+    key = topic_key(0, "/diagnostics", diagnostics, msgs.type_hash(diagnostics))
+    unplugged = anyio.Event()
+    async with (
+        FakeBoard(board_id=1) as fake,
+        Board.connect(fake.host_stream) as board,
+        running_bridge(config, {1: board}) as (port, _),
+    ):
+        config_ = zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
+        listener = await anyio.to_thread.run_sync(zenoh.open, config_)
+        token = anyio.lowlevel.current_token()
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            status = msgs.decode(diagnostics, sample.payload.to_bytes()).status[0]
+            values = {kv.key: kv.value for kv in status.values}
+            if status.level == msgs.DIAG_ERROR and values["connected"] == "false":
+                anyio.from_thread.run_sync(unplugged.set, token=token)
+
+        try:
+            subscriber = listener.declare_subscriber(key, on_sample)
+            await fake.unplug()
+            with anyio.fail_after(DEADLINE):
+                await unplugged.wait()
+            undeclare(subscriber)
+        finally:
+            await anyio.to_thread.run_sync(listener.close)
