@@ -13,7 +13,7 @@ from anyio.streams.buffered import BufferedByteReceiveStream
 
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
-from .conftest import DEADLINE, free_port, sdk_peer
+from .conftest import DEADLINE, Peer, free_port, sdk_peer
 
 pytest.importorskip("zenoh_ros2_sdk")
 
@@ -27,6 +27,21 @@ boards:
 """
 
 
+async def command_until_heard(peer: Peer, level: bool) -> None:
+    """Publish ``level`` on D2 every half second, as a controller repeats its command, until
+    D3 reports it (a command that meets the board away is dropped, not queued).  What came
+    before is forgotten: messages arrive in order, so a match is the answer to this level."""
+    peer.messages.clear()
+    with anyio.fail_after(DEADLINE):
+        while True:
+            await peer.publish("/robot/uno/d2", "std_msgs/msg/Bool", level)
+            with anyio.move_on_after(0.5):
+                await peer.message(
+                    lambda m: m.get("topic") == "/robot/uno/d3" and m["data"] is level
+                )
+                return
+
+
 @pytest.mark.sim
 async def test_the_command_serves_a_board_as_a_ros_node(
     virtual_uno_factory: VirtualUnoFactory, tmp_path: Path
@@ -35,12 +50,17 @@ async def test_the_command_serves_a_board_as_a_ros_node(
     config = tmp_path / "robot.yaml"
     config.write_text(CONFIG)
     port = free_port()
+    # The board's port through a symlink the manager globs, as a udev rule would give it,
+    # so the replugged board (a new pseudo-terminal) is found under the same name.
+    link = tmp_path / "uno-0001"
+    link.symlink_to(uno.port)
     command = [
         sys.executable, "-m", "arduinoio_async", "ros2", "--config", str(config),
-        "--no-usb", "--ports", uno.port, "--baud", str(uno.baud),
+        "--no-usb", "--ports", str(tmp_path / "uno-*"), "--baud", str(uno.baud),
         "--listen", f"tcp/127.0.0.1:{port}",
     ]  # fmt: skip
-    async with await anyio.open_process(command) as bridge:
+    log = (tmp_path / "bridge.log").open("wb")
+    async with await anyio.open_process([*command, "-v"], stderr=log) as bridge:
         try:
             assert bridge.stdout is not None
             with anyio.fail_after(DEADLINE):
@@ -51,5 +71,16 @@ async def test_the_command_serves_a_board_as_a_ros_node(
                 await peer.publish("/robot/uno/d2", "std_msgs/msg/Bool", True)
                 await peer.message(lambda m: m.get("topic") == "/robot/uno/d3" and m["data"])
                 assert (await uno.pin(2)).level == 1
+                # Unplug and replug: the manager re-adopts the board, the bridge goes on.
+                await uno.unplug()
+                await uno.replug()
+                fresh = tmp_path / "uno-0001.new"
+                fresh.symlink_to(uno.port)
+                fresh.replace(link)
+                for level in (False, True):
+                    await command_until_heard(peer, level)
+                assert (await uno.pin(2)).level == 1
         finally:
             bridge.terminate()
+            log.close()
+            print((tmp_path / "bridge.log").read_text())
