@@ -149,3 +149,17 @@ def test_stamped_messages_decode_to_what_was_encoded() -> None:
 def test_type_hashes_agree_with_an_independent_implementation(ros_type: str, text: str) -> None:
     sdk_utils = pytest.importorskip("zenoh_ros2_sdk.utils")
     assert msgs.type_hash(ros_type) == sdk_utils.get_type_hash(ros_type, text)
+
+
+@pytest.mark.parametrize(
+    "ros_type",
+    [msgs.BOOL, msgs.FLOAT32, msgs.FLOAT64, msgs.INT64, msgs.IMU, msgs.RANGE,
+     msgs.JOINT_STATE, msgs.BATTERY_STATE, msgs.DIAGNOSTIC_ARRAY],
+)  # fmt: skip
+def test_one_type_hash_serves_jazzy_and_kilted(ros_type: str) -> None:
+    """The bridge hashes with Jazzy's definitions; Kilted's give the same RIHS01 for every
+    type it publishes or takes, so the same keys route on both distributions."""
+    from rosbags.typesys import Stores, get_typestore
+
+    kilted = get_typestore(Stores.ROS2_KILTED)
+    assert msgs.type_hash(ros_type) == kilted.hash_rihs01(ros_type)
