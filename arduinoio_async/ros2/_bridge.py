@@ -2,11 +2,16 @@
 
 Per board (:class:`BoardNode`): digital inputs publish ``std_msgs/Bool`` at start and on
 every change the board reports; analog inputs publish ``std_msgs/Float32`` volts (or a
-``sensor_msgs/BatteryState``) every ``period``; digital outputs take ``Bool`` and servos
-``Float64`` radians (0 = centre, +-pi/2 = the ends).  An output with a ``timeout`` goes to
-its safe state when no command came for that long (the freshness a ros2_control
-hardware interface promises) and stays there until the next command; the diagnostics
-(``/diagnostics``, ``diagnostic_msgs/DiagnosticArray``) say which outputs timed out.
+``sensor_msgs/BatteryState``) every ``period`` or, with ``stream_ms``, every sample of a
+firmware-timed stream stamped with the board's clock; counters ``Int64`` and an
+MPU-6050 on I2C ``sensor_msgs/Imu``.  Digital outputs take ``Bool``, servos ``Float64``
+radians (0 = centre, +-pi/2 = the ends) and motors ``Float64`` speeds -1..1.  An output
+with a ``timeout`` goes to its safe state when no command came for that long (the
+freshness a ros2_control hardware interface promises) and stays there until the next
+command; ``link_failsafe_ms`` arms the board's own watchdog with the same states.  The
+diagnostics (``/diagnostics``, ``diagnostic_msgs/DiagnosticArray``) say which outputs
+timed out and whether the board is there.  A board that disconnects leaves its node on
+the graph; its inputs publish again once the manager has it back.
 
 Commands are *latest wins*: a command that arrives while the previous write is still on
 the wire replaces any command waiting behind it, so a fast publisher never builds a
@@ -24,7 +29,7 @@ from typing import TYPE_CHECKING, Any, cast
 import anyio
 import zenoh
 
-from ..errors import ArduinoIOError
+from ..errors import ArduinoIOError, UsageError
 from ..protocol import VCC_MV, I2CSpeed
 from . import _imu
 from . import _messages as msgs
@@ -62,6 +67,9 @@ async def run_bridge(
     ``task_status.started`` gets the nodes once every node, publisher and subscription
     is declared and each input published its first value.
     """
+    missing = [f"0x{b.board_id:04X}" for b in config.boards if b.board_id not in boards]
+    if missing:
+        raise UsageError(f"no open board for the configured ID(s) {', '.join(missing)}")
     context = Context(session, config.domain_id)
     nodes = [
         BoardNode(context, config, board_config, boards[board_config.board_id])

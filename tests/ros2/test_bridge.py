@@ -21,10 +21,11 @@ import zenoh
 from arduinoio_async import FakeBoard
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.errors import UsageError
 from arduinoio_async.network import zenoh_config
 from arduinoio_async.network._keys import undeclare
 from arduinoio_async.ros2 import _messages as msgs
-from arduinoio_async.ros2 import load, parse
+from arduinoio_async.ros2 import load, parse, run_bridge
 from arduinoio_async.ros2._wire import decode_attachment, graph_key, topic_key
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -470,3 +471,16 @@ async def test_an_unplugged_board_leaves_the_bridge_up_and_says_so() -> None:
             undeclare(subscriber)
         finally:
             await anyio.to_thread.run_sync(listener.close)
+
+
+async def test_a_configured_board_that_is_not_given_is_named() -> None:
+    config = parse({"boards": [{"name": "a", "id": 1}, {"name": "b", "id": 0x0A}]})
+    async with FakeBoard(board_id=1) as fake, Board.connect(fake.host_stream) as board:
+        session = await anyio.to_thread.run_sync(zenoh.open, zenoh_config())
+        try:
+            with pytest.raises(
+                UsageError, match=r"no open board for the configured ID\(s\) 0x000A"
+            ):
+                await run_bridge(session, config, {1: board})
+        finally:
+            await anyio.to_thread.run_sync(session.close)
