@@ -19,6 +19,7 @@ No I/O here, so the unit tests compare these against byte-level vectors.
 from __future__ import annotations
 
 import hashlib
+import re
 from dataclasses import dataclass
 from enum import Enum
 
@@ -47,6 +48,8 @@ __all__ = [
 
 #: The key prefix of every graph token (``liveliness_utils.cpp``: ``ADMIN_SPACE``).
 ADMIN_SPACE = "@ros2_lv"
+#: A fully qualified ROS name (REP 144 without ``~`` and substitutions).
+_ROS_NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 #: ``RMW_GID_STORAGE_SIZE``.
 GID_SIZE = 16
 
@@ -71,8 +74,11 @@ def fully_qualified(namespace: str, name: str) -> str:
     ``/robot/led``; an absolute ``/diagnostics`` stays as it is.
     """
     resolved = name if name.startswith("/") else namespace.rstrip("/") + "/" + name
-    if not resolved.startswith("/") or "//" in resolved or resolved.endswith("/"):
-        raise UsageError(f"not a valid ROS name: {name!r} in namespace {namespace!r}")
+    if not _ROS_NAME.fullmatch(resolved):
+        raise UsageError(
+            f"not a valid ROS name: {name!r} in namespace {namespace!r} (letters, digits"
+            " and _ between single slashes, no token starting with a digit)"
+        )
     return resolved
 
 

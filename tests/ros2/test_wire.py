@@ -103,7 +103,7 @@ def test_relative_and_absolute_names() -> None:
     assert fully_qualified("/robot/front", "d2") == "/robot/front/d2"
     assert fully_qualified("/", "d2") == "/d2"
     assert fully_qualified("/robot", "/diagnostics") == "/diagnostics"
-    for bad in ("a//b", "d2/"):
+    for bad in ("a//b", "d2/", "bad name", "2d", "a/*", "a$b"):
         with pytest.raises(UsageError, match="not a valid ROS name"):
             fully_qualified("/robot", bad)
 
