@@ -84,3 +84,22 @@ async def test_the_command_serves_a_board_as_a_ros_node(
             bridge.terminate()
             log.close()
             print((tmp_path / "bridge.log").read_text())
+
+
+def test_a_wrong_config_or_a_missing_board_is_one_line_and_exit_1(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from arduinoio_async.cli import main
+
+    monkeypatch.setenv("ARDUINOIO_REGISTRY_DIR", str(tmp_path))  # no other virtual Unos
+    monkeypatch.delenv("ARDUINOIO_PORTS", raising=False)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("boards:\n  - {name: a, id: 1, outputs: [{pin: D3, type: servo, topic: s}]}\n")
+    assert main(["ros2", "--config", str(bad)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"error: {bad}: boards[0].outputs[0].pin: D3 cannot be a 'servo' (D9, D10 can)"]
+    good = tmp_path / "good.yaml"
+    good.write_text("boards:\n  - {name: a, id: 0x0042}\n")
+    assert main(["ros2", "--config", str(good), "--no-usb", "--wait", "0.2"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: no board with ID 0x0042 found")
