@@ -4,6 +4,7 @@ through ``--ports``, and the independent ROS 2 peer toggling D2 and hearing D3."
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -60,7 +61,10 @@ async def test_the_command_serves_a_board_as_a_ros_node(
         "--listen", f"tcp/127.0.0.1:{port}",
     ]  # fmt: skip
     log = (tmp_path / "bridge.log").open("wb")
-    async with await anyio.open_process([*command, "-v"], stderr=log) as bridge:
+    # Only the named port: not the virtual Unos other tests announce in the registry.
+    env = {**os.environ, "ARDUINOIO_REGISTRY_DIR": str(tmp_path)}
+    env.pop("ARDUINOIO_PORTS", None)
+    async with await anyio.open_process([*command, "-v"], stderr=log, env=env) as bridge:
         try:
             assert bridge.stdout is not None
             with anyio.fail_after(DEADLINE):
