@@ -127,11 +127,14 @@ class BoardNode:
         self._diagnostics = self.node.publisher(DIAGNOSTICS_TOPIC, msgs.DIAGNOSTIC_ARRAY)
 
     def close(self) -> None:
+        """Take the node off the graph: undeclare its tokens, publishers, subscribers."""
         self.node.close()
 
     async def run(
         self, *, task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED
     ) -> None:
+        """Set up every configured pin, then publish and follow commands until cancelled;
+        ``task_status.started()`` once each input published its first value."""
         async with anyio.create_task_group() as tg:
             for output in self.config.outputs:
                 command = await self._set_up_output(output)

@@ -50,6 +50,8 @@ class ConfigError(UsageError):
 
 @dataclass(frozen=True)
 class InputConfig:
+    """One entry of a board's ``inputs``: what it reads and where it publishes."""
+
     pin: DigitalPin | AnalogPin
     kind: str
     topic: str  # fully qualified
@@ -61,6 +63,8 @@ class InputConfig:
 
 @dataclass(frozen=True)
 class OutputConfig:
+    """One entry of a board's ``outputs``: what it drives, from which topic, how safely."""
+
     pin: DigitalPin
     kind: str
     topic: str  # fully qualified
@@ -76,6 +80,8 @@ class OutputConfig:
 
 @dataclass(frozen=True)
 class BoardConfig:
+    """One board of the file: its node name, board ID, pins and options."""
+
     name: str  # the node name
     board_id: int
     frame_id: str
@@ -92,12 +98,11 @@ class BoardConfig:
 
 @dataclass(frozen=True)
 class BridgeConfig:
+    """The whole file: the ROS domain, the namespace of the nodes, the boards."""
+
     domain_id: int = 0
     namespace: str = "/"
     boards: tuple[BoardConfig, ...] = field(default_factory=tuple)
-
-    def node_namespace(self) -> str:
-        return self.namespace
 
 
 def load(path: Path) -> BridgeConfig:
