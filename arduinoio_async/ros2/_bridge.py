@@ -437,8 +437,12 @@ class BoardNode:
         }
         try:
             values["temperature_c"] = f"{await self.board.temperature():.1f}"
+            # The link's losses since it opened: what line noise and timeouts cost.
+            stats = self.board.link.stats
+            for name in ("timeouts", "lost_replies", "retries", "resyncs", "garbage_bytes"):
+                values[f"link_{name}"] = str(getattr(stats, name))
         except ArduinoIOError as exc:
-            values["temperature_c"] = f"unknown ({exc})"
+            values.setdefault("temperature_c", f"unknown ({exc})")
         if not self.board.connected or self.board.failsafe_tripped:
             level, text = msgs.DIAG_ERROR, "board unplugged or link failsafe fired"
         elif timed_out:

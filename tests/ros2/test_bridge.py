@@ -97,8 +97,8 @@ async def test_a_command_timeout_puts_the_output_in_its_safe_state(
         sdk_peer(port) as peer,
     ):
         await peer.subscribe("/robot/uno/d3", BOOL)
+        sent = time.time_ns()  # before the publish: the command cannot arrive earlier
         await peer.publish("/robot/uno/d2", BOOL, True)
-        sent = time.time_ns()
         high = await peer.message(is_d3(True))
         assert (await uno.pin(2)).level == 1
         # No further command: the output falls to its safe level (low) by itself.
@@ -356,6 +356,7 @@ async def test_the_node_token_and_the_diagnostics_as_a_raw_zenoh_peer_sees_them(
     values = {kv.key: kv.value for kv in status.values}
     assert values["connected"] == "true"
     assert values["temperature_c"] == f"{board_temperature(fake):.1f}"
+    assert values["link_timeouts"] == values["link_lost_replies"] == "0"  # a clean link
 
 
 def board_temperature(fake: FakeBoard) -> float:
