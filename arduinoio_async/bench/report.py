@@ -16,6 +16,7 @@ from rich.table import Table
 from .. import __version__
 from .. import protocol as p
 from .runner import ScenarioResult
+from .stats import STATS_VERSION
 
 __all__ = ["print_scenario", "to_json", "write_json", "write_plot"]
 
@@ -102,6 +103,7 @@ def to_json(
 
     return {
         "command": ["arduinoio", "bench", *argv],
+        "stats_version": STATS_VERSION,
         "versions": {
             "arduinoio_async": __version__,
             "protocol": p.PROTOCOL_VERSION,

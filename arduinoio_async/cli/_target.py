@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from ..board import Board
 from ..errors import ArduinoIOError, BoardError
-from ..manager import BoardManager, candidate_ports
+from ..manager import BoardManager, add_ports_option, candidate_ports
 from ..network.options import add_remote_options, remote_board
 from ..protocol import DEFAULT_BAUD
 from ._roles import explain_busy_pin
@@ -71,13 +71,7 @@ def probe_seconds(text: str) -> float:
 
 
 def add_scan_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--ports",
-        action="append",
-        default=[],
-        metavar="PATH_OR_GLOB",
-        help="also probe these ports (repeatable; ARDUINOIO_PORTS works too)",
-    )
+    add_ports_option(parser)
     parser.add_argument("--baud", type=baud_rate, default=DEFAULT_BAUD)
     parser.add_argument(
         "--probe-timeout", type=probe_seconds, default=5.0, help="seconds per port (auto-reset)"

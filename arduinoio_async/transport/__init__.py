@@ -6,6 +6,8 @@ pseudo-terminal of the virtual Uno, or :func:`memory_link` in tests.
 """
 
 from ._backend import backend_options, run
+from ._bridges import BRIDGES, Bridge, BridgeKind, bridge_for_ids
+from ._latency import LinkTuning, last_tuning, port_bridge, tune_link
 from ._link import (
     DEFAULT_TIMEOUT,
     FRAMING_ENV,
@@ -23,12 +25,16 @@ from ._serial import SerialByteStream, open_serial_stream
 from ._usb import TICK_HOLDING_BRIDGES, tick_holding_bridge
 
 __all__ = [
+    "BRIDGES",
     "DEFAULT_TIMEOUT",
     "FRAMING_ENV",
     "QUIET_TIME",
     "TICK_HOLDING_BRIDGES",
+    "Bridge",
+    "BridgeKind",
     "LinkState",
     "LinkStats",
+    "LinkTuning",
     "MemoryByteStream",
     "SerialByteStream",
     "TraceHook",
@@ -36,9 +42,13 @@ __all__ = [
     "Transport",
     "backend_options",
     "board_error",
+    "bridge_for_ids",
     "default_framing",
+    "last_tuning",
     "memory_link",
     "open_serial_stream",
+    "port_bridge",
     "run",
     "tick_holding_bridge",
+    "tune_link",
 ]

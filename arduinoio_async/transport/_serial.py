@@ -27,6 +27,7 @@ import serial
 
 from ..errors import BoardDisconnectedError, PortBusyError
 from ..protocol import DEFAULT_BAUD
+from ._latency import tune_link
 
 try:  # pyserial's POSIX back end lets termios.error (not an OSError) out of open()
     from termios import error as _TermiosError
@@ -364,6 +365,9 @@ async def open_serial_stream(
     POSIX), so a second program -- ``arduinoio list`` while a robot runs -- cannot steal the
     first one's replies.  Raises :class:`PortBusyError` when another process holds the port
     and :class:`BoardDisconnectedError` when it cannot be opened for any other reason.
+    Behind a USB bridge with a latency timer (FTDI) the timer is lowered to 1 ms
+    (:func:`~arduinoio_async.transport._latency.tune_link`; a warning says how to allow it
+    when it cannot be).
     """
     serial_options.setdefault("exclusive", True)
     try:
@@ -377,4 +381,14 @@ async def open_serial_stream(
         raise BoardDisconnectedError(f"cannot open {url}: {exc}") from exc
     if not _has_fileno(port):
         return _ThreadedSerialStream(port)
+    # The bridge's fastest safe link (an FTDI's 1 ms latency timer); a pty has no bridge.
+    # A cancel that came while a worker thread held the open port is taken here, closing
+    # the port: returned, it would stay open and locked with nobody to close it.
+    try:
+        await anyio.to_thread.run_sync(tune_link, url, port.fd)
+        await anyio.lowlevel.checkpoint_if_cancelled()
+    except BaseException:
+        with contextlib.suppress(OSError, serial.SerialException):
+            port.close()
+        raise
     return SerialByteStream(port)

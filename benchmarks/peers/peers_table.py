@@ -4,7 +4,7 @@ Both go between HTML comment markers, so a new run replaces them in place:
 ``<!-- peers:table:begin -->`` ... ``<!-- peers:table:end -->`` in docs/performance.md and
 ``<!-- peers:summary:begin -->`` ... ``<!-- peers:summary:end -->`` in the README.
 
-    .venv/bin/python benchmarks/peers/peers_table.py benchmarks/results/peers.json [BAUD]
+    .venv/bin/python -m benchmarks.peers.peers_table benchmarks/results/peers.json [BAUD]
 """
 
 from __future__ import annotations
@@ -196,7 +196,7 @@ def replace_between(text: str, name: str, content: str) -> str:
 
 
 if __name__ == "__main__":
-    data = json.loads(Path(sys.argv[1]).read_text())
+    data = json.loads(Path(sys.argv[1]).read_text())["rows"]
     baud = int(sys.argv[2]) if len(sys.argv) > 2 else 1_000_000
     print(render_markdown(data))
     print(goal_table(data, baud))

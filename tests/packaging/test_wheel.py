@@ -111,6 +111,13 @@ def test_arduinoio_sim_from_the_wheel_answers_read_id(installed: Installed) -> N
     try:
         assert info["id"] == 3
         assert _read_id(installed, str(info["port"])) == "3"
+        # the motor commands work from the wheel without the dev extras
+        port = str(info["port"])
+        exe = installed.exe("arduinoio")
+        pwm = checked(installed.run(exe, "pwm", "--port", port, "D5", "0.4", "--freq", "980"))
+        assert pwm.stdout.strip() == "D5: 40.0 % at 976 Hz (Timer0, 256 steps)"
+        motor = checked(installed.run(exe, "motor", "--port", port, "D9", "D8", "--speed", "-0.5"))
+        assert motor.stdout.strip() == "motor D9 D8: running -0.50"
         cached = list(
             (Path(installed.env["ARDUINOIO_CACHE_DIR"])).glob("virtual-uno-*/virtual-uno")
         )
