@@ -10,17 +10,16 @@ docs/ros2.md, so the figure is a slight underestimate of the true edge-to-receip
 Next to it, in the same run and the same Zenoh sessions: the plain Zenoh round trip
 (put on ``bench/ping``, the peer puts it back on ``bench/pong``).
 
-    .venv/bin/python benchmarks/ros2_latency.py --json benchmarks/results/ros2.json
+    .venv/bin/python -m benchmarks.ros2_latency --json benchmarks/results/ros2.json
+
+(from the repository root: the peer and its driver are the tests' ``tests/ros2``).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.metadata
-import json
 import os
-import statistics
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -28,14 +27,13 @@ from typing import Any
 import anyio
 import zenoh
 
+from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.network import zenoh_config
 from arduinoio_async.ros2 import BoardClock, parse, run_bridge
 from arduinoio_async.sim import VirtualUno
-
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from tests.ros2.conftest import Peer, free_port, sdk_peer  # noqa: E402
+from benchmarks._results import command_line, report
+from tests.ros2.conftest import Peer, free_port, sdk_peer
 
 CONFIG = {
     "boards": [{"name": "uno", "id": 1, "inputs": [{"pin": "D3", "type": "bool", "topic": "d3"}]}]
@@ -43,13 +41,8 @@ CONFIG = {
 
 
 def figures(samples_ms: list[float]) -> dict[str, Any]:
-    ordered = sorted(samples_ms)
-    return {
-        "n": len(ordered),
-        "p50_ms": round(statistics.median(ordered), 3),
-        "p99_ms": round(ordered[int(0.99 * (len(ordered) - 1))], 3),
-        "max_ms": round(ordered[-1], 3),
-    }
+    """n, p50, p90, p99 and mean (arduinoio_async.bench.stats) and the maximum, in ms."""
+    return {**summarize(samples_ms).rounded(3, "_ms"), "max_ms": round(max(samples_ms), 3)}
 
 
 async def edges(
@@ -146,7 +139,7 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
         await anyio.to_thread.run_sync(session.close)
     ros_figures, plain_figures = figures(ros), figures(plain)
     result: dict[str, Any] = {
-        "command": " ".join(["python", *sys.argv]),
+        "command": command_line(),
         "machine": f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the end",
         "zenoh": importlib.metadata.version("eclipse-zenoh"),
         "zenoh_ros2_sdk": importlib.metadata.version("zenoh-ros2-sdk"),
@@ -178,7 +171,4 @@ if __name__ == "__main__":
     parser.add_argument("--bucket-s", type=float, default=0.25, help="BoardClock's bucket (s)")
     parser.add_argument("--buckets", type=int, default=20, help="BoardClock's window (buckets)")
     args = parser.parse_args()
-    result = anyio.run(main, args)
-    print(json.dumps(result, indent=1))
-    if args.json:
-        args.json.write_text(json.dumps(result, indent=1) + "\n")
+    report(anyio.run(main, args), args.json, indent=1)
