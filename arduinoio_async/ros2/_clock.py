@@ -30,6 +30,8 @@ from dataclasses import dataclass
 __all__ = ["BoardClock"]
 
 _WRAP_US = 1 << 32
+#: A step back of the board clock this large is a reset, not frames out of order.
+RESET_JUMP_US = 1_000_000
 
 
 @dataclass
@@ -60,15 +62,22 @@ class BoardClock:
         return board_us + self._wraps * _WRAP_US
 
     def observe(self, board_us: int, host_ns: int) -> int:
-        """Add a pair; returns the unwrapped board time.  Call in the order frames came."""
+        """Add a pair; returns the unwrapped board time.  Call in the order frames came.
+
+        A board time more than :data:`RESET_JUMP_US` before the newest pair (and not a
+        wrap) means the board reset and its clock started again: the estimate starts over.
+        """
         board = self.unwrap(board_us)
+        if self._envelope and board < self._envelope[-1][0] - RESET_JUMP_US:
+            self.reset()
+            board = self.unwrap(board_us)
         bucket = board // self._bucket_us
         if self._envelope and self._envelope[-1][0] // self._bucket_us == bucket:
             last_board, last_host = self._envelope[-1]
             if host_ns - board * 1000 < last_host - last_board * 1000:
                 self._envelope[-1] = (board, host_ns)
         elif self._envelope and board < self._envelope[-1][0]:
-            return board  # the board went back in time (a reset): keep the old fit
+            return board  # a little out of order (another frame kind): nothing to learn
         else:
             self._envelope.append((board, host_ns))
         self._refit()

@@ -57,3 +57,16 @@ def test_a_board_reset_is_forgotten_after_reset() -> None:
     clock.reset()
     clock.observe(1000, 2_000_000_000_000)
     assert clock.to_host_ns(1000) == 2_000_000_000_000
+
+
+def test_a_board_that_reset_by_itself_starts_a_new_estimate() -> None:
+    """Its clock jumps back to 0 (not a wrap): later stamps follow the new clock."""
+    clock = BoardClock(bucket_s=0.25, buckets=20)
+    for step in range(100):  # 10 minutes into the old boot, 10 ms apart
+        board_us = 600_000_000 + step * 10_000
+        clock.observe(board_us, 5_000_000_000_000 + board_us * 1000)
+    reboot_host = 6_000_000_000_000
+    for step in range(100):
+        board_us = 1000 + step * 10_000
+        clock.observe(board_us, reboot_host + board_us * 1000)
+    assert clock.to_host_ns(500_000) == reboot_host + 500_000_000
