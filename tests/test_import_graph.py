@@ -43,7 +43,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("network",),  # boards served over Zenoh and the client
     ("opener",),  # one entry for every kind of address: serial ports, sims, zenoh://
     ("blocking", "bench"),  # the blocking API; the shipped benchmark
-    ("monitor",),  # the live monitor page
+    ("monitor", "ros2"),  # the live monitor page; every board a ROS 2 node (rmw_zenoh)
     ("cli",),  # the arduinoio command
     # The package facade, ``python -m arduinoio_async`` and the old import paths.
     ("", "__main__", "handles", "changes", "streaming", "transactions", "motors", "sync"),

@@ -39,8 +39,9 @@ from ._endpoints import Context, Node, Publisher
 from ._wire import Attachment
 
 if TYPE_CHECKING:
-    from .. import DigitalOutput, Motor, Servo
     from ..board import Board
+    from ..board.handles import DigitalOutput, Servo
+    from ..board.motors import Motor
     from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin
 
 __all__ = ["BoardNode", "run_bridge"]
