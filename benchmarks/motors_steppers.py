@@ -1,4 +1,4 @@
-"""Steppers on the virtual Uno (issue 26): ``max_step_rate_per_s`` and
+"""Steppers on the virtual Uno: ``max_step_rate_per_s`` and
 ``limit_stop_latency_us_max``.
 
 Step rate: four steppers (step D2/D4/D6/D8) move 6,000 steps each at a top speed of
@@ -16,18 +16,17 @@ to the board's stop, taken from the StepperDone timestamp (the board's clock) ma
 simulated time through a move's last step and its StepperDone (both in the same tick);
 the steps after the closing are counted too (must be 0 or 1, a step already on its way).
 
-    .venv/bin/python benchmarks/motors_steppers.py --json benchmarks/results/motors.json
+    .venv/bin/python -m benchmarks.motors_steppers --json benchmarks/results/motors.json
 
-The JSON file is merged: existing keys (``duty_error_ticks_max``...) are kept.
+The JSON file is merged (:func:`benchmarks._results.merge_result`): the other
+benchmarks' keys (``duty_error_ticks_max``, ``stack_*``...) are kept.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -36,8 +35,10 @@ import anyio
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D12, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.steppers import Stepper
 from arduinoio_async.sim import VirtualUno
-from arduinoio_async.steppers import Stepper
+
+from ._results import command_line, merge_result
 
 PINS = [(D2, D3), (D4, D5), (D6, D7), (D8, D9)]
 RATES = (2500, 5000, 7500, 10000)  # per stepper
@@ -167,7 +168,7 @@ def main() -> int:
     args = parser.parse_args()
     result = anyio.run(measure, args.baud)
     result = {
-        "steppers_command": " ".join([".venv/bin/python", *sys.argv]),
+        "steppers_command": command_line(),
         "steppers_machine": platform.node(),
         "steppers_load_average": os.getloadavg()[0],
         "steppers_baud": args.baud,
@@ -179,8 +180,7 @@ def main() -> int:
         f"limit_stop_latency_us_max: {result['limit_stop_latency_us_max']}"
     )
     if args.json:
-        old = json.loads(args.json.read_text()) if args.json.exists() else {}
-        args.json.write_text(json.dumps({**old, **result}, indent=2) + "\n")
+        merge_result(args.json, lambda data: data.update(result))
     return 0
 
 

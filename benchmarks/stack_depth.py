@@ -1,4 +1,4 @@
-"""The firmware's stack at its deepest under a heavy workload (issue 26, item 6):
+"""The firmware's stack at its deepest under a heavy workload:
 ``stack_free_min_bytes``, the RAM the stack never reached.
 
 The virtual Uno paints the free RAM below the stack pointer (``stack_paint``, from the
@@ -8,16 +8,17 @@ pipelining GPIO writes, transactions, I2C reads of the fixture's EEPROM, an anal
 software and servo PWM, and a failsafe trip that stops everything; ``stack_low`` finds the
 lowest byte the stack overwrote.  Goal: at least 400 B never reached.
 
-    .venv/bin/python benchmarks/stack_depth.py --json benchmarks/results/motors.json
+    .venv/bin/python -m benchmarks.stack_depth --json benchmarks/results/motors.json
+
+The JSON file is merged (:func:`benchmarks._results.merge_result`): the other
+benchmarks' keys are kept.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,8 @@ from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.harness import find_firmware_elf
+
+from ._results import command_line, merge_result
 
 RAM_START = 0x100
 
@@ -117,7 +120,7 @@ def main() -> int:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     result = {
-        "stack_command": " ".join([".venv/bin/python", *sys.argv]),
+        "stack_command": command_line(),
         "stack_load_average": os.getloadavg()[0],
         **anyio.run(measure, args.baud),
     }
@@ -126,8 +129,7 @@ def main() -> int:
         f"steppers {result['stack_free_min_bytes_without_steppers']})"
     )
     if args.json:
-        old = json.loads(args.json.read_text()) if args.json.exists() else {}
-        args.json.write_text(json.dumps({**old, **result}, indent=2) + "\n")
+        merge_result(args.json, lambda data: data.update(result))
     return 0
 
 

@@ -14,8 +14,8 @@ import pytest
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.steppers import HomingError
 from arduinoio_async.errors import BoardError, PinRoleError, UsageError, ValueRangeError
-from arduinoio_async.steppers import HomingError
 from arduinoio_async.testing import FakeBoard
 
 

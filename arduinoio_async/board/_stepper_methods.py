@@ -1,7 +1,8 @@
-"""The board's stepper method (issue 26), mixed into :class:`Board`.
+"""The board's stepper method, mixed into :class:`~arduinoio_async.board.Board`.
 
 Kept apart from ``board.py`` by idea, like ``_motor_methods``: it combines the pin-role
-machinery (``_new_handle``, ``set_up``, ``roles``) with :mod:`arduinoio_async.steppers`.
+machinery (``_new_handle`` of :mod:`._pin_methods`, ``set_up``, ``roles``) with
+:mod:`arduinoio_async.board.steppers`.
 """
 
 from __future__ import annotations
@@ -11,15 +12,16 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import UsageError
 from ..protocol.pins import DigitalPin, Function
-from ..steppers import Stepper, StepperPin, check_acceleration, check_speed
+from ._pin_methods import PinMethods
+from .steppers import Stepper, StepperPin, check_acceleration, check_speed
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = ["StepperMethods"]
 
 
-class StepperMethods:
+class StepperMethods(PinMethods):
     """``board.stepper()``: a step/dir stepper in one of the board's four slots."""
 
     async def stepper(
@@ -37,7 +39,7 @@ class StepperMethods:
         checked before either is taken (PinRoleError names the role holding one);
         UsageError when the four slots are in use.
         """
-        board = cast("Board", self)
+        board = cast("BoardCore", self)
         if step == dir:
             raise ValueError(f"a stepper needs two pins, got {step} for both")
         check_speed(max_speed, "stepper top speed")
@@ -53,12 +55,12 @@ class StepperMethods:
                 f"the board's {p.STEPPER_COUNT} stepper slots are in use: release one first"
             )
         index = free[0]
-        step_pin = board._new_handle(
+        step_pin = self._new_handle(
             step,
             Function.DIGITAL_OUTPUT,
             lambda b, q: StepperPin(b, q, f"stepper {index}'s step pin"),
         )
-        dir_pin = board._new_handle(
+        dir_pin = self._new_handle(
             dir,
             Function.DIGITAL_OUTPUT,
             lambda b, q: StepperPin(b, q, f"stepper {index}'s direction pin"),

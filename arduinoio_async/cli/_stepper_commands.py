@@ -15,8 +15,8 @@ from typing import Any
 import anyio
 from rich.console import Console
 
+from ..board.steppers import Stepper
 from ..errors import UsageError
-from ..steppers import Stepper
 from ._board_commands import digital_pin
 from ._target import add_target_options, target_board
 

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 import anyio
 
 from .. import protocol as p
+from ..board.steppers import StepperPin
 from ..errors import ArduinoIOError
-from ..steppers import StepperPin
 
 if TYPE_CHECKING:
     from ..board import Board

@@ -173,7 +173,7 @@ class Feature(IntFlag):
     ANALOG_CHANGES = 0x2000
     #: SET_LOW_LATENCY and filler bytes after replies (extension, docs/protocol.md 7.6).
     LOW_LATENCY = 0x4000
-    #: PWM DUTY_CONFIG/DUTY_SET: duty-cycle PWM on the timers' pins (extension, issue 26).
+    #: PWM DUTY_CONFIG/DUTY_SET: duty-cycle PWM on the timers' pins (extension).
     DUTY_PWM = 0x8000
     #: SET_FRAMING: frames checked by CRC-16/CCITT-FALSE instead of the XOR byte
     #: (extension, docs/protocol.md 7.7).

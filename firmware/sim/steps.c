@@ -15,6 +15,9 @@
  *                           `drive` to `level` (as the drive command), at the
  *                           instant of that rise; up to 4 per log (a switch
  *                           that closes, then opens again as the axis leaves)
+ *
+ * The logs are this module's own state; its part of `status` is step_logs (the
+ * steps logged on each logging pin).
  */
 #include "harness.h"
 
@@ -75,8 +78,7 @@ void steps_rise(int p, uint64_t t)
 			g->armed = 0;
 			g->fired = 1;
 			g->fired_t = t;
-			drive_level[g->drive_pin] = g->drive_to;
-			apply_circuit();
+			circuit_drive(g->drive_pin, g->drive_to);
 		}
 	}
 }
@@ -152,4 +154,15 @@ void cmd_limit_at(struct jobj *o, struct sbuf *r)
 	g->drive_pin = d;
 	g->drive_to = level != 0;
 	sb_add(r, "{\"ok\": true}");
+}
+
+void steps_status(struct sbuf *r)
+{
+	sb_add(r, ", \"step_logs\": {");
+	for (int p = 0, first = 1; p < NPINS; p++)
+		if (logs[p].on) {
+			sb_add(r, "%s\"D%d\": %zu", first ? "" : ", ", p, logs[p].n);
+			first = 0;
+		}
+	sb_add(r, "}");
 }

@@ -15,4 +15,7 @@ void cmd_step_log(struct jobj *o, struct sbuf *r);
 void cmd_steps(struct jobj *o, struct sbuf *r);
 void cmd_limit_at(struct jobj *o, struct sbuf *r);
 
+/* Its part of "status": ", step_logs: {pin: steps logged}". */
+void steps_status(struct sbuf *r);
+
 #endif

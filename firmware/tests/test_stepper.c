@@ -1,46 +1,12 @@
 /*
  * test_stepper.c - host tests of the steppers (stepper.c): the profile
  * arithmetic, exact moves, the trapezoid's speed and acceleration, limit
- * switches, the failsafe and the requests' errors.  A binary of its own
- * (build/stepper_tests), run by `make -C firmware test` beside host_tests.
+ * switches, the failsafe and the requests' errors.
  */
 #include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
-#include "aio_protocol.h"
-#include "app.h"
-#include "fake_hal.h"
-#include "hal.h"
+#include "host_check.h"
 #include "stepper.h"
-
-static int failures, checks;
-
-#define EXPECT(cond)                                                                  \
-    do {                                                                              \
-        checks++;                                                                     \
-        if (!(cond)) {                                                                \
-            failures++;                                                               \
-            printf("%s:%d: FAIL: %s\n", __FILE__, __LINE__, #cond);                   \
-        }                                                                             \
-    } while (0)
-
-static void board(void)
-{
-    fake_reset();
-    app_init();
-}
-
-static void run(void)
-{
-    int guard = 0;
-    while (app_step())
-        if (++guard > 100000) {
-            printf("app_step never goes idle\n");
-            exit(1);
-        }
-}
 
 /* Sends CT DT data (checksum added), runs the loop; returns the reply's code:
  * 0 for a success reply, the error code for an error reply.  The reply's
@@ -299,7 +265,7 @@ static void test_errors(void)
     EXPECT(REQ(AIO_DT_STEPPER_CONFIG, 1, 2, 5) == 0);
 }
 
-int main(void)
+void test_stepper(void)
 {
     test_arithmetic();
     test_move();
@@ -307,6 +273,4 @@ int main(void)
     test_limit();
     test_stop_and_failsafe();
     test_errors();
-    printf("stepper: %d checks, %d failures\n", checks, failures);
-    return failures != 0;
 }

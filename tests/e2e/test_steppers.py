@@ -19,13 +19,13 @@ from rich.console import Console
 
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11
 from arduinoio_async import protocol as p
+from arduinoio_async.blocking import open_board
 from arduinoio_async.board import Board
 from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import PinRoleError
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.harness import SimulatorNotAvailable
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
-from arduinoio_async.sync import open_board
 
 from .pulses import control_now
 from .steps import fit_quadratic, quiet_steps, step_log, step_times

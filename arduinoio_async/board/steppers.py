@@ -1,4 +1,4 @@
-"""Stepper motors behind step/dir drivers, and their limit switches (issue 26).
+"""Stepper motors behind step/dir drivers, and their limit switches.
 
 A :class:`Stepper` is one of the board's four stepper slots on a step and a direction pin
 (A4988, DRV8825, TMC2209: any digital pins).  The board runs the motion itself: a
@@ -26,13 +26,14 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import anyio
 
-from . import protocol as p
-from .errors import UsageError, ValueRangeError
+from .. import protocol as p
+from ..errors import UsageError, ValueRangeError
+from ..protocol.pins import DigitalPin, Function
+from ..protocol.pins import require as require_capable
 from .handles import PinHandle
-from .protocol.pins import DigitalPin, Function
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = ["LimitSwitch", "Stepper", "StepperPin", "StepperState"]
 
@@ -60,7 +61,7 @@ class StepperState(NamedTuple):
 class StepperPin(PinHandle):
     """A step or direction pin of a stepper (its role in the board's role table)."""
 
-    def __init__(self, board: Board, pin: DigitalPin, role: str) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin, role: str) -> None:
         super().__init__(board, pin)
         self.ROLE = role
         self.stepper_index = -1
@@ -69,7 +70,7 @@ class StepperPin(PinHandle):
 class LimitSwitch(PinHandle):
     """A limit switch input bound to a side of a stepper."""
 
-    def __init__(self, board: Board, pin: DigitalPin, role: str) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin, role: str) -> None:
         super().__init__(board, pin)
         self.ROLE = role
 
@@ -107,7 +108,9 @@ def check_steps(steps: int) -> int:
 class Stepper:
     """One stepper slot of the board (``board.stepper(step=D2, dir=D3)``)."""
 
-    def __init__(self, board: Board, index: int, step: StepperPin, direction: StepperPin) -> None:
+    def __init__(
+        self, board: BoardCore, index: int, step: StepperPin, direction: StepperPin
+    ) -> None:
         self.board = board
         self.index = index
         self.step_pin = step
@@ -241,8 +244,9 @@ class Stepper:
             if mine
             else LimitSwitch(self.board, pin, f"stepper {self.index}'s {side} limit switch")
         )
-        if not mine:
-            self.board._new_handle(pin, Function.DIGITAL_INPUT, lambda b, q: switch)
+        if not mine:  # checked as any new input's pin is (Table III, one role per pin)
+            require_capable(pin, Function.DIGITAL_INPUT)
+            self.board.roles.check_free(switch)
         old = self.limits.get(positive)
         request = p.StepperLimit(self.index, positive, int(pin), active_high)
         if mine:

@@ -1,26 +1,25 @@
-"""The blocking twin of :class:`~arduinoio_async.steppers.Stepper` (``BlockingBoard.stepper``).
+"""The blocking twin of :class:`~arduinoio_async.board.steppers.Stepper`
+(``BlockingBoard.stepper``).
 
-Apart from ``sync.py`` (already long) by idea: each method runs the async one through the
-board's portal, exactly as the other blocking handles do.
+Apart from :mod:`._handles` by idea: each method runs the async one through the board's
+portal, exactly as the other blocking handles do.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from .protocol.pins import DigitalPin
-from .steppers import LimitSwitch, Stepper, StepperState
-
-if TYPE_CHECKING:
-    from .sync import _Runner
+from ..board.steppers import LimitSwitch, Stepper, StepperState
+from ..protocol.pins import DigitalPin
+from ._handles import Runner
 
 __all__ = ["BlockingStepper"]
 
 
 class BlockingStepper:
-    """Blocking :class:`~arduinoio_async.steppers.Stepper`: moves, runs, stops, homing."""
+    """Blocking :class:`~arduinoio_async.board.steppers.Stepper`: moves, runs, stops, homing."""
 
-    def __init__(self, runner: _Runner, handle: Stepper) -> None:
+    def __init__(self, runner: Runner, handle: Stepper) -> None:
         self._runner = runner
         self.handle = handle
 
