@@ -314,12 +314,10 @@ void stepper_tick(void)
         return;
     }
     in_tick = 1;
-    hal_pin_write(12, 1);
     for (;;) {
         one_tick();
         sreg = hal_irq_save();
         if (!owed) {
-            hal_pin_write(12, 0);
             in_tick = 0;
             hal_irq_restore(sreg);
             return;
