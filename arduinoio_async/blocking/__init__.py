@@ -83,6 +83,7 @@ __all__ = [
     "BlockingMotor",
     "BlockingPulseOutput",
     "BlockingSamples",
+    "BlockingStepper",
     "connect",
     "open_board",
 ]
