@@ -1,5 +1,6 @@
 """STEPPER commands (class tag 0x09, extension, issue 26) and the move-complete event,
-handled by ``firmware/src/stepper.c``.
+handled by ``firmware/src/stepper_cmd.c`` (requests) and
+``firmware/src/stepper.c`` (the motion).
 
 Up to STEPPER_COUNT step/dir drivers (A4988, DRV8825, TMC2209) on any digital pins.  The
 board runs each stepper's trapezoidal profile itself from its 100 us tick (at most one
