@@ -49,7 +49,11 @@ static uint8_t channels[AIO_ANALOG_CHANNELS]; /* the mask's channels, in order *
 static uint8_t channel_count;
 static uint8_t channel;              /* index in channels[] of the next conversion */
 static uint8_t pos;                  /* next analog value position in frame */
-static uint8_t frame[AIO_FRAME_MAX];
+/* A sample: CT DT mask flags seq(2) instant(4) len, up to AIO_MAX_BLOB value
+ * bytes, the check (more than a reply's AIO_FRAME_MAX once stepper positions
+ * can fill the blob). */
+#define SAMPLE_HEADER 11u
+static uint8_t frame[SAMPLE_HEADER + AIO_MAX_BLOB + AIO_CHECK_MAX];
 static uint8_t frame_len;
 
 void stream_init(void)

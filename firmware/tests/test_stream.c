@@ -101,4 +101,10 @@ void test_stream(void)
     CHECK(B(7, 2), B(7, 2, 0, 3));
     CHECK(B(4, 1, 0), B(4, 1, 0));
     CHECK(B(7, 1, 0x10, 0, 0x27, 0x10), B(0x87, 1, AIO_ERR_PIN_BUSY));
+    /* a sample of 28 value bytes (edges, counters, stepper positions): 11 + 28 + check */
+    CHECK(B(7, 1, 0, 0x0E, 0x27, 0x10), B(7, 1, 0, 0x0E, 0x27, 0x10));
+    fake_advance(100);
+    take();
+    EXPECT(outn == 11 + 28 + 1 && out[0] == AIO_CT_EVENT && out[10] == 28);
+    CHECK(B(7, 2), B(7, 2, 0, 1));
 }
