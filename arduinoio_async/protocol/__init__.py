@@ -11,6 +11,7 @@ from ._constants import (
     ANALOG_MAX,
     DEFAULT_BAUD,
     DUTY_FULL,
+    ENCODER_SLOTS,
     ERROR_FLAG,
     FAILSAFE_MAX_TIMEOUT_MS,
     FAILSAFE_MIN_TIMEOUT_MS,
@@ -45,6 +46,7 @@ from ._constants import (
     VCC_MV,
     ClassTag,
     Edge,
+    EncoderMode,
     ErrorCode,
     Feature,
     Framing,
@@ -58,9 +60,10 @@ from ._constants import (
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from .commands import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403
+from .commands.encoder import *  # noqa: F403
 from .commands.failsafe import *  # noqa: F403
 from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
@@ -80,6 +83,7 @@ __all__ = [
     "ANALOG_MAX",
     "DEFAULT_BAUD",
     "DUTY_FULL",
+    "ENCODER_SLOTS",
     "ERROR_FLAG",
     "EVENT_TYPES",
     "FAILSAFE_MAX_TIMEOUT_MS",
@@ -119,6 +123,7 @@ __all__ = [
     "Decoded",
     "Decoder",
     "Edge",
+    "EncoderMode",
     "ErrorCode",
     "ErrorReply",
     "Event",
@@ -146,6 +151,7 @@ __all__ += analog.__all__
 __all__ += i2c.__all__
 __all__ += pwm.__all__
 __all__ += counter.__all__
+__all__ += encoder.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

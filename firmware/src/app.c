@@ -20,6 +20,7 @@
 #include "analog.h"
 
 #include "counter.h"
+#include "encoder.h"
 #include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -69,6 +70,7 @@ void app_init(void)
     pwm_init();
     duty_init();
     counter_init();
+    encoder_init();
     stream_init();
     analog_init();
     failsafe_init();

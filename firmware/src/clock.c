@@ -163,6 +163,18 @@ uint16_t hal_millis(void)
     return t;
 }
 
+void hal_stamp(uint32_t *ticks, uint8_t *sub)
+{
+    uint32_t t = clock_ticks;
+    uint8_t c = TCNT2;
+    if ((TIFR2 & _BV(OCF2A)) && c < TICK_COUNTS / 2u)
+        t++; /* the tick has passed but its interrupt has not run yet */
+    *ticks = t;
+    *sub = c;
+}
+
+uint32_t hal_stamp_us(uint32_t ticks, uint8_t sub) { return ticks * 100u + sub / 2u; }
+
 uint32_t hal_micros(void)
 {
     uint8_t s = SREG, c;

@@ -14,6 +14,7 @@
  */
 #include "gpio.h"
 
+#include "encoder.h"
 #include "hal.h"
 #include "parser.h"
 #include "pins.h"
@@ -92,11 +93,13 @@ static void set_watch(uint8_t pin, uint8_t on)
     fell &= (uint16_t)~bit;
     s_rose &= (uint16_t)~bit;
     s_fell &= (uint16_t)~bit;
-    hal_edge_watch(watch);
+    hal_edge_watch((uint16_t)(watch | encoder_pcint_mask()));
     hal_irq_restore(s);
 }
 
 void gpio_release(uint8_t pin) { set_watch(pin, 0); }
+
+uint16_t gpio_watch_mask(void) { return watch; }
 
 static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp) __attribute__((noinline));
 

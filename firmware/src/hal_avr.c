@@ -14,6 +14,7 @@
 
 #include "analog.h"
 #include "counter.h"
+#include "encoder.h"
 #include "gpio.h"
 #include "aio_protocol.h"
 #include "hal.h"
@@ -112,7 +113,14 @@ void hal_edge_watch(uint16_t mask)
     hal_irq_restore(s);
 }
 
-ISR(PCINT0_vect) { gpio_pin_change(hal_pin_levels()); }
+/* One set of levels for both users of the vectors: the encoders (first: their
+ * next edge may be close) and the GPIO watches; each looks at its own pins. */
+ISR(PCINT0_vect)
+{
+    uint16_t levels = hal_pin_levels();
+    encoder_pin_change(levels);
+    gpio_pin_change(levels);
+}
 ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
 
 void hal_softpwm_low(uint8_t mask)
@@ -622,5 +630,36 @@ void hal_counter_disable(uint8_t index)
     hal_irq_restore(s);
 }
 
-ISR(INT0_vect) { counter_event(0); }
-ISR(INT1_vect) { counter_event(1); }
+/* Any change (ISCn = 01) for an encoder; which user an interrupt has is in
+ * int_encoder (the pin roles keep a counter and an encoder off one pin). */
+static volatile uint8_t int_encoder;
+
+void hal_encoder_int(uint8_t index, uint8_t on)
+{
+    uint8_t shift = (uint8_t)(index * 2u), bit = (uint8_t)(1u << index), s = hal_irq_save();
+    if (on) {
+        EICRA = (uint8_t)((EICRA & ~(3u << shift)) | (1u << shift));
+        int_encoder |= bit;
+        EIMSK |= bit;
+    } else {
+        EIMSK &= (uint8_t)~bit;
+        int_encoder &= (uint8_t)~bit;
+    }
+    hal_irq_restore(s);
+}
+
+ISR(INT0_vect)
+{
+    if (int_encoder & 1u)
+        encoder_int(0);
+    else
+        counter_event(0);
+}
+
+ISR(INT1_vect)
+{
+    if (int_encoder & 2u)
+        encoder_int(1);
+    else
+        counter_event(1);
+}
