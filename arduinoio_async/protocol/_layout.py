@@ -29,10 +29,10 @@ from typing import Any, ClassVar, TypeVar
 from ..errors import FieldRangeError
 
 __all__ = [
+    "I32",
     "U8",
     "U16",
     "U32",
-    "I32",
     "Array",
     "Blob",
     "Frame",

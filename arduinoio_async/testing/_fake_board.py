@@ -19,6 +19,7 @@ import anyio.abc
 from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
+from ._fake_encoder import EncoderModels
 from ._faults import Faults, corrupt
 from ._peripherals import (
     DIGITAL,
@@ -41,7 +42,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(PeripheralModels):
+class FakeBoard(PeripheralModels, EncoderModels):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -130,6 +131,10 @@ class FakeBoard(PeripheralModels):
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
+            p.EncoderConfig: self._encoder_config,
+            p.EncoderRead: self._encoder_read,
+            p.EncoderPreset: self._encoder_preset,
+            p.EncoderWatch: self._encoder_watch,
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -182,6 +187,8 @@ class FakeBoard(PeripheralModels):
                     self._report_count(pin, state)
             if state.watched and state.role == "input":
                 self._report_change(pin, level)
+            if state.role == "encoder":
+                self._encoder_edge(pin)
 
     def set_analog(self, channel: int, value: int) -> None:
         """Move an analog input: a watched channel that moved past its deadband reports
@@ -339,6 +346,7 @@ class FakeBoard(PeripheralModels):
         subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
         self._pins = {n: PinModel() for n in range(2, 14)}
         self.counters = dict.fromkeys(self.counters, 0)
+        self.encoders.clear()
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
             while True:  # events still in the transmit buffer never leave it
@@ -480,6 +488,7 @@ class FakeBoard(PeripheralModels):
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
+        self._encoder_release(request.pin)
         self._pins[request.pin] = PinModel()
         self.pulses.pop(request.pin, None)
         self.duties.pop(request.pin, None)
@@ -548,7 +557,9 @@ class FakeBoard(PeripheralModels):
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
         levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
-        return self.stream.sample(request, self.analog, levels, self.counters, board_us)
+        return self.stream.sample(
+            request, self.analog, levels, self.counters, board_us, self.encoder_counts()
+        )
 
     def _failsafe_arm(self, request: p.FailsafeArm) -> p.Frame:
         error = self.failsafe.arm(request)

@@ -27,6 +27,7 @@
 #include "json.h"
 #include "pacing.h"
 #include "pty.h"
+#include "quadrature.h"
 #include "wire.h"
 
 char ctl_path[600];
@@ -321,6 +322,9 @@ static const struct command commands[] = {
 	{"eeprom", 1, cmd_eeprom},
 	{"ping", 1, cmd_ping},
 	{"peek", 1, cmd_peek},
+	{"quadrature", 0, cmd_quadrature},
+	{"quadrature_status", 1, cmd_quadrature_status},
+	{"quadrature_stop", 0, cmd_quadrature_stop},
 };
 
 static const struct command *find_command(const char *name)

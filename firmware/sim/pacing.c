@@ -34,6 +34,7 @@
 #include "control.h"
 #include "pacing.h"
 #include "pty.h"
+#include "quadrature.h"
 #include "trace.h"
 #include "wire.h"
 
@@ -116,6 +117,7 @@ static int link_quiet(int (*wire)(void))
 	/* and the receiver on: while the firmware boots, a host byte must meet the
 	 * receiver-off window in wall time, as on a real board (no run-ahead) */
 	return avr && (avr->data[UCSR0B_ADDR] & RXEN0_BIT) && wire() && !pulses_running() &&
+	       !quadrature_running() &&
 	       !holding_reset;
 }
 
@@ -224,6 +226,7 @@ void recompute_next_event(void)
 	next_event = UINT64_MAX;
 	wire_schedule_events();
 	schedule_pulses();
+	schedule_quadrature();
 }
 
 void run_events(void)
@@ -233,6 +236,7 @@ void run_events(void)
 	while (progress) {
 		progress = wire_run_events(now);
 		progress |= run_pulses(now);
+		progress |= run_quadrature(now);
 	}
 	recompute_next_event();
 	wire_events_done();

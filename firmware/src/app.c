@@ -143,6 +143,7 @@ uint8_t app_step(void)
     hal_rx_view_t rx;
 
     failsafe_poll();
+    encoder_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

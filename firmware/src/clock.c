@@ -163,7 +163,8 @@ uint16_t hal_millis(void)
     return t;
 }
 
-void hal_stamp(uint32_t *ticks, uint8_t *sub)
+/* Inlined into the encoder interrupts (LTO): called on every counting edge. */
+__attribute__((always_inline)) inline void hal_stamp(uint32_t *ticks, uint8_t *sub)
 {
     uint32_t t = clock_ticks;
     uint8_t c = TCNT2;

@@ -21,45 +21,49 @@
  * Velocity is the host's: each state carries the board time of the last edge
  * that changed the count (hal_stamp, cheap enough for every edge; turned into
  * microseconds only when read).
+ *
+ * The decoding itself is encoder_step() in encoder.h, inlined into the
+ * interrupt vectors: one table lookup per edge (the mode's transition table
+ * below, in flash).  A report that comes due is only marked there; the main
+ * loop sends it (encoder_poll), so the interrupt makes no call.  A report due
+ * again before the main loop sent the previous one replaces it: the host sees
+ * the count jump (EncoderReports.missed).
  */
 #include "encoder.h"
 
 #include "gpio.h"
-#include "hal.h"
 #include "parser.h"
 #include "pins.h"
 
 #define SLOTS AIO_ENCODER_SLOTS
 #define NO_SLOT 0xFFu
 
-typedef struct {
-    uint32_t count;          /* two's complement: it wraps, as the i32 on the wire */
-    uint16_t invalid;
-    uint32_t edge_ticks;     /* hal_stamp of the last edge that changed the count */
-    uint8_t edge_sub;
-    uint16_t mask_a, mask_b; /* the pins' bits in hal_pin_levels(); 0: slot free */
-    uint8_t pos;             /* 0-3, see above */
-    int8_t dir;              /* +1/-1: the last valid step's direction */
-    uint8_t steps;           /* bit p: a step into position p changes the count */
-    uint8_t pin_a, pin_b;
-    uint16_t every, since;   /* WATCH: a report every `every` counts moved */
-} enc_t;
+encoder_slot_t encoder_slots[SLOTS];
+volatile uint8_t encoder_pc_slots;
+volatile uint8_t encoder_int_slot[2];
+volatile uint8_t encoder_report_due;
+static uint16_t pc_mask; /* the pins on pin-change interrupts */
 
-static volatile enc_t enc[SLOTS];
-static volatile uint8_t pc_slots; /* bit s: slot s has a pin on a pin-change interrupt */
-static uint16_t pc_mask;          /* those pins */
-static volatile uint8_t int_slot[2]; /* the slot on INT0 (D2) / INT1 (D3), or NO_SLOT */
+/* Main-loop reads of the interrupt's fields happen between hal_irq_save()
+ * and this barrier (the fields are not volatile, so the interrupt's code
+ * stays short). */
+#define BARRIER() __asm__ volatile("" ::: "memory")
 
-/* 1 << p for p = 0-3 (pins_bit, no second table in RAM) */
-#define BIT4(p) ((uint8_t)pins_bit_of(p))
+/* [mode x1, x2, x4][dir << 4 | prev << 2 | new]: 0x20 changed, 0x10 new
+ * direction forward, 0x08 invalid, bits 0-2 the count's change + 2.
+ * Generated from the rules above (positions counted per mode: x4 all, x2
+ * {1, 3}, x1 {1}; a skip moves two positions the last direction's way). */
+static const AIO_ENC_TABLE_Q uint8_t tables[3][32] = {
+    /* x1 */ {0x00u, 0x33u, 0x2Au, 0x22u, 0x21u, 0x00u, 0x32u, 0x29u, 0x29u, 0x22u, 0x00u, 0x32u, 0x32u, 0x2Au, 0x22u, 0x00u, 0x00u, 0x33u, 0x3Bu, 0x22u, 0x21u, 0x00u, 0x32u, 0x3Au, 0x3Au, 0x22u, 0x00u, 0x32u, 0x32u, 0x3Bu, 0x22u, 0x00u},
+    /* x2 */ {0x00u, 0x33u, 0x29u, 0x22u, 0x21u, 0x00u, 0x32u, 0x29u, 0x29u, 0x22u, 0x00u, 0x33u, 0x32u, 0x29u, 0x21u, 0x00u, 0x00u, 0x33u, 0x3Bu, 0x22u, 0x21u, 0x00u, 0x32u, 0x3Bu, 0x3Bu, 0x22u, 0x00u, 0x33u, 0x32u, 0x3Bu, 0x21u, 0x00u},
+    /* x4 */ {0x00u, 0x33u, 0x28u, 0x21u, 0x21u, 0x00u, 0x33u, 0x28u, 0x28u, 0x21u, 0x00u, 0x33u, 0x33u, 0x28u, 0x21u, 0x00u, 0x00u, 0x33u, 0x3Cu, 0x21u, 0x21u, 0x00u, 0x33u, 0x3Cu, 0x3Cu, 0x21u, 0x00u, 0x33u, 0x33u, 0x3Cu, 0x21u, 0x00u},
+};
 
-static uint8_t steps_of(uint8_t mode)
+static const AIO_ENC_TABLE_Q uint8_t *table_of(uint8_t mode)
 {
-    return mode == AIO_ENCODER_X4 ? 0x0Fu : mode == AIO_ENCODER_X2 ? 0x0Au : 0x02u;
+    return tables[mode == AIO_ENCODER_X4 ? 2 : mode == AIO_ENCODER_X2 ? 1 : 0];
 }
 
-/* B << 1 | A is the Gray code of the position: g ^ g >> 1 decodes it
- * (AB = 00 -> 0, 10 -> 1, 11 -> 2, 01 -> 3). */
 static uint8_t position(uint16_t levels, uint16_t mask_a, uint16_t mask_b)
 {
     uint8_t g = (uint8_t)(((levels & mask_b) ? 2u : 0u) | ((levels & mask_a) ? 1u : 0u));
@@ -71,79 +75,41 @@ static uint32_t stamp_us(uint32_t ticks, uint8_t sub)
     return ticks ? hal_stamp_us(ticks, sub) : 0u; /* 0: no edge yet */
 }
 
-/* Interrupt context: an EncoderReport of slot s. */
-static void report(uint8_t s) __attribute__((noinline));
-static void report(uint8_t s)
+/* slot, count, invalid, edge_us of slot s at p (count and time as latched) */
+static uint8_t *put(uint8_t *p, uint8_t s, uint32_t count, uint16_t invalid, uint32_t ticks, uint8_t sub)
 {
-    uint8_t frame[AIO_REPLY_LEN_EVENT_ENCODER_REPORT + 2u + AIO_CHECK_MAX], *p = frame;
-    volatile enc_t *e = &enc[s];
-
-    *p++ = AIO_CT_EVENT;
-    *p++ = AIO_DT_EVENT_ENCODER_REPORT;
     *p++ = s;
-    p = aio_put32(p, e->count);
-    p = aio_put16(p, e->invalid);
-    p = aio_put32(p, stamp_us(e->edge_ticks, e->edge_sub));
-    hal_tx_send(frame, parser_seal(frame, (uint8_t)(p - frame))); /* dropped if it does not fit */
+    p = aio_put32(p, count);
+    p = aio_put16(p, invalid);
+    return aio_put32(p, stamp_us(ticks, sub));
 }
 
-/* Interrupt context: slot s sees `levels`. */
-static void step(uint8_t s, uint16_t levels)
+void encoder_poll(void)
 {
-    volatile enc_t *e = &enc[s];
-    uint8_t cur = position(levels, e->mask_a, e->mask_b), prev = e->pos, steps = e->steps;
-    int8_t delta;
-    uint32_t ticks;
-    uint8_t sub;
+    uint8_t due = encoder_report_due, s, st, sub;
+    uint8_t frame[AIO_REPLY_LEN_EVENT_ENCODER_REPORT + 2u + AIO_CHECK_MAX];
+    uint32_t count, ticks;
+    uint16_t invalid;
 
-    switch ((uint8_t)(cur - prev) & 3u) {
-    case 0:
+    if (!due)
         return;
-    case 1:
-        e->dir = 1;
-        delta = (steps & BIT4(cur)) ? 1 : 0;
-        break;
-    case 3:
-        e->dir = -1;
-        delta = (steps & BIT4(prev)) ? -1 : 0;
-        break;
-    default: /* a skipped state: two positions the last direction's way */
-        e->invalid++;
-        if (e->dir > 0)
-            delta = (int8_t)(((steps & BIT4((prev + 1u) & 3u)) ? 1 : 0) + ((steps & BIT4(cur)) ? 1 : 0));
-        else
-            delta = (int8_t)-(((steps & BIT4(prev)) ? 1 : 0) + ((steps & BIT4((prev + 3u) & 3u)) ? 1 : 0));
-        break;
+    for (s = 0; s < SLOTS; s++) {
+        if (!(due >> s & 1u))
+            continue;
+        st = hal_irq_save();
+        encoder_report_due &= (uint8_t)~(1u << s);
+        count = encoder_slots[s].count;
+        invalid = encoder_slots[s].invalid;
+        ticks = encoder_slots[s].edge_ticks;
+        sub = encoder_slots[s].edge_sub;
+        BARRIER();
+        hal_irq_restore(st);
+        frame[0] = AIO_CT_EVENT;
+        frame[1] = AIO_DT_EVENT_ENCODER_REPORT;
+        put(frame + 2, s, count, invalid, ticks, sub);
+        hal_tx_send(frame, parser_seal(frame, (uint8_t)(2u + AIO_REPLY_LEN_EVENT_ENCODER_REPORT)));
+        /* dropped if it does not fit: the next report's count shows it */
     }
-    e->pos = cur;
-    if (!delta)
-        return;
-    e->count += (uint32_t)(int32_t)delta;
-    hal_stamp(&ticks, &sub);
-    e->edge_ticks = ticks;
-    e->edge_sub = sub;
-    if (e->every) {
-        e->since = (uint16_t)(e->since + (delta < 0 ? -delta : delta));
-        if (e->since >= e->every) {
-            e->since = 0;
-            report(s);
-        }
-    }
-}
-
-void encoder_pin_change(uint16_t levels)
-{
-    uint8_t s, slots = pc_slots;
-    for (s = 0; slots; s++, slots >>= 1)
-        if (slots & 1u)
-            step(s, levels);
-}
-
-void encoder_int(uint8_t index)
-{
-    uint8_t s = int_slot[index];
-    if (s < SLOTS)
-        step(s, hal_pin_levels());
 }
 
 uint16_t encoder_pcint_mask(void) { return pc_mask; }
@@ -151,7 +117,8 @@ uint16_t encoder_pcint_mask(void) { return pc_mask; }
 int32_t encoder_peek(uint8_t slot)
 {
     uint8_t st = hal_irq_save();
-    int32_t c = enc[slot].mask_a ? (int32_t)enc[slot].count : 0;
+    int32_t c = encoder_slots[slot].mask_a ? (int32_t)encoder_slots[slot].count : 0;
+    BARRIER();
     hal_irq_restore(st);
     return c;
 }
@@ -164,7 +131,7 @@ static void route(void)
     uint16_t mask = 0, pins;
 
     for (s = 0; s < SLOTS; s++) {
-        pins = (uint16_t)(enc[s].mask_a | enc[s].mask_b);
+        pins = (uint16_t)(encoder_slots[s].mask_a | encoder_slots[s].mask_b);
         if (!pins)
             continue;
         if (pins & pins_bit_of(2))
@@ -173,30 +140,32 @@ static void route(void)
             ints[1] = s;
         pins &= (uint16_t)~(pins_bit_of(2) | pins_bit_of(3));
         if (pins)
-            pcs |= BIT4(s);
+            pcs |= (uint8_t)(1u << s);
         mask |= pins;
     }
     st = hal_irq_save();
-    pc_slots = pcs;
+    encoder_pc_slots = pcs;
     pc_mask = mask;
     hal_edge_watch((uint16_t)(gpio_watch_mask() | mask));
     for (s = 0; s < 2; s++) {
         /* only on a change: a counter may own the other external interrupt */
-        if ((int_slot[s] != NO_SLOT) != (ints[s] != NO_SLOT))
+        if ((encoder_int_slot[s] != NO_SLOT) != (ints[s] != NO_SLOT))
             hal_encoder_int(s, ints[s] != NO_SLOT);
-        int_slot[s] = ints[s];
+        encoder_int_slot[s] = ints[s];
     }
     hal_irq_restore(st);
 }
 
 static void detach(uint8_t s)
 {
-    uint8_t a = enc[s].pin_a, b = enc[s].pin_b, st;
-    if (!enc[s].mask_a)
+    uint8_t a = encoder_slots[s].pin_a, b = encoder_slots[s].pin_b, st;
+    if (!encoder_slots[s].mask_a)
         return;
     st = hal_irq_save();
-    enc[s].mask_a = enc[s].mask_b = 0;
-    enc[s].every = 0;
+    encoder_slots[s].mask_a = encoder_slots[s].mask_b = 0;
+    encoder_slots[s].every = 0;
+    encoder_report_due &= (uint8_t)~(1u << s);
+    BARRIER();
     hal_irq_restore(st);
     route();
     pins_role[a] = pins_role[b] = ROLE_FREE;
@@ -208,12 +177,13 @@ void encoder_init(void)
 {
     uint8_t s;
     for (s = 0; s < SLOTS; s++) {
-        enc[s].mask_a = enc[s].mask_b = 0;
-        enc[s].every = 0;
+        encoder_slots[s].mask_a = encoder_slots[s].mask_b = 0;
+        encoder_slots[s].every = 0;
     }
-    pc_slots = 0;
+    encoder_pc_slots = 0;
+    encoder_report_due = 0;
     pc_mask = 0;
-    int_slot[0] = int_slot[1] = NO_SLOT;
+    encoder_int_slot[0] = encoder_int_slot[1] = NO_SLOT;
     hal_encoder_int(0, 0);
     hal_encoder_int(1, 0);
 }
@@ -222,7 +192,7 @@ void encoder_release(uint8_t pin)
 {
     uint8_t s;
     for (s = 0; s < SLOTS; s++)
-        if (enc[s].mask_a && (enc[s].pin_a == pin || enc[s].pin_b == pin))
+        if (encoder_slots[s].mask_a && (encoder_slots[s].pin_a == pin || encoder_slots[s].pin_b == pin))
             detach(s);
 }
 
@@ -231,7 +201,7 @@ static uint8_t takeable(uint8_t pin, uint8_t s)
 {
     uint8_t role = pins_role[pin];
     return role == ROLE_FREE ||
-           (role == ROLE_ENCODER && enc[s].mask_a && (enc[s].pin_a == pin || enc[s].pin_b == pin));
+           (role == ROLE_ENCODER && encoder_slots[s].mask_a && (encoder_slots[s].pin_a == pin || encoder_slots[s].pin_b == pin));
 }
 
 static uint8_t configure(const uint8_t *d)
@@ -251,18 +221,20 @@ static uint8_t configure(const uint8_t *d)
     hal_pin_mode(b, HAL_IN_PULLUP);
     pins_role[a] = pins_role[b] = ROLE_ENCODER;
     st = hal_irq_save();
-    enc[s].pin_a = a;
-    enc[s].pin_b = b;
-    enc[s].mask_a = pins_bit_of(a);
-    enc[s].mask_b = pins_bit_of(b);
-    enc[s].pos = position(hal_pin_levels(), enc[s].mask_a, enc[s].mask_b);
-    enc[s].dir = 1;
-    enc[s].steps = steps_of(mode);
-    enc[s].count = 0;
-    enc[s].invalid = 0;
-    enc[s].edge_ticks = 0;
-    enc[s].edge_sub = 0;
-    enc[s].every = enc[s].since = 0;
+    encoder_slots[s].pin_a = a;
+    encoder_slots[s].pin_b = b;
+    encoder_slots[s].mask_a = pins_bit_of(a);
+    encoder_slots[s].mask_b = pins_bit_of(b);
+    /* forward before the first step */
+    encoder_slots[s].state = (uint8_t)(0x10u | position(hal_pin_levels(), encoder_slots[s].mask_a,
+                                                         encoder_slots[s].mask_b) << 2);
+    encoder_slots[s].table = table_of(mode);
+    encoder_slots[s].count = 0;
+    encoder_slots[s].invalid = 0;
+    encoder_slots[s].edge_ticks = 0;
+    encoder_slots[s].edge_sub = 0;
+    encoder_slots[s].every = encoder_slots[s].since = 0;
+    BARRIER();
     hal_irq_restore(st);
     route();
     return 0;
@@ -272,16 +244,17 @@ static uint8_t configure(const uint8_t *d)
 static uint8_t *put_state(uint8_t *p, uint8_t s, const uint8_t *preset)
 {
     uint8_t st = hal_irq_save();
-    uint32_t count = enc[s].count;
-    uint16_t invalid = enc[s].invalid;
-    uint32_t ticks = enc[s].edge_ticks;
-    uint8_t sub = enc[s].edge_sub;
+    uint32_t count = encoder_slots[s].count;
+    uint16_t invalid = encoder_slots[s].invalid;
+    uint32_t ticks = encoder_slots[s].edge_ticks;
+    uint8_t sub = encoder_slots[s].edge_sub;
     if (preset) {
-        enc[s].count = (uint32_t)preset[0] << 24 | (uint32_t)preset[1] << 16 |
+        encoder_slots[s].count = (uint32_t)preset[0] << 24 | (uint32_t)preset[1] << 16 |
                        (uint32_t)preset[2] << 8 | preset[3];
-        enc[s].invalid = 0;
-        enc[s].since = 0;
+        encoder_slots[s].invalid = 0;
+        encoder_slots[s].since = 0;
     }
+    BARRIER();
     hal_irq_restore(st);
     p = aio_put32(p, count);
     p = aio_put16(p, invalid);
@@ -305,12 +278,13 @@ uint8_t encoder_handle(const aio_request_t *rq, aio_reply_t *rp)
     }
     if (s >= SLOTS)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
-    if (!enc[s].mask_a)
+    if (!encoder_slots[s].mask_a)
         return AIO_ERR_PIN_NOT_CONFIGURED;
     if (rq->dt == AIO_DT_ENCODER_WATCH) {
         st = hal_irq_save();
-        enc[s].every = aio_be16(rq->data + 1);
-        enc[s].since = 0;
+        encoder_slots[s].every = aio_be16(rq->data + 1);
+        encoder_slots[s].since = 0;
+        BARRIER();
         hal_irq_restore(st);
         return aio_echo(rq, rp);
     }

@@ -197,7 +197,7 @@ void fake_drive(uint8_t pin, uint8_t level)
         gpio_pin_change(hal_pin_levels());
     }
     if (changed && (pin == 2 || pin == 3) && fake_encoder_int[pin - 2])
-        encoder_int((uint8_t)(pin - 2));
+        encoder_int((uint8_t)(pin - 2), hal_pin_levels());
     /* INT0/INT1 on D2/D3: the configured edge only, as the external interrupts do */
     if (changed && (pin == 2 || pin == 3) && fake_counter_enabled[pin - 2] &&
         level == fake_counter_rising[pin - 2])

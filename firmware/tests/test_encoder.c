@@ -201,6 +201,7 @@ static void test_config_errors(void)
     EXPECT(fake_counter_enabled[0] && !fake_encoder_int[0] && fake_encoder_int[1]);
     fake_drive(2, 1);
     CHECK(B(6, 2, 2), B(6, 2, 2, 0, 0, 0, 1));
+    CHECK(B(0x0A, 9), B(0x8A, 9, AIO_ERR_UNKNOWN_DESCRIPTOR)); /* last: input is discarded after it */
 }
 
 /* Exact x4 counts over random turns on INT0/INT1 (D2/D3) and pin-change pins. */
@@ -311,6 +312,7 @@ static void test_preset_and_watch(void)
     CHECK(B(0x0A, 4, 2, 0, 5), B(0x0A, 4, 2, 0, 5));
     for (i = 0; i < 23; i++) {
         turn(&q, i < 12 ? 1 : -1);
+        run(); /* the main loop sends what the interrupt found due */
         take();
         if (outn) {
             EXPECT(outn == 2u + AIO_REPLY_LEN_EVENT_ENCODER_REPORT + 1u);
@@ -323,6 +325,7 @@ static void test_preset_and_watch(void)
     EXPECT(reports == 4);
     CHECK(B(0x0A, 4, 2, 0, 0), B(0x0A, 4, 2, 0, 0));
     turn(&q, 20);
+    run();
     take();
     EXPECT(outn == 0);
 }

@@ -137,7 +137,6 @@ static const aio_vector_step_t aio_vectors_encoder[] = {
     {50, -1, 0, 4, {2, 4, 12, 10}, 4, {2, 4, 12, 10}},
     {51, -1, 0, 4, {10, 2, 1, 9}, 4, {138, 2, 7, 143}},
     {52, -1, 0, 5, {2, 1, 4, 1, 6}, 5, {2, 1, 4, 1, 6}},
-    {53, -1, 0, 3, {10, 9, 3}, 4, {138, 9, 3, 128}},
 };
 
 static const aio_vector_step_t aio_vectors_failsafe[] = {
@@ -288,7 +287,7 @@ static const aio_vector_file_t aio_vector_files[] = {
     {"analog", 0x0007, 13, aio_vectors_analog},
     {"counter", 0x0007, 23, aio_vectors_counter},
     {"duty", 0x0007, 24, aio_vectors_duty},
-    {"encoder", 0x000A, 48, aio_vectors_encoder},
+    {"encoder", 0x000A, 47, aio_vectors_encoder},
     {"failsafe", 0x0007, 14, aio_vectors_failsafe},
     {"framing", 0x0102, 14, aio_vectors_framing},
     {"gpio", 0x0007, 32, aio_vectors_gpio},
