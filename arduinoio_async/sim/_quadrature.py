@@ -39,6 +39,7 @@ class QuadratureMethods:
     """``quadrature``, ``quadrature_status``, ``wait_quadrature``, ``quadrature_stop``."""
 
     async def command(self, cmd: str, **params: Any) -> dict[str, Any]:
+        """One control-channel command (VirtualUno's)."""
         raise NotImplementedError
 
     async def quadrature(
