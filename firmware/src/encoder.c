@@ -41,6 +41,7 @@
 encoder_slot_t encoder_slots[SLOTS];
 volatile uint8_t encoder_pc_slots;
 volatile uint8_t encoder_int_slot[2];
+encoder_slot_t *volatile encoder_int_ptr[2];
 volatile uint8_t encoder_report_due;
 static uint16_t pc_mask; /* the pins on pin-change interrupts */
 
@@ -70,27 +71,57 @@ static uint8_t position(uint16_t levels, uint16_t mask_a, uint16_t mask_b)
     return (uint8_t)(g ^ (g >> 1));
 }
 
-static uint32_t stamp_us(uint32_t ticks, uint8_t sub)
+/* Interrupts off: the interrupt's 16-bit fields into the 32-bit count (and,
+ * for a report that came due, the count it came due at); returns whether an
+ * edge was stamped since, its stamp in *low / *sub. */
+static uint8_t fold_locked(uint8_t s, uint16_t *low, uint8_t *sub)
 {
-    return ticks ? hal_stamp_us(ticks, sub) : 0u; /* 0: no edge yet */
+    encoder_slot_t *e = &encoder_slots[s];
+    uint8_t fresh = e->fresh;
+    if (encoder_report_due & (uint8_t)(1u << s))
+        e->report_count = e->count + (uint32_t)(int32_t)e->report_moved;
+    e->count += (uint32_t)(int32_t)e->moved;
+    e->moved = 0;
+    *low = e->edge_low;
+    *sub = e->edge_sub;
+    e->fresh = 0;
+    return fresh;
 }
 
-/* slot, count, invalid, edge_us of slot s at p (count and time as latched) */
-static uint8_t *put(uint8_t *p, uint8_t s, uint32_t count, uint16_t invalid, uint32_t ticks, uint8_t sub)
+/* Main loop: fold slot s; the time conversion after interrupts are back on. */
+static void fold(uint8_t s)
+{
+    uint16_t low;
+    uint8_t sub, fresh, st = hal_irq_save();
+    fresh = fold_locked(s, &low, &sub);
+    BARRIER();
+    hal_irq_restore(st);
+    if (fresh) {
+        encoder_slots[s].edge_us = hal_stamp_us(low, sub);
+        if (!encoder_slots[s].edge_us)
+            encoder_slots[s].edge_us = 1; /* 0 means "no edge yet" */
+    }
+}
+
+/* slot, count, invalid, edge_us of slot s at p */
+static uint8_t *put(uint8_t *p, uint8_t s, uint32_t count, uint16_t invalid, uint32_t edge_us)
 {
     *p++ = s;
     p = aio_put32(p, count);
     p = aio_put16(p, invalid);
-    return aio_put32(p, stamp_us(ticks, sub));
+    return aio_put32(p, edge_us);
 }
 
 void encoder_poll(void)
 {
-    uint8_t due = encoder_report_due, s, st, sub;
+    uint8_t due, s, st;
     uint8_t frame[AIO_REPLY_LEN_EVENT_ENCODER_REPORT + 2u + AIO_CHECK_MAX];
-    uint32_t count, ticks;
     uint16_t invalid;
 
+    for (s = 0; s < SLOTS; s++)
+        if (encoder_slots[s].mask_a)
+            fold(s);
+    due = encoder_report_due;
     if (!due)
         return;
     for (s = 0; s < SLOTS; s++) {
@@ -98,15 +129,12 @@ void encoder_poll(void)
             continue;
         st = hal_irq_save();
         encoder_report_due &= (uint8_t)~(1u << s);
-        count = encoder_slots[s].count;
         invalid = encoder_slots[s].invalid;
-        ticks = encoder_slots[s].edge_ticks;
-        sub = encoder_slots[s].edge_sub;
         BARRIER();
         hal_irq_restore(st);
         frame[0] = AIO_CT_EVENT;
         frame[1] = AIO_DT_EVENT_ENCODER_REPORT;
-        put(frame + 2, s, count, invalid, ticks, sub);
+        put(frame + 2, s, encoder_slots[s].report_count, invalid, encoder_slots[s].edge_us);
         hal_tx_send(frame, parser_seal(frame, (uint8_t)(2u + AIO_REPLY_LEN_EVENT_ENCODER_REPORT)));
         /* dropped if it does not fit: the next report's count shows it */
     }
@@ -117,7 +145,8 @@ uint16_t encoder_pcint_mask(void) { return pc_mask; }
 int32_t encoder_peek(uint8_t slot)
 {
     uint8_t st = hal_irq_save();
-    int32_t c = encoder_slots[slot].mask_a ? (int32_t)encoder_slots[slot].count : 0;
+    encoder_slot_t *e = &encoder_slots[slot];
+    int32_t c = e->mask_a ? (int32_t)(e->count + (uint32_t)(int32_t)e->moved) : 0;
     BARRIER();
     hal_irq_restore(st);
     return c;
@@ -152,6 +181,7 @@ static void route(void)
         if ((encoder_int_slot[s] != NO_SLOT) != (ints[s] != NO_SLOT))
             hal_encoder_int(s, ints[s] != NO_SLOT);
         encoder_int_slot[s] = ints[s];
+        encoder_int_ptr[s] = ints[s] == NO_SLOT ? 0 : &encoder_slots[ints[s]];
     }
     hal_irq_restore(st);
 }
@@ -184,6 +214,7 @@ void encoder_init(void)
     encoder_report_due = 0;
     pc_mask = 0;
     encoder_int_slot[0] = encoder_int_slot[1] = NO_SLOT;
+    encoder_int_ptr[0] = encoder_int_ptr[1] = 0;
     hal_encoder_int(0, 0);
     hal_encoder_int(1, 0);
 }
@@ -230,9 +261,10 @@ static uint8_t configure(const uint8_t *d)
                                                          encoder_slots[s].mask_b) << 2);
     encoder_slots[s].table = table_of(mode);
     encoder_slots[s].count = 0;
+    encoder_slots[s].moved = 0;
+    encoder_slots[s].fresh = 0;
     encoder_slots[s].invalid = 0;
-    encoder_slots[s].edge_ticks = 0;
-    encoder_slots[s].edge_sub = 0;
+    encoder_slots[s].edge_us = 0;
     encoder_slots[s].every = encoder_slots[s].since = 0;
     BARRIER();
     hal_irq_restore(st);
@@ -240,25 +272,34 @@ static uint8_t configure(const uint8_t *d)
     return 0;
 }
 
-/* slot, count, invalid, edge_us of slot s at p; then (PRESET) the new count. */
+/* count, invalid, edge_us of slot s at p; then (PRESET) the new count. */
 static uint8_t *put_state(uint8_t *p, uint8_t s, const uint8_t *preset)
 {
-    uint8_t st = hal_irq_save();
-    uint32_t count = encoder_slots[s].count;
-    uint16_t invalid = encoder_slots[s].invalid;
-    uint32_t ticks = encoder_slots[s].edge_ticks;
-    uint8_t sub = encoder_slots[s].edge_sub;
+    uint8_t st, sub, fresh;
+    uint16_t invalid, low;
+    uint32_t count;
+
+    fold(s); /* the time of an edge before now */
+    st = hal_irq_save();
+    fresh = fold_locked(s, &low, &sub); /* and the counts up to now */
+    count = encoder_slots[s].count;
+    invalid = encoder_slots[s].invalid;
     if (preset) {
         encoder_slots[s].count = (uint32_t)preset[0] << 24 | (uint32_t)preset[1] << 16 |
-                       (uint32_t)preset[2] << 8 | preset[3];
+                                 (uint32_t)preset[2] << 8 | preset[3];
         encoder_slots[s].invalid = 0;
         encoder_slots[s].since = 0;
     }
     BARRIER();
     hal_irq_restore(st);
+    if (fresh) {
+        encoder_slots[s].edge_us = hal_stamp_us(low, sub);
+        if (!encoder_slots[s].edge_us)
+            encoder_slots[s].edge_us = 1; /* 0 means "no edge yet" */
+    }
     p = aio_put32(p, count);
     p = aio_put16(p, invalid);
-    return aio_put32(p, stamp_us(ticks, sub));
+    return aio_put32(p, encoder_slots[s].edge_us);
 }
 
 uint8_t encoder_handle(const aio_request_t *rq, aio_reply_t *rp)

@@ -17,22 +17,32 @@
 #define AIO_ENC_TABLE_Q
 #endif
 
-/* One slot, as the interrupt keeps it (encoder.c says why each field). */
+/* One slot.  The interrupt keeps only 16-bit fields (a short interrupt with
+ * few registers to save); encoder_poll() folds them into the 32-bit count and
+ * the microsecond time on every main-loop pass, long before they could wrap
+ * (32,767 counts: 0.3 s at 100,000 edges/s; the stamp: 3 s). */
 typedef struct {
-    uint32_t count;          /* two's complement: it wraps, as the i32 on the wire */
-    uint32_t edge_ticks;     /* hal_stamp of the last edge that changed the count */
-    uint8_t edge_sub;
     uint8_t state;           /* bit 4: last direction forward; bits 2-3: position */
+    uint8_t fresh;           /* an edge stamped since the last fold */
+    int16_t moved;           /* counts since the last fold */
+    uint16_t edge_low;       /* hal_stamp of the last edge that changed the count */
+    uint8_t edge_sub;
     uint16_t invalid;
     uint16_t mask_a, mask_b; /* the pins' bits in hal_pin_levels(); 0: slot free */
     const AIO_ENC_TABLE_Q uint8_t *table; /* the mode's transition table */
     uint16_t every, since;   /* WATCH: a report every `every` counts moved */
+    int16_t report_moved;    /* `moved` when the report came due */
+    /* main loop (under hal_irq_save for what a stream sample reads) */
+    uint32_t count;          /* folded count, two's complement: wraps as the i32 on the wire */
+    uint32_t edge_us;        /* folded edge time (0: none yet) */
+    uint32_t report_count;
     uint8_t pin_a, pin_b;
 } encoder_slot_t;
 
 extern encoder_slot_t encoder_slots[AIO_ENCODER_SLOTS];
 extern volatile uint8_t encoder_pc_slots;  /* bit s: slot s has a pin-change pin */
 extern volatile uint8_t encoder_int_slot[2]; /* slot on INT0 (D2) / INT1 (D3), or 0xFF */
+extern encoder_slot_t *volatile encoder_int_ptr[2]; /* the same slots (NULL: none) */
 extern volatile uint8_t encoder_report_due; /* bit s: slot s owes a report (main loop) */
 
 void encoder_init(void);
@@ -49,13 +59,12 @@ void encoder_poll(void);
 /* Interrupt context: slot s sees `levels` (bit n = Dn).  The table entry of
  * (last direction, last position, new position) gives the count's change + 2
  * (bits 0-2), an invalid transition (bit 3) and the new direction (bit 4). */
-static inline __attribute__((always_inline)) void encoder_step(uint8_t s, uint16_t levels)
+static inline __attribute__((always_inline)) void encoder_step_at(encoder_slot_t *e, uint8_t s,
+                                                                 uint16_t levels)
 {
-    encoder_slot_t *e = &encoder_slots[s];
     uint8_t g = (uint8_t)(((levels & e->mask_b) ? 2u : 0u) | ((levels & e->mask_a) ? 1u : 0u));
     uint8_t pos = (uint8_t)(g ^ (g >> 1)); /* B << 1 | A is the position's Gray code */
     uint8_t t = e->table[e->state | pos], d;
-    uint32_t ticks;
     if (!(t & 0x20u))
         return; /* no change */
     e->state = (uint8_t)((t & 0x10u) | (uint8_t)(pos << 2));
@@ -64,16 +73,22 @@ static inline __attribute__((always_inline)) void encoder_step(uint8_t s, uint16
     d = t & 7u;
     if (d == 2u)
         return; /* a step that does not count in this mode */
-    e->count += (uint32_t)((int32_t)d - 2);
-    hal_stamp(&ticks, &e->edge_sub);
-    e->edge_ticks = ticks;
+    e->moved = (int16_t)(e->moved + (int8_t)(d - 2u));
+    hal_stamp(&e->edge_low, &e->edge_sub);
+    e->fresh = 1;
     if (e->every) {
         e->since = (uint16_t)(e->since + (d > 2u ? d - 2u : 2u - d));
         if (e->since >= e->every) {
             e->since = 0;
+            e->report_moved = e->moved;
             encoder_report_due |= (uint8_t)(1u << s);
         }
     }
+}
+
+static inline __attribute__((always_inline)) void encoder_step(uint8_t s, uint16_t levels)
+{
+    encoder_step_at(&encoder_slots[s], s, levels);
 }
 
 /* Interrupt context: a pin-change interrupt with the levels of D2-D13 now. */
@@ -93,9 +108,9 @@ static inline __attribute__((always_inline)) void encoder_pin_change(uint16_t le
 /* Interrupt context: INT0 (index 0, D2) or INT1 (index 1, D3) saw a change. */
 static inline __attribute__((always_inline)) void encoder_int(uint8_t index, uint16_t levels)
 {
-    uint8_t s = encoder_int_slot[index];
-    if (s < AIO_ENCODER_SLOTS)
-        encoder_step(s, levels);
+    encoder_slot_t *e = encoder_int_ptr[index];
+    if (e)
+        encoder_step_at(e, encoder_int_slot[index], levels);
 }
 
 #endif

@@ -121,10 +121,11 @@ void hal_counter_disable(uint8_t index);
 void hal_encoder_int(uint8_t index, uint8_t on);
 
 /* ---- timestamps for interrupt handlers (encoder.c) ---- */
-/* The tick count and the tick timer's count now, in a few cycles (interrupt
- * context: interrupts off); hal_stamp_us() turns them into hal_micros()'s
- * microseconds later, outside the interrupt. */
-void hal_stamp(uint32_t *ticks, uint8_t *sub);
-uint32_t hal_stamp_us(uint32_t ticks, uint8_t sub);
+/* The low 16 bits of the tick count and the tick timer's count now, in a few
+ * cycles (interrupt context: interrupts off); hal_stamp_us() turns them into
+ * hal_micros()'s microseconds later, outside the interrupt, within 3 s (the
+ * tick count's upper bits are the clock's then). */
+void hal_stamp(uint16_t *ticks, uint8_t *sub);
+uint32_t hal_stamp_us(uint16_t ticks, uint8_t sub);
 
 #endif /* HAL_H */

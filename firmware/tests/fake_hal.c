@@ -415,11 +415,16 @@ void hal_counter_disable(uint8_t index) { fake_counter_enabled[index] = 0; }
 
 void hal_encoder_int(uint8_t index, uint8_t on) { fake_encoder_int[index] = on; }
 
-void hal_stamp(uint32_t *ticks, uint8_t *sub)
+void hal_stamp(uint16_t *ticks, uint8_t *sub)
 {
     uint64_t us = fake_fine_now / HAL_FINE_PER_US; /* as hal_micros() */
-    *ticks = (uint32_t)(us / 100u);
+    *ticks = (uint16_t)(us / 100u);
     *sub = (uint8_t)(us % 100u * 2u);
 }
 
-uint32_t hal_stamp_us(uint32_t ticks, uint8_t sub) { return ticks * 100u + sub / 2u; }
+uint32_t hal_stamp_us(uint16_t ticks, uint8_t sub)
+{
+    uint32_t now = (uint32_t)(fake_fine_now / HAL_FINE_PER_US / 100u);
+    now -= (uint32_t)(int32_t)(int16_t)(uint16_t)((uint16_t)now - ticks);
+    return now * 100u + sub / 2u;
+}
