@@ -43,7 +43,7 @@ import weakref
 from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from anyio.from_thread import BlockingPortal, start_blocking_portal
 
@@ -64,6 +64,10 @@ from .handles import (
 from .motors import DutyPwm, Motor
 from .protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin, SoftPwmPin
 from .streaming import Sample, SampleStream
+
+if TYPE_CHECKING:
+    from ._sync_encoders import BlockingEncoder
+    from .encoders import ModeName
 
 T = TypeVar("T")
 
@@ -381,6 +385,15 @@ class BlockingBoard(_Blocking):
         """An event counter on D2 or D3 counting ``edge`` edges, from zero."""
         handle = self._runner.call(lambda: self.handle.counter(pin, edge=edge))
         return BlockingCounter(self._runner, handle)
+
+    def encoder(
+        self, a: DigitalPin, b: DigitalPin, *, mode: ModeName | int = "x4", slot: int | None = None
+    ) -> BlockingEncoder:
+        """A quadrature encoder on any two digital pins (see ``Board.encoder``)."""
+        from ._sync_encoders import BlockingEncoder
+
+        handle = self._runner.call(lambda: self.handle.encoder(a, b, mode=mode, slot=slot))
+        return BlockingEncoder(self._runner, handle)
 
     def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> BlockingI2CBus:
         """Turn on the I2C bridge on A4/A5 at ``speed`` (100 or 400 kHz)."""

@@ -8,11 +8,17 @@ never the library's own answer.  The long soak (10**6 edges at the highest rate)
 
 from __future__ import annotations
 
-import anyio
-import pytest
+import io
 
-from arduinoio_async import D2, D3, D4, D5, D7, D8, D9, D12
+import anyio
+import anyio.from_thread
+import anyio.to_thread
+import pytest
+from rich.console import Console
+
+from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D12, sync
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import PinRoleError
 from arduinoio_async.sim import QuadratureGenerator, VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -146,3 +152,29 @@ async def test_pin_roles_name_the_other_user(virtual_uno_factory: VirtualUnoFact
         assert again.slot == 0
         with anyio.fail_after(5):
             await again.read()
+
+
+async def test_cli_and_blocking_api(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """``arduinoio encoder`` prints the count and frees both pins; the blocking twin counts
+    what the generator drove."""
+    uno = await virtual_uno_factory(baud=1_000_000)
+    await start_low(uno, "D6", "D7")
+    buffer = io.StringIO()
+    argv = ["encoder", "D6", "D7", "--seconds", "0.4", "--interval", "0.2"]
+    argv += ["--port", uno.port, "--baud", str(uno.baud)]
+    code = await anyio.to_thread.run_sync(
+        lambda: cli_main(argv, console=Console(file=buffer, width=200))
+    )
+    out = buffer.getvalue()
+    assert code == 0, out
+    assert "encoder D6/D7 x4: count 0" in out and out.count("invalid 0") == 2
+
+    def script() -> tuple[int, int]:
+        with sync.open_board(uno.port, baudrate=uno.baud) as board:
+            enc = board.encoder(D6, D7, mode="x2")  # the CLI released both pins
+            anyio.from_thread.run(lambda: uno.quadrature("D6", "D7", edges=501, rate=5_000))
+            position = anyio.from_thread.run(uno.wait_quadrature)[0].position
+            return enc.count(), position
+
+    count, position = await anyio.to_thread.run_sync(script)
+    assert count == floor_div(position + 1, 2)
