@@ -24,10 +24,12 @@
  *
  * The decoding itself is encoder_step() in encoder.h, inlined into the
  * interrupt vectors: one table lookup per edge (the mode's transition table
- * below, in flash).  A report that comes due is only marked there; the main
- * loop sends it (encoder_poll), so the interrupt makes no call.  A report due
- * again before the main loop sent the previous one replaces it: the host sees
- * the count jump (EncoderReports.missed).
+ * below, in flash), 16-bit fields only.  The main loop (encoder_poll, every
+ * pass: each interrupt ends one) folds them into the 32-bit count and the
+ * microsecond edge time, and sends the reports: the distance moved between
+ * passes is added up, and a report goes at `every` (or the edge or two
+ * after it), with the count then.  Keeping reports out of the interrupt saved
+ * 5 of its 18 register pushes.
  */
 #include "encoder.h"
 
@@ -42,7 +44,6 @@ encoder_slot_t encoder_slots[SLOTS];
 volatile uint8_t encoder_pc_slots;
 volatile uint8_t encoder_int_slot[2];
 encoder_slot_t *volatile encoder_int_ptr[2];
-volatile uint8_t encoder_report_due;
 static uint16_t pc_mask; /* the pins on pin-change interrupts */
 
 /* Main-loop reads of the interrupt's fields happen between hal_irq_save()
@@ -71,36 +72,20 @@ static uint8_t position(uint16_t levels, uint16_t mask_a, uint16_t mask_b)
     return (uint8_t)(g ^ (g >> 1));
 }
 
-/* Interrupts off: the interrupt's 16-bit fields into the 32-bit count (and,
- * for a report that came due, the count it came due at); returns whether an
- * edge was stamped since, its stamp in *low / *sub. */
-static uint8_t fold_locked(uint8_t s, uint16_t *low, uint8_t *sub)
+/* Interrupts off: the interrupt's 16-bit fields into the 32-bit count;
+ * returns whether an edge was stamped since, its stamp in *low / *sub, and
+ * the counts moved in *moved. */
+static uint8_t fold_locked(uint8_t s, uint16_t *low, uint8_t *sub, int16_t *moved)
 {
     encoder_slot_t *e = &encoder_slots[s];
     uint8_t fresh = e->fresh;
-    if (encoder_report_due & (uint8_t)(1u << s))
-        e->report_count = e->count + (uint32_t)(int32_t)e->report_moved;
+    *moved = e->moved;
     e->count += (uint32_t)(int32_t)e->moved;
     e->moved = 0;
     *low = e->edge_low;
     *sub = e->edge_sub;
     e->fresh = 0;
     return fresh;
-}
-
-/* Main loop: fold slot s; the time conversion after interrupts are back on. */
-static void fold(uint8_t s)
-{
-    uint16_t low;
-    uint8_t sub, fresh, st = hal_irq_save();
-    fresh = fold_locked(s, &low, &sub);
-    BARRIER();
-    hal_irq_restore(st);
-    if (fresh) {
-        encoder_slots[s].edge_us = hal_stamp_us(low, sub);
-        if (!encoder_slots[s].edge_us)
-            encoder_slots[s].edge_us = 1; /* 0 means "no edge yet" */
-    }
 }
 
 /* slot, count, invalid, edge_us of slot s at p */
@@ -112,32 +97,54 @@ static uint8_t *put(uint8_t *p, uint8_t s, uint32_t count, uint16_t invalid, uin
     return aio_put32(p, edge_us);
 }
 
+/* Main loop: an EncoderReport of slot s (just folded). */
+static void report(uint8_t s)
+{
+    uint8_t frame[AIO_REPLY_LEN_EVENT_ENCODER_REPORT + 2u + AIO_CHECK_MAX];
+    encoder_slot_t *e = &encoder_slots[s];
+    uint16_t invalid;
+    uint8_t st = hal_irq_save();
+    invalid = e->invalid;
+    BARRIER();
+    hal_irq_restore(st);
+    e->since = 0;
+    frame[0] = AIO_CT_EVENT;
+    frame[1] = AIO_DT_EVENT_ENCODER_REPORT;
+    put(frame + 2, s, e->count, invalid, e->edge_us);
+    hal_tx_send(frame, parser_seal(frame, (uint8_t)(2u + AIO_REPLY_LEN_EVENT_ENCODER_REPORT)));
+    /* dropped if it does not fit: the next report's count shows it */
+}
+
+/* Main loop: fold slot s; the time conversion after interrupts are back on. */
+static void fold(uint8_t s)
+{
+    encoder_slot_t *e = &encoder_slots[s];
+    uint16_t low;
+    int16_t moved;
+    uint8_t sub, fresh, st = hal_irq_save();
+    fresh = fold_locked(s, &low, &sub, &moved);
+    BARRIER();
+    hal_irq_restore(st);
+    if (fresh) {
+        e->edge_us = hal_stamp_us(low, sub);
+        if (!e->edge_us)
+            e->edge_us = 1; /* 0 means "no edge yet" */
+    }
+    if (e->every && moved) {
+        /* the distance moved between two passes of the main loop (~100 us apart at
+         * most): a report when `every` has been reached, with the count then */
+        e->since = (uint16_t)(e->since + (uint16_t)(moved < 0 ? -moved : moved));
+        if (e->since >= e->every)
+            report(s);
+    }
+}
+
 void encoder_poll(void)
 {
-    uint8_t due, s, st;
-    uint8_t frame[AIO_REPLY_LEN_EVENT_ENCODER_REPORT + 2u + AIO_CHECK_MAX];
-    uint16_t invalid;
-
+    uint8_t s;
     for (s = 0; s < SLOTS; s++)
         if (encoder_slots[s].mask_a)
             fold(s);
-    due = encoder_report_due;
-    if (!due)
-        return;
-    for (s = 0; s < SLOTS; s++) {
-        if (!(due >> s & 1u))
-            continue;
-        st = hal_irq_save();
-        encoder_report_due &= (uint8_t)~(1u << s);
-        invalid = encoder_slots[s].invalid;
-        BARRIER();
-        hal_irq_restore(st);
-        frame[0] = AIO_CT_EVENT;
-        frame[1] = AIO_DT_EVENT_ENCODER_REPORT;
-        put(frame + 2, s, encoder_slots[s].report_count, invalid, encoder_slots[s].edge_us);
-        hal_tx_send(frame, parser_seal(frame, (uint8_t)(2u + AIO_REPLY_LEN_EVENT_ENCODER_REPORT)));
-        /* dropped if it does not fit: the next report's count shows it */
-    }
 }
 
 uint16_t encoder_pcint_mask(void) { return pc_mask; }
@@ -194,7 +201,6 @@ static void detach(uint8_t s)
     st = hal_irq_save();
     encoder_slots[s].mask_a = encoder_slots[s].mask_b = 0;
     encoder_slots[s].every = 0;
-    encoder_report_due &= (uint8_t)~(1u << s);
     BARRIER();
     hal_irq_restore(st);
     route();
@@ -211,7 +217,6 @@ void encoder_init(void)
         encoder_slots[s].every = 0;
     }
     encoder_pc_slots = 0;
-    encoder_report_due = 0;
     pc_mask = 0;
     encoder_int_slot[0] = encoder_int_slot[1] = NO_SLOT;
     encoder_int_ptr[0] = encoder_int_ptr[1] = 0;
@@ -277,11 +282,12 @@ static uint8_t *put_state(uint8_t *p, uint8_t s, const uint8_t *preset)
 {
     uint8_t st, sub, fresh;
     uint16_t invalid, low;
+    int16_t moved;
     uint32_t count;
 
     fold(s); /* the time of an edge before now */
     st = hal_irq_save();
-    fresh = fold_locked(s, &low, &sub); /* and the counts up to now */
+    fresh = fold_locked(s, &low, &sub, &moved); /* and the counts up to now */
     count = encoder_slots[s].count;
     invalid = encoder_slots[s].invalid;
     if (preset) {

@@ -30,12 +30,10 @@ typedef struct {
     uint16_t invalid;
     uint16_t mask_a, mask_b; /* the pins' bits in hal_pin_levels(); 0: slot free */
     const AIO_ENC_TABLE_Q uint8_t *table; /* the mode's transition table */
-    uint16_t every, since;   /* WATCH: a report every `every` counts moved */
-    int16_t report_moved;    /* `moved` when the report came due */
+    uint16_t every, since;   /* WATCH (main loop): a report every `every` counts moved */
     /* main loop (under hal_irq_save for what a stream sample reads) */
     uint32_t count;          /* folded count, two's complement: wraps as the i32 on the wire */
     uint32_t edge_us;        /* folded edge time (0: none yet) */
-    uint32_t report_count;
     uint8_t pin_a, pin_b;
 } encoder_slot_t;
 
@@ -43,7 +41,6 @@ extern encoder_slot_t encoder_slots[AIO_ENCODER_SLOTS];
 extern volatile uint8_t encoder_pc_slots;  /* bit s: slot s has a pin-change pin */
 extern volatile uint8_t encoder_int_slot[2]; /* slot on INT0 (D2) / INT1 (D3), or 0xFF */
 extern encoder_slot_t *volatile encoder_int_ptr[2]; /* the same slots (NULL: none) */
-extern volatile uint8_t encoder_report_due; /* bit s: slot s owes a report (main loop) */
 
 void encoder_init(void);
 uint8_t encoder_handle(const aio_request_t *rq, aio_reply_t *rp);
@@ -76,14 +73,7 @@ static inline __attribute__((always_inline)) void encoder_step_at(encoder_slot_t
     e->moved = (int16_t)(e->moved + (int8_t)(d - 2u));
     hal_stamp(&e->edge_low, &e->edge_sub);
     e->fresh = 1;
-    if (e->every) {
-        e->since = (uint16_t)(e->since + (d > 2u ? d - 2u : 2u - d));
-        if (e->since >= e->every) {
-            e->since = 0;
-            e->report_moved = e->moved;
-            encoder_report_due |= (uint8_t)(1u << s);
-        }
-    }
+    (void)s; /* reports: encoder_poll() (main loop), so the interrupt stays short */
 }
 
 static inline __attribute__((always_inline)) void encoder_step(uint8_t s, uint16_t levels)

@@ -119,8 +119,10 @@ class EncoderWatch(_Watch, Request[EncoderWatchReply]):
 
 @event_frame(0x07)
 class EncoderReport(_SlotState, Event):
-    """A watched encoder moved another ``every`` counts (sent from its interrupt).
+    """A watched encoder moved another ``every`` counts (either way).
 
-    A report the transmit buffer had no room for is dropped, which the next report's
-    count shows; ``edge_us`` is the time of the edge that completed the ``every``.
+    Sent by the board's main loop, which adds up the distance moved between its passes
+    (every interrupt ends one, so at most a few edges late): the count is the count then,
+    ``every`` or a little more past the previous report's.  A report the transmit buffer
+    had no room for is dropped, which the next report's count shows.
     """
