@@ -100,7 +100,7 @@ async def measure(baud: int, search_edges: int, soak_edges: int) -> dict[str, An
             tg.start_soon(consume)
             tg.start_soon(hammer, board, stop)
             best = 0.0
-            for aggregate in (20_000, 30_000, 40_000, 50_000, 60_000, 80_000, 100_000, 120_000):
+            for aggregate in (20_000, 25_000, 30_000, 40_000, 50_000, 60_000, 80_000, 100_000):
                 row = await run_rate(uno, encoders, aggregate, search_edges // 2, seed=aggregate)
                 rows.append(row)
                 print(row, flush=True)

@@ -43,7 +43,6 @@
 encoder_slot_t encoder_slots[SLOTS];
 volatile uint8_t encoder_pc_slots;
 volatile uint8_t encoder_int_slot[2];
-encoder_slot_t *volatile encoder_int_ptr[2];
 static uint16_t pc_mask; /* the pins on pin-change interrupts */
 
 /* Main-loop reads of the interrupt's fields happen between hal_irq_save()
@@ -188,7 +187,6 @@ static void route(void)
         if ((encoder_int_slot[s] != NO_SLOT) != (ints[s] != NO_SLOT))
             hal_encoder_int(s, ints[s] != NO_SLOT);
         encoder_int_slot[s] = ints[s];
-        encoder_int_ptr[s] = ints[s] == NO_SLOT ? 0 : &encoder_slots[ints[s]];
     }
     hal_irq_restore(st);
 }
@@ -219,7 +217,6 @@ void encoder_init(void)
     encoder_pc_slots = 0;
     pc_mask = 0;
     encoder_int_slot[0] = encoder_int_slot[1] = NO_SLOT;
-    encoder_int_ptr[0] = encoder_int_ptr[1] = 0;
     hal_encoder_int(0, 0);
     hal_encoder_int(1, 0);
 }

@@ -40,7 +40,6 @@ typedef struct {
 extern encoder_slot_t encoder_slots[AIO_ENCODER_SLOTS];
 extern volatile uint8_t encoder_pc_slots;  /* bit s: slot s has a pin-change pin */
 extern volatile uint8_t encoder_int_slot[2]; /* slot on INT0 (D2) / INT1 (D3), or 0xFF */
-extern encoder_slot_t *volatile encoder_int_ptr[2]; /* the same slots (NULL: none) */
 
 void encoder_init(void);
 uint8_t encoder_handle(const aio_request_t *rq, aio_reply_t *rp);
@@ -56,9 +55,9 @@ void encoder_poll(void);
 /* Interrupt context: slot s sees `levels` (bit n = Dn).  The table entry of
  * (last direction, last position, new position) gives the count's change + 2
  * (bits 0-2), an invalid transition (bit 3) and the new direction (bit 4). */
-static inline __attribute__((always_inline)) void encoder_step_at(encoder_slot_t *e, uint8_t s,
-                                                                 uint16_t levels)
+static inline __attribute__((always_inline)) void encoder_step(uint8_t s, uint16_t levels)
 {
+    encoder_slot_t *e = &encoder_slots[s]; /* s is a constant: direct addresses */
     uint8_t g = (uint8_t)(((levels & e->mask_b) ? 2u : 0u) | ((levels & e->mask_a) ? 1u : 0u));
     uint8_t pos = (uint8_t)(g ^ (g >> 1)); /* B << 1 | A is the position's Gray code */
     uint8_t t = e->table[e->state | pos], d;
@@ -74,11 +73,6 @@ static inline __attribute__((always_inline)) void encoder_step_at(encoder_slot_t
     hal_stamp(&e->edge_low, &e->edge_sub);
     e->fresh = 1;
     (void)s; /* reports: encoder_poll() (main loop), so the interrupt stays short */
-}
-
-static inline __attribute__((always_inline)) void encoder_step(uint8_t s, uint16_t levels)
-{
-    encoder_step_at(&encoder_slots[s], s, levels);
 }
 
 /* Interrupt context: a pin-change interrupt with the levels of D2-D13 now. */
@@ -98,9 +92,23 @@ static inline __attribute__((always_inline)) void encoder_pin_change(uint16_t le
 /* Interrupt context: INT0 (index 0, D2) or INT1 (index 1, D3) saw a change. */
 static inline __attribute__((always_inline)) void encoder_int(uint8_t index, uint16_t levels)
 {
-    encoder_slot_t *e = encoder_int_ptr[index];
-    if (e)
-        encoder_step_at(e, encoder_int_slot[index], levels);
+    /* one case per slot: constant addresses (lds/sts), no pointer arithmetic */
+    switch (encoder_int_slot[index]) {
+    case 0:
+        encoder_step(0, levels);
+        break;
+    case 1:
+        encoder_step(1, levels);
+        break;
+    case 2:
+        encoder_step(2, levels);
+        break;
+    case 3:
+        encoder_step(3, levels);
+        break;
+    default:
+        break;
+    }
 }
 
 #endif
