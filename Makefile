@@ -109,7 +109,7 @@ $(PEER_VENV)/.installed: benchmarks/peers/requirements.txt
 
 bench-peers: setup firmware sim $(PEER_VENV)/.installed
 	@command -v npm >/dev/null || { $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
-	$(BIN)/python benchmarks/peers/peer_bench.py --json benchmarks/results/peers.json \
+	$(BIN)/python -m benchmarks.peers.peer_bench --json benchmarks/results/peers.json \
 	  --doc docs/performance.md --readme README.md
 
 clean:

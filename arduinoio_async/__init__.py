@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import importlib
 import logging
+from contextlib import AbstractAsyncContextManager
 from typing import TYPE_CHECKING, Any
 
-from . import errors, protocol
+from . import _schemes, errors, protocol
+from ._version import __version__
 from .errors import (
     ArduinoIOError,
     BoardDisconnectedError,
@@ -64,9 +66,21 @@ from .protocol.pins import (
 # application's handlers (``logging.basicConfig`` and the like) still see every record.
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
+
+def _open_remote(address: str, **options: Any) -> AbstractAsyncContextManager[Any]:
+    """``Board.open("zenoh://...")``: the board layer hands the network's addresses to the
+    one opener, which sits above it (imported here, on first use, to keep this cheap)."""
+    from .opener import open_board
+
+    return open_board(address, **options)
+
+
+for _scheme in ("zenoh",):  # opener.REMOTE_SCHEMES, without importing it
+    _schemes.register(_scheme, _open_remote)
+
 if TYPE_CHECKING:
     from .board import Board, FailsafeConfig
-    from .handles import (
+    from .board.handles import (
         AnalogInput,
         Counter,
         DigitalInput,
@@ -78,39 +92,38 @@ if TYPE_CHECKING:
         Servo,
         SoftPwm,
     )
+    from .board.motors import DutyPwm, Motor
+    from .board.streaming import Sample, SampleStream
     from .manager import BoardManager, ManagerEvent, ProbeResult
-    from .motors import DutyPwm, Motor
+    from .opener import open_board
     from .protocol import I2CSpeed
     from .sim import VirtualUno
-    from .streaming import Sample, SampleStream
     from .testing import FakeBoard
-
-#: The package version (the only place it is written; pyproject.toml reads it from here).
-__version__ = "0.1.0"
 
 #: Public name -> the module that defines it, imported on first access.
 _LAZY = {
     "Board": ".board",
     "FailsafeConfig": ".board",
-    "AnalogInput": ".handles",
-    "Counter": ".handles",
-    "DigitalInput": ".handles",
-    "DigitalOutput": ".handles",
-    "Gpio": ".handles",
-    "I2CBus": ".handles",
-    "PinState": ".handles",
-    "PulseOutput": ".handles",
-    "Servo": ".handles",
-    "SoftPwm": ".handles",
+    "AnalogInput": ".board.handles",
+    "Counter": ".board.handles",
+    "DigitalInput": ".board.handles",
+    "DigitalOutput": ".board.handles",
+    "Gpio": ".board.handles",
+    "I2CBus": ".board.handles",
+    "PinState": ".board.handles",
+    "PulseOutput": ".board.handles",
+    "Servo": ".board.handles",
+    "SoftPwm": ".board.handles",
     "BoardManager": ".manager",
-    "DutyPwm": ".motors",
-    "Motor": ".motors",
+    "DutyPwm": ".board.motors",
+    "Motor": ".board.motors",
     "ManagerEvent": ".manager",
     "ProbeResult": ".manager",
+    "open_board": ".opener",
     "I2CSpeed": ".protocol",
     "VirtualUno": ".sim",
-    "Sample": ".streaming",
-    "SampleStream": ".streaming",
+    "Sample": ".board.streaming",
+    "SampleStream": ".board.streaming",
     "FakeBoard": ".testing",
 }
 
@@ -194,5 +207,6 @@ __all__ = [
     "WatchLostError",
     "__version__",
     "errors",
+    "open_board",
     "protocol",
 ]

@@ -58,7 +58,6 @@ __all__ = [
     "harness_source_dir",
     "harness_sources",
     "packaged_firmware_dir",
-    "project_path",
     "source_tree",
 ]
 
@@ -96,15 +95,6 @@ def source_tree() -> Path | None:
     if (root / "firmware" / "src").is_dir() and (root / "pyproject.toml").is_file():
         return root
     return None
-
-
-def project_path(relative: str) -> Path:
-    """A file of the project's source tree, for the generators (C header, spec tables).
-
-    In a clone it is under the clone's root; from an installed package, under the working
-    directory (run the generators from a clone's root), never inside site-packages.
-    """
-    return (source_tree() or Path.cwd()) / relative
 
 
 def firmware_image(baud: int, kind: str = "hex") -> Path:

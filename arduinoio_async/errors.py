@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 __all__ = [
     "ArduinoIOError",
@@ -152,12 +152,23 @@ def describe_request(request: object) -> str:
     return f"{type(request).__name__}({', '.join(fields)})"
 
 
+#: Says a request in words.  The words live beside the command table
+#: (:mod:`arduinoio_async.protocol.commands.descriptions`), which imports this module and
+#: registers itself here when the protocol package is imported, as it is before any request
+#: exists; until then a request is said by its repr.
+_request_words: Callable[[object], str] = repr
+
+
+def set_request_words(describe: Callable[[object], str]) -> None:
+    """Say requests in words with ``describe`` (the protocol's command table calls it)."""
+    global _request_words
+    _request_words = describe
+
+
 def request_in_words(request: object) -> str:
     """ "make D4 a digital output (initially high)": what ``request`` asks, completing "the
-    board refused to ..." (the words live beside the command table)."""
-    from .protocol.commands.descriptions import describe  # the protocol imports this module
-
-    return describe(request)
+    board refused to ..."."""
+    return _request_words(request)
 
 
 def _pin_name(request: object) -> str:

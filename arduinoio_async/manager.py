@@ -13,25 +13,26 @@ that could not be opened at all (another process holds it, it is not there yet, 
 permission) sent and heard nothing: it is tried again at every scan, and why it is
 skipped is logged once per reason, not at every scan.
 
-Each board that answers gets a supervisor task: it runs the transport, re-tags the
-board's session and replays its pin configuration whenever it meets a fresh boot of the
-board, and polls the board's status on a heartbeat.  A session that reads 0 (or anything
-but what was set) means the board reset by itself; it is restored on the spot.  When the
-port is lost, pending calls fail at once (the transport does that), the :class:`Board`
-object is detached, and the scan loop goes on looking; when the board turns up again on
-any port, the *same* ``Board`` and its handles are re-attached after the restore.
+Each board that answers gets a supervisor task (:mod:`._supervisor`, shared with the
+remote client): it runs the transport, re-tags the board's session and replays its pin
+configuration whenever it meets a fresh boot of the board, and polls the board's status
+on a heartbeat.  A session that reads 0 (or anything but what was set) means the board
+reset by itself; it is restored on the spot.  When the port is lost, pending calls fail
+at once (the transport does that), the :class:`Board` object is detached, and the scan
+loop goes on looking; when the board turns up again on any port, the *same* ``Board``
+and its handles are re-attached after the restore.
 """
 
 from __future__ import annotations
 
+import argparse
 import glob
 import logging
 import os
-from collections.abc import Awaitable, Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import AsyncExitStack
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Literal
 
 import anyio
 import anyio.abc
@@ -39,14 +40,22 @@ from serial.tools import list_ports
 
 from . import protocol as p
 from ._port_registry import registered_ports
+from ._supervisor import (
+    Events,
+    LinkOutcome,
+    ManagerEvent,
+    attach_board,
+    retry_forever,
+    supervise_link,
+)
 from .board import READY_TIMEOUT, Board
 from .errors import (
     ArduinoIOError,
-    BoardIdChangedError,
     BoardNotFoundError,
     DuplicateBoardError,
 )
-from .transport import DEFAULT_TIMEOUT, LinkState, Transport, open_serial_stream
+from .transport import DEFAULT_TIMEOUT, Transport, open_serial_stream
+from .transport._bridges import DISCOVERY_IDS
 from .transport._ready import wait_ready
 
 __all__ = [
@@ -64,16 +73,9 @@ logger = logging.getLogger(__name__)
 #: Deployments list ports here: paths or glob patterns separated by ``os.pathsep`` or ",".
 ENV_PORTS = "ARDUINOIO_PORTS"
 
-#: (vendor ID, product ID or None for any) of the USB serial bridges Unos ship with.
-USB_IDS: tuple[tuple[int, int | None], ...] = (
-    (0x2341, None),  # Arduino SA (Uno R3's ATmega16U2 and others)
-    (0x2A03, None),  # Arduino.org
-    (0x1A86, 0x7523),  # WCH CH340
-    (0x1A86, 0x55D4),  # WCH CH9102
-    (0x0403, None),  # FTDI
-    (0x10C4, 0xEA60),  # Silicon Labs CP210x
-    (0x03EB, 0x2FEF),  # Atmel ATmega16U2 DFU / clones
-)
+#: (vendor ID, product ID or None for any) of the USB devices probed: the bridges boards
+#: ship with (``transport._bridges.BRIDGES``) and Arduino's other devices.
+USB_IDS: tuple[tuple[int, int | None], ...] = DISCOVERY_IDS
 
 RESCAN_INTERVAL = 1.0
 
@@ -93,14 +95,16 @@ class ProbeResult:
         return self.board_id is not None and not self.error
 
 
-@dataclass(frozen=True, slots=True)
-class ManagerEvent:
-    """A change: connected, disconnected, reset (restored), failsafe (re-armed), duplicate."""
-
-    kind: Literal["connected", "disconnected", "reset", "failsafe", "duplicate"]
-    board_id: int
-    port: str
-    detail: str = ""
+def add_ports_option(parser: argparse.ArgumentParser) -> None:
+    """``--ports PATH_OR_GLOB`` (repeatable) into ``args.ports``: the ``patterns`` of a
+    :class:`BoardManager`, for every command that scans (board commands, serve, monitor)."""
+    parser.add_argument(
+        "--ports",
+        action="append",
+        default=[],
+        metavar="PATH_OR_GLOB",
+        help=f"also probe these ports (repeatable; {ENV_PORTS} works too)",
+    )
 
 
 def _env_patterns() -> list[str]:
@@ -147,29 +151,6 @@ def candidate_ports(
     return list(seen)
 
 
-async def attach_board(
-    boards: dict[int, Board],
-    board_id: int,
-    link: Transport,
-    on_new: Callable[[Board], Awaitable[object]] | None = None,
-) -> Board:
-    """The ``Board`` of ``board_id`` on ``link``: made on first sight, else re-attached.
-
-    Re-attaching keeps the caller's ``Board`` object and restores its pin roles, modes
-    and failsafe on the new link (after a replug, a reset, or -- remotely -- a server
-    restart); a new board is first handed to ``on_new`` (the manager sets its modes).
-    """
-    board = boards.get(board_id)
-    if board is None:
-        board = await Board.from_link(link)
-        if on_new is not None:
-            await on_new(board)
-        boards[board_id] = board
-    else:
-        await board.adopt(link)
-    return board
-
-
 @dataclass
 class _Known:
     """A port the manager has dealt with: held by a board, or known not to be one."""
@@ -201,8 +182,7 @@ class BoardManager:
     _known: dict[str, _Known] = field(default_factory=dict, init=False)
     _duplicates: dict[int, set[str]] = field(default_factory=dict, init=False)
     _extra_ports: list[str] = field(default_factory=list, init=False)
-    _listeners: list[Callable[[ManagerEvent], None]] = field(default_factory=list, init=False)
-    _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
+    _events: Events = field(default_factory=lambda: Events(logger), init=False)
     _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
     _exit_stack: AsyncExitStack | None = field(default=None, init=False)
     _scan_lock: anyio.Lock = field(default_factory=anyio.Lock, init=False)
@@ -223,9 +203,15 @@ class BoardManager:
             self._task_group = await stack.enter_async_context(anyio.create_task_group())
             await self.scan()
             if self.rescan_interval is not None:
-                self._task_group.start_soon(
-                    self._rescan_forever, self.rescan_interval, name="arduinoio manager scan"
+                rescan = partial(
+                    retry_forever,
+                    self.scan,
+                    pause=self.rescan_interval,
+                    what="scan",
+                    log=logger,
+                    pause_first=True,
                 )
+                self._task_group.start_soon(rescan, name="arduinoio manager scan")
         except BaseException:
             if self._task_group is not None:
                 self._task_group.cancel_scope.cancel()
@@ -266,8 +252,7 @@ class BoardManager:
 
     def subscribe(self, callback: Callable[[ManagerEvent], None]) -> Callable[[], None]:
         """Call ``callback`` on every connect, disconnect, reset and duplicate."""
-        self._listeners.append(callback)
-        return lambda: self._listeners.remove(callback)
+        return self._events.subscribe(callback)
 
     async def get(self, board_id: int, *, timeout: float | None = None) -> Board:
         """The board with ``board_id``, waiting up to ``timeout`` for it to connect.
@@ -300,7 +285,7 @@ class BoardManager:
             board = self._boards.get(board_id)
             if board is not None and board.connected:
                 return board
-            await self._changed.wait()
+            await self._events.changed()
 
     async def scan(self) -> dict[str, ProbeResult]:
         """Probe every new candidate port concurrently; return what each answered."""
@@ -343,33 +328,8 @@ class BoardManager:
         if ports:
             raise DuplicateBoardError(board_id, ports)
 
-    def _wake(self) -> None:
-        """Wake every waiter (wait_connected) to look at the boards again."""
-        changed, self._changed = self._changed, anyio.Event()
-        changed.set()
-
-    def _emit(self, event: ManagerEvent) -> None:
-        logger.info(
-            "board 0x%04X %s on %s%s",
-            event.board_id,
-            event.kind,
-            event.port,
-            f" ({event.detail})" if event.detail else "",
-        )
-        self._wake()
-        for callback in list(self._listeners):
-            try:
-                callback(event)
-            except Exception:  # a listener's bug must not stop the supervisor
-                logger.exception("manager listener %r failed on %r", callback, event)
-
     async def _choose_modes(self, board: Board) -> None:
         await board.choose_low_latency(self.low_latency)
-
-    async def _rescan_forever(self, interval: float) -> None:
-        while True:
-            await anyio.sleep(interval)
-            await self.scan()
 
     async def _probe_and_attach(self, port: str, results: dict[str, ProbeResult]) -> None:
         try:
@@ -402,7 +362,7 @@ class BoardManager:
             results[port] = self._remember(
                 ProbeResult(port, board_id, error=f"duplicate of {holder}")
             )
-            self._emit(ManagerEvent("duplicate", board_id, port, f"also on {holder}"))
+            self._events.emit(ManagerEvent("duplicate", board_id, port, f"also on {holder}"))
             return
         self._claims[board_id] = port
         result = ProbeResult(port, board_id)
@@ -424,30 +384,12 @@ class BoardManager:
         *,
         task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED,
     ) -> None:
-        """Run one board's link: attach and restore, heartbeat, detach when it is lost."""
-        board = self._boards.get(board_id)
-        started = False
-        detail = ""
-        rekeyed: str | None = None
-        closed = anyio.Event()
-        link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
-        try:
-            async with link:
-                board = await attach_board(self._boards, board_id, link, on_new=self._choose_modes)
-                self._emit(ManagerEvent("connected", board_id, link.name))
-                task_status.started()
-                started = True
-                rekeyed = await self._heartbeat(board, link, closed)
-                detail = rekeyed or await self._close_reason(link)
-        except ArduinoIOError as exc:
-            # The port failed mid-handshake or went away: it is forgotten below, so the
-            # next scan probes it afresh.
-            detail = str(exc) or type(exc).__name__
-        finally:
-            if board is not None:
-                board.detach(link)
+        """Run one board's link (see :func:`supervise_link`) and keep the books on it."""
+
+        def forget(outcome: LinkOutcome) -> None:
             self._known.pop(link.name, None)
             self._rekey()
+            board = outcome.board
             for key in {board_id, board.board_id if board is not None else board_id}:
                 if self._claims.get(key) == link.name:
                     del self._claims[key]
@@ -456,60 +398,23 @@ class BoardManager:
             self._duplicates = {
                 bid: ports for bid, ports in self._duplicates.items() if len(ports) > 1
             }
-            if board is not None:
-                self._emit(ManagerEvent("disconnected", board.board_id, link.name, detail))
-            if rekeyed and self._task_group is not None:
+            if outcome.rekeyed and self._task_group is not None:
                 # Probed afresh at once: attached under the ID it answers to now.
                 self._task_group.start_soon(self.scan)
-            if not started:
-                failure = ProbeResult(link.name, board_id, error=detail or "handshake failed")
-                self._failed[link.name] = failure
+            if not outcome.started:
+                # The port failed mid-handshake or went away: it is forgotten above, so
+                # the next scan probes it afresh.
+                detail = outcome.detail or "handshake failed"
+                self._failed[link.name] = ProbeResult(link.name, board_id, error=detail)
                 logger.warning("board 0x%04X on %s not attached: %s", board_id, link.name, detail)
                 task_status.started()
 
-    @staticmethod
-    async def _close_reason(link: Transport) -> str:
-        """Why ``link`` closed: a request on a closed link fails with the close error."""
-        try:
-            await link.request(p.ReadStatus())
-        except ArduinoIOError as exc:
-            return str(exc) or type(exc).__name__
-        return "the link closed"
-
-    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> str | None:
-        """Keep the board's link alive; restore after a reset, re-arm after a failsafe trip.
-
-        Returns why the link was given up when the board came back under another ID (it
-        is another board then: the port is probed again and attached under its new ID,
-        and the old board's roles are not replayed on it), else None once the link closed.
-        """
-        rekeyed: list[str] = []
-
-        async def restore_after_reset() -> None:
-            self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
-            try:
-                await board.adopt(link)
-            except BoardIdChangedError as exc:
-                logger.warning("%s", exc)
-                rekeyed.append(str(exc))
-                await link.aclose()
-                return
-            self._wake()  # connected again: wait_connected() returns
-
-        async def rearm_after_trip() -> None:
-            if board.failsafe is None:
-                # Armed by someone else (a served client): nothing of ours to re-arm.  The
-                # trip was logged once when noticed; the keepalive asks at every heartbeat.
-                return
-            self._emit(ManagerEvent("failsafe", board.board_id, link.name, "re-arming"))
-            await board.rearm_failsafe(restore=True)
-
-        async with anyio.create_task_group() as tg:
-            tg.start_soon(
-                partial(
-                    board.keepalive, link, on_reset=restore_after_reset, on_trip=rearm_after_trip
-                )
-            )
-            await closed.wait()
-            tg.cancel_scope.cancel()
-        return rekeyed[0] if rekeyed else None
+        await supervise_link(
+            board_id,
+            link,
+            self._boards,
+            self._events,
+            on_new=self._choose_modes,
+            on_started=task_status.started,
+            on_end=forget,
+        )

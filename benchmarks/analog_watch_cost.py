@@ -6,7 +6,7 @@ the median of the block medians and their spread.
 An ANALOG READ may wait for a watch conversion in flight (at most 104 us, one in five
 ticks); a READ ID never waits for the ADC.
 
-    .venv/bin/python benchmarks/analog_watch_cost.py
+    .venv/bin/python -m benchmarks.analog_watch_cost
 """
 
 from __future__ import annotations

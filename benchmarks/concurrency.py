@@ -7,14 +7,12 @@ the harness counts the edges the pin really made (the fixture, not the library).
 wire order = call order every call is an edge; each call that overtakes another costs
 edges.  Also counted: timeouts at the default timeout, and the rate against one task.
 
-    .venv/bin/python benchmarks/concurrency.py --json benchmarks/results/concurrency.json
+    .venv/bin/python -m benchmarks.concurrency --json benchmarks/results/concurrency.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -25,6 +23,8 @@ from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardTimeoutError, LinkError
 from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, report
 
 PIN = DigitalPin(2)
 
@@ -67,7 +67,7 @@ async def measure(args: argparse.Namespace) -> dict[str, Any]:
         window_edges, window_s, window_calls = await run(12)
         many_edges, many_s, many_calls = await run(args.tasks)
     return {
-        "command": "benchmarks/concurrency.py " + " ".join(sys.argv[1:]),
+        "command": command_line(),
         "baud": args.baud,
         "tasks": args.tasks,
         "single_task": {
@@ -99,10 +99,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     result = anyio.run(measure, args)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    report(result, args.json)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 
 Two measurements, both on virtual Unos at ``--baud`` (default 1,000,000):
 
-* **Wrong answers** (``--soak``): the soak of ``benchmarks/soak.py`` (many tasks, every
+* **Wrong answers** (``--soak``): the soak of ``benchmarks.soak`` (many tasks, every
   answer checked against the harness's fixture, never against the library) with
   ``--fault`` line faults (each of drop, insert and flip per board->host byte), run for
   ``--commands`` calls in CRC-16 framing and ``--xor-commands`` in XOR framing.
@@ -18,7 +18,7 @@ Recorded, never asserted; ``--record`` read-modify-writes only the keys ``crc_wr
 ``crc_wrong_1e2_commands``, ``crc_cost_pct`` and ``crc_link`` of
 ``benchmarks/results/link.json`` (other benchmarks write other keys there)::
 
-    .venv/bin/python benchmarks/crc_link.py --soak --cost --commands 1000000 \\
+    .venv/bin/python -m benchmarks.crc_link --soak --cost --commands 1000000 \\
         --xor-commands 1000000 --record
 """
 
@@ -28,16 +28,11 @@ import argparse
 import json
 import os
 import statistics
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import anyio
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import soak as soak_bench
 
 from arduinoio_async import D4, Board, LinkError
 from arduinoio_async import protocol as p
@@ -45,7 +40,8 @@ from arduinoio_async.protocol.session import Session
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.transport import FRAMING_ENV
 
-LINK_JSON = Path(__file__).resolve().parent / "results" / "link.json"
+from . import soak as soak_bench
+from ._results import LINK_JSON, command_line, merge_result, report
 
 
 def set_framing(name: str) -> None:
@@ -61,7 +57,7 @@ async def run_soak(framing: str, commands: int, args: argparse.Namespace) -> dic
         baud=args.baud,
         fault=args.fault,
         seed=args.seed,
-        argv=[f"(crc_link.py --framing {framing})"],
+        timeout=None,
     )
     result = await soak_bench.soak(ns)
     result["framing"] = framing
@@ -220,7 +216,7 @@ async def run_cost(args: argparse.Namespace) -> dict[str, Any]:
 
 async def main_async(args: argparse.Namespace) -> dict[str, Any]:
     result: dict[str, Any] = {
-        "command": "benchmarks/crc_link.py " + " ".join(args.argv),
+        "command": command_line(),
         "baud": args.baud,
         "load_at_start": os.getloadavg(),
     }
@@ -237,16 +233,18 @@ async def main_async(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def record(result: dict[str, Any]) -> None:
-    """Read-modify-write of this benchmark's keys only."""
-    data = json.loads(LINK_JSON.read_text()) if LINK_JSON.exists() else {}
-    if "soak_crc16" in result:
-        data["crc_wrong_1e2"] = result["soak_crc16"]["wrong_answers"]
-        data["crc_wrong_1e2_commands"] = result["soak_crc16"]["commands"]
-    if "cost" in result:
-        cost = result["cost"]
-        data["crc_cost_pct"] = max(cost["latency_cost_pct"], cost["throughput_cost_pct"])
-    data.setdefault("crc_link", {}).update(result)
-    LINK_JSON.write_text(json.dumps(data, indent=2) + "\n")
+    """Merge this benchmark's keys into link.json (other keys stay as they are)."""
+
+    def update(data: dict[str, Any]) -> None:
+        if "soak_crc16" in result:
+            data["crc_wrong_1e2"] = result["soak_crc16"]["wrong_answers"]
+            data["crc_wrong_1e2_commands"] = result["soak_crc16"]["commands"]
+        if "cost" in result:
+            cost = result["cost"]
+            data["crc_cost_pct"] = max(cost["latency_cost_pct"], cost["throughput_cost_pct"])
+        data.setdefault("crc_link", {}).update(result)
+
+    merge_result(LINK_JSON, update)
 
 
 def main() -> None:
@@ -267,15 +265,11 @@ def main() -> None:
     parser.add_argument("--record-from", type=Path, help="record a result saved with --json")
     parser.add_argument("--record", action="store_true", help=f"update {LINK_JSON}")
     args = parser.parse_args()
-    args.argv = sys.argv[1:]
     if args.record_from:
         record(json.loads(args.record_from.read_text()))
         return
     result = anyio.run(main_async, args)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    report(result, args.json)
     if args.record:
         record(result)
 

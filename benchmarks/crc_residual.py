@@ -8,7 +8,7 @@ one sent?  That is ``P(wrong | one insertion)``, the factor the derivation multi
 the fault rate.  The same for an insertion and a drop in one frame (the length is
 right again, nothing is left over), sampled.  XOR framing for comparison.
 
-    .venv/bin/python benchmarks/crc_residual.py --json benchmarks/results/crc_residual.json
+    .venv/bin/python -m benchmarks.crc_residual --json benchmarks/results/crc_residual.json
 """
 
 from __future__ import annotations
@@ -16,13 +16,14 @@ from __future__ import annotations
 import argparse
 import json
 import random
-import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 from arduinoio_async import protocol as p
 from arduinoio_async.protocol._bounds import TEMPERATURE_RAW_RANGE
+
+from ._results import command_line, write_result
 
 
 def crc_ok(raw: bytes) -> bool:
@@ -116,7 +117,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     rnd = random.Random(args.seed)
-    result: dict[str, Any] = {"command": "benchmarks/crc_residual.py " + " ".join(sys.argv[1:])}
+    result: dict[str, Any] = {"command": command_line()}
     for name, make in (
         ("AnalogReadReply", analog_frames),
         ("ReadTemperatureReply", temperature_frames),
@@ -133,7 +134,7 @@ def main() -> None:
         }
         print(name, json.dumps(result[name]), flush=True)
     if args.json:
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        write_result(args.json, result, indent=2)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Fast links without a bridge: one request's round trip, and pipelined writes per second.
 
-Issue 13's "no bridge" goals: sequential read ID p50 at most 0.15 ms at 2,000,000 baud
+The "no bridge" speed goals: sequential read ID p50 at most 0.15 ms at 2,000,000 baud
 through the library, and the host's share of pipelined write-pin at least 28,000/s.
 
 *Round trips* (``await board.read_id()`` one after another): on one virtual Uno per baud
@@ -8,11 +8,12 @@ rate, three clients take turns in rounds whose order rotates every round, so a b
 neighbour on the shared machine slows all of them alike: bare pyserial
 (``write(3)`` + ``read(5)``, blocking, the floor any Python client pays), a minimal asyncio
 client (a reader callback resolving one future: the event loop's own floor) and the
-library.  Each round opens its client afresh (the port is exclusive), warms up, then takes
-``--samples`` round trips.  Reported: p10/p50/p90 of all samples, and the per-round
-medians' range as the spread.  ``--compare-harness PATH`` runs the same clients on a
-second virtual Uno from another harness binary (an older build) in the same rotation,
-so a harness change is measured before/after under the same load.
+library (the reference clients of :mod:`arduinoio_async.bench.clients`).  Each round
+opens its client afresh (the port is exclusive), warms up, then takes ``--samples``
+round trips.  Reported: p10/p50/p90 of all samples (:mod:`arduinoio_async.bench.stats`),
+and the per-round medians' range as the spread.  ``--compare-harness PATH`` runs the
+same clients on a second virtual Uno from another harness binary (an older build) in the
+same rotation, so a harness change is measured before/after under the same load.
 
 ``--cpu-idle both`` runs every client (round trips and pipelined) once with the CPUs'
 default idle states and once held out of deep idle states (PM QoS, see
@@ -21,7 +22,8 @@ of this VM takes ~70 us to wake, several times per round trip, and the figures r
 which condition they were measured under.
 
 *Pipelined writes* (``--tasks`` tasks each ``await gpio.write(...)`` in a loop) against
-responder processes on pseudo-terminals (:func:`serve`): one that answers at once, many
+responder processes on pseudo-terminals
+(:func:`arduinoio_async.bench.responder.pty_responder`): one that answers at once, many
 replies per write (what the library alone can do, syscalls included), and one paced like
 a firmware doing ``--paced-rate`` commands a second, each reply in its own write (the
 host then wakes for every reply, as with the virtual Uno); and against the virtual Uno
@@ -30,172 +32,42 @@ interleave all of them; reported: median writes/s with the range, and the librar
 CPU time per write (this thread's ``time.thread_time``: the host's own share, which a
 busy neighbour on the shared machine disturbs far less than the wall-clock rate).
 
-    .venv/bin/python benchmarks/fast_link.py --cpu-idle both \
+    .venv/bin/python -m benchmarks.fast_link --cpu-idle both \
         --json benchmarks/results/fast_link.json
 """
 
 from __future__ import annotations
 
 import argparse
-import asyncio
-import collections
 import json
 import os
-import select
-import statistics
-import subprocess
-import sys
 import time
-from collections.abc import Awaitable, Callable, Iterator
-from contextlib import AsyncExitStack, contextmanager
-from dataclasses import fields
+from contextlib import AsyncExitStack
 from pathlib import Path
 from typing import Any
 
 import anyio
-import serial
 
-from arduinoio_async import protocol as p
 from arduinoio_async.bench import cpu_idle
+from arduinoio_async.bench.clients import CLIENTS
 from arduinoio_async.bench.cpu_idle import ShallowCpuIdle
-from arduinoio_async.bench.responder import reply_table
+from arduinoio_async.bench.responder import pty_responder
+from arduinoio_async.bench.stats import median, percentile
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
 
+from ._results import command_line, write_result
+
 PIN = DigitalPin(4)
 
 
-def serve(fd: int, interval: float) -> None:
-    """A board stand-in on pty master ``fd`` (a child process): the handshake from
-    ``reply_table``, and every request whose reply echoes its fields (GPIO configure and
-    write, SetSession) answered by echoing them.
-
-    ``interval`` 0: answers at once, the replies to all the requests one read brought in
-    one write.  Otherwise like a board whose firmware takes ``interval`` seconds per
-    command: each reply in its own write, ``interval`` after the previous one (or when
-    its request arrives, if later); the wait is a busy loop, as a sleep would wake tens
-    of microseconds late.
-    """
-    table = reply_table()
-    decoder = p.Decoder.from_host()
-    memo: dict[bytes, bytes] = {}
-    due: collections.deque[bytes] = collections.deque()
-    next_at = 0.0
-    os.set_blocking(fd, interval == 0)
-    while True:
-        try:
-            data = os.read(fd, 65536)
-        except BlockingIOError:
-            data = None
-        except OSError:
-            return
-        if data == b"":
-            return
-        if data:
-            for frame in decoder.feed(data):
-                if not isinstance(frame, p.Request):
-                    continue
-                raw = frame.encode()
-                reply = memo.get(raw)
-                if reply is None:
-                    reply = table.get(raw)
-                    if reply is None:
-                        echoed = [getattr(frame, f.name) for f in fields(frame)]  # type: ignore[arg-type]
-                        reply = frame.REPLY(*echoed).encode()
-                    memo[raw] = reply
-                due.append(reply)
-        if interval == 0:
-            if due:
-                os.write(fd, b"".join(due))
-                due.clear()
-            continue
-        now = time.perf_counter()
-        if not due:
-            next_at = max(next_at, now)
-            select.select([fd], [], [], 0.05)
-            continue
-        if now >= next_at:
-            os.write(fd, due.popleft())
-            next_at = max(next_at + interval, now - interval)
-
-
-def _bare_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
-    """Blocking pyserial round trips (run in a worker thread); microseconds."""
-    request = p.ReadId().encode()
-    port = serial.Serial(port_path, baud, timeout=1.0, exclusive=True)
-    try:
-        rtts = []
-        for index in range(warmup + samples):
-            start = time.perf_counter_ns()
-            port.write(request)
-            if len(port.read(5)) != 5:
-                raise RuntimeError(f"{port_path}: no reply to READ ID")
-            if index >= warmup:
-                rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return rtts
-    finally:
-        port.close()
-
-
-async def _minimal_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
-    """The event loop's floor: os.write, then a reader callback resolves a future."""
-    loop = asyncio.get_running_loop()
-    port = serial.Serial(port_path, baud, timeout=0, exclusive=True)
-    fd = port.fd
-    request = p.ReadId().encode()
-    waiting: list[asyncio.Future[None]] = []
-    received = [0]
-
-    def readable() -> None:
-        received[0] += len(os.read(fd, 256))
-        if received[0] >= 5 and waiting:
-            received[0] -= 5
-            waiting.pop().set_result(None)
-
-    loop.add_reader(fd, readable)
-    try:
-        rtts = []
-        with anyio.fail_after(10 + (warmup + samples) / 1000):  # one scope: no cost per trip
-            for index in range(warmup + samples):
-                future = loop.create_future()
-                waiting.append(future)
-                start = time.perf_counter_ns()
-                os.write(fd, request)
-                await future
-                if index >= warmup:
-                    rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return rtts
-    finally:
-        loop.remove_reader(fd)
-        port.close()
-
-
-async def _library_round(port_path: str, baud: int, samples: int, warmup: int) -> list[float]:
-    async with Board.open(port_path, baudrate=baud) as board:
-        rtts = []
-        for index in range(warmup + samples):
-            start = time.perf_counter_ns()
-            await board.read_id()
-            if index >= warmup:
-                rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return rtts
-
-
 def _percentiles(values: list[float]) -> dict[str, float]:
-    deciles = statistics.quantiles(values, n=10)
     return {
-        "p10": round(deciles[0], 1),
-        "p50": round(statistics.median(values), 1),
-        "p90": round(deciles[8], 1),
+        "p10": round(percentile(values, 0.1), 1),
+        "p50": round(percentile(values, 0.5), 1),
+        "p90": round(percentile(values, 0.9), 1),
     }
-
-
-_CLIENTS: dict[str, Callable[[str, int, int, int], Awaitable[list[float]]]] = {
-    "bare_pyserial": lambda *a: anyio.to_thread.run_sync(_bare_round, *a),
-    "minimal_asyncio": _minimal_round,
-    "library": _library_round,
-}
 
 
 async def round_trips(
@@ -222,14 +94,14 @@ async def round_trips(
             for key, binary in harnesses.items()
         }
         before = {key: await uno.status() for key, uno in unos.items()}
-        order = [(key, client, cond) for key in unos for client in _CLIENTS for cond in conditions]
+        order = [(key, client, cond) for key in unos for client in CLIENTS for cond in conditions]
         for index in range(rounds):
             shift = index % len(order)
             for key, client, cond in order[shift:] + order[:shift]:
                 idle.set(cond)
-                rtts = await _CLIENTS[client](unos[key].port, baud, samples, warmup)
-                pooled.setdefault((key, client, cond), []).extend(rtts)
-                medians.setdefault((key, client, cond), []).append(statistics.median(rtts))
+                got = await CLIENTS[client](unos[key].port, baud, samples, warmup)
+                pooled.setdefault((key, client, cond), []).extend(got.rtts_us)
+                medians.setdefault((key, client, cond), []).append(median(got.rtts_us))
         idle.release()
         for key, uno in unos.items():
             after = await uno.status()
@@ -243,7 +115,7 @@ async def round_trips(
         under = out["cpu_idle"].setdefault(cond, {})
         for key in harnesses:
             part = under if not key else under.setdefault(key, {"binary": str(compare)})
-            for client in _CLIENTS:
+            for client in CLIENTS:
                 values = medians[(key, client, cond)]
                 part[client] = {
                     **_percentiles(pooled[(key, client, cond)]),
@@ -279,23 +151,6 @@ async def _write_rate(port_path: str, baud: int, calls: int, tasks: int) -> tupl
         return calls / (time.perf_counter() - begin), cpu / calls * 1e6
 
 
-@contextmanager
-def _responder(interval: float) -> Iterator[str]:
-    """A :func:`serve` child process on a fresh pseudo-terminal; yields its port."""
-    master, slave = os.openpty()
-    child = subprocess.Popen(
-        [sys.executable, __file__, "--serve", str(master), "--serve-interval", str(interval)],
-        pass_fds=(master,),
-    )
-    os.close(master)
-    try:
-        yield os.ttyname(slave)
-    finally:
-        os.close(slave)
-        child.terminate()
-        child.wait()
-
-
 async def pipelined(
     bauds: list[int],
     rounds: int,
@@ -309,8 +164,8 @@ async def pipelined(
     paced = f"responder_paced_{paced_rate:.0f}_per_s"
     ports: dict[str, tuple[str, int]] = {}
     async with AsyncExitStack() as stack:
-        ports["responder_instant"] = (stack.enter_context(_responder(0.0)), 2_000_000)
-        ports[paced] = (stack.enter_context(_responder(1 / paced_rate)), 2_000_000)
+        ports["responder_instant"] = (stack.enter_context(pty_responder(0.0)), 2_000_000)
+        ports[paced] = (stack.enter_context(pty_responder(1 / paced_rate)), 2_000_000)
         for baud in bauds:
             uno = await stack.enter_async_context(VirtualUno(board_id=1, baud=baud))
             ports[f"virtual_uno_{baud}"] = (uno.port, baud)
@@ -342,11 +197,11 @@ async def pipelined(
 
 def _rate_figures(rates: list[float], cpu: list[float]) -> dict[str, Any]:
     return {
-        "writes_per_s_median": round(statistics.median(rates)),
+        "writes_per_s_median": round(median(rates)),
         "writes_per_s_range": [round(min(rates)), round(max(rates))],
-        "library_cpu_us_per_write_median": round(statistics.median(cpu), 2),
+        "library_cpu_us_per_write_median": round(median(cpu), 2),
         "library_cpu_us_per_write_range": [round(min(cpu), 2), round(max(cpu), 2)],
-        "writes_per_library_cpu_second": round(1e6 / statistics.median(cpu)),
+        "writes_per_library_cpu_second": round(1e6 / median(cpu)),
     }
 
 
@@ -354,7 +209,7 @@ async def measure(
     args: argparse.Namespace, idle: ShallowCpuIdle, conditions: list[str]
 ) -> dict[str, Any]:
     result: dict[str, Any] = {
-        "command": " ".join(["benchmarks/fast_link.py", *sys.argv[1:]]),
+        "command": command_line(),
         "cpus": os.cpu_count(),
         "load_average_before": os.getloadavg(),
         "round_trips_us": [],
@@ -399,16 +254,11 @@ def main() -> None:
     )
     cpu_idle.add_option(parser, interleave=True)
     parser.add_argument("--json", type=Path)
-    parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the responder child
-    parser.add_argument("--serve-interval", type=float, default=0.0, help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.serve is not None:
-        serve(args.serve, args.serve_interval)
-        return
     idle, conditions = cpu_idle.conditions(parser, args.cpu_idle)
     result = anyio.run(measure, args, idle, conditions)
     if args.json:
-        args.json.write_text(json.dumps(result, indent=1) + "\n")
+        write_result(args.json, result)
 
 
 if __name__ == "__main__":

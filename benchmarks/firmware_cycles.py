@@ -1,4 +1,4 @@
-"""Exact firmware cycle counts (issue 13, items 5 and 7), no host and no wall clock.
+"""Exact firmware cycle counts, no host and no wall clock.
 
 Builds ``benchmarks/firmware_cycles.c`` against libsimavr and runs it on each ELF:
 
@@ -19,7 +19,7 @@ Builds ``benchmarks/firmware_cycles.c`` against libsimavr and runs it on each EL
 The virtual Uno (``benchmarks/firmware_wire_speed.py``) measures the same through a pty
 and pyserial, paced to the wall clock; on a loaded machine that measures the host.
 
-    .venv/bin/python benchmarks/firmware_cycles.py --elf before=/tmp/old-2000000.elf \\
+    .venv/bin/python -m benchmarks.firmware_cycles --elf before=/tmp/old-2000000.elf \\
         --elf after=firmware/build/arduinoio-2000000.elf --json benchmarks/results/x.json
 """
 
@@ -28,10 +28,11 @@ from __future__ import annotations
 import argparse
 import json
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from ._results import command_line, write_result
 
 HERE = Path(__file__).resolve().parent
 
@@ -123,8 +124,7 @@ def main() -> None:
             print(name, json.dumps(results[name]), flush=True)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        record = {"command": "benchmarks/firmware_cycles.py " + " ".join(sys.argv[1:])}
-        args.json.write_text(json.dumps(record | {"results": results}, indent=1) + "\n")
+        write_result(args.json, {"command": command_line(), "results": results})
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Pipelined GPIO WRITE through the virtual Uno's pty (issue 13, item 5).
+"""Pipelined GPIO WRITE through the virtual Uno's pty.
 
 The host keeps ``--window`` write-pin requests in flight (raw pyserial, no library, so
 the host is never the limit) and counts simulated CPU cycles with the harness's
@@ -15,7 +15,7 @@ host (pyserial, the pty hops) must keep the window full for the figure to be the
 firmware's; on a loaded machine it is not, and the exact, host-free count is
 ``benchmarks/firmware_cycles.py``.
 
-    .venv/bin/python benchmarks/firmware_wire_speed.py --elf old=/tmp/old.elf \\
+    .venv/bin/python -m benchmarks.firmware_wire_speed --elf old=/tmp/old.elf \\
         --elf new=firmware/build/arduinoio-2000000.elf --baud 2000000 --rounds 5
 """
 
@@ -33,6 +33,8 @@ import serial
 
 from arduinoio_async import protocol as p
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, write_result
 
 PIN = 13
 
@@ -111,20 +113,17 @@ async def main(args: argparse.Namespace) -> None:
     print(json.dumps(summary, indent=1))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(
-            json.dumps(
-                {
-                    "command": "benchmarks/firmware_wire_speed.py " + " ".join(args.argv),
-                    "baud": args.baud,
-                    "n": args.n,
-                    "window": args.window,
-                    "elfs": elfs,
-                    "summary": summary,
-                    "runs": runs,
-                },
-                indent=1,
-            )
-            + "\n"
+        write_result(
+            args.json,
+            {
+                "command": command_line(),
+                "baud": args.baud,
+                "n": args.n,
+                "window": args.window,
+                "elfs": elfs,
+                "summary": summary,
+                "runs": runs,
+            },
         )
 
 

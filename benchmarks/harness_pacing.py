@@ -6,17 +6,15 @@ more than 50 ms behind the wall clock and gave up catching up (``rebases``) and 
 lag.  That depends on how many cores the machine can spare, so it is measured here and
 recorded, not asserted in the test suite (which checks that every command is answered).
 
-    .venv/bin/python benchmarks/harness_pacing.py --boards 8 --rounds 3 \\
+    .venv/bin/python -m benchmarks.harness_pacing --boards 8 --rounds 3 \\
         --json benchmarks/results/harness_pacing.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -26,6 +24,8 @@ import serial
 
 from arduinoio_async import protocol as p
 from arduinoio_async.sim import find_firmware_elf, start_virtual_unos
+
+from ._results import command_line, write_result
 
 
 def bursts(port: str, baud: int, seconds: float, burst: int, period: float) -> int:
@@ -97,7 +97,7 @@ async def main() -> None:
         )
     lags = [r["max_lag_us"] for r in rounds]
     summary = {
-        "command": " ".join(["benchmarks/harness_pacing.py", *sys.argv[1:]]),
+        "command": command_line(),
         "cpus": os.cpu_count(),
         "load_average": os.getloadavg(),
         "rounds": rounds,
@@ -110,7 +110,7 @@ async def main() -> None:
         f"median {summary['max_lag_us_median']:.0f} us ({min(lags):.0f}-{max(lags):.0f})"
     )
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=1) + "\n")
+        write_result(args.json, summary)
 
 
 if __name__ == "__main__":

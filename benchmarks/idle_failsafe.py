@@ -22,14 +22,13 @@ load).  Several fault levels may run at once (one process each); each adds its l
 ``failsafe_false_trips_not_after_host_stall``)
 (read-modify-write of these keys only, under a lock: other benchmarks own other keys)::
 
-    chrt -r 10 .venv/bin/python benchmarks/idle_failsafe.py --fault 1e-3 --seconds 600 \\
+    chrt -r 10 .venv/bin/python -m benchmarks.idle_failsafe --fault 1e-3 --seconds 600 \\
         --json benchmarks/results/link.json
 """
 
 from __future__ import annotations
 
 import argparse
-import fcntl
 import json
 import os
 import sys
@@ -42,6 +41,8 @@ import anyio
 from arduinoio_async import D4
 from arduinoio_async.manager import BoardManager, ManagerEvent
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, merge_result
 
 BOARD_ID = 0x0028
 #: How often the fixture's D4 capture is read while idling (costs the host nothing).
@@ -77,7 +78,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
 
     async with (
         VirtualUno(board_id=BOARD_ID, baud=args.baud, seed=args.seed) as uno,
-        BoardManager(ports=[uno.port], usb=False, env=False) as boards,
+        BoardManager(ports=[uno.port], usb=False, env=False, registered=False) as boards,
         anyio.create_task_group() as watchers,
     ):
         boards.subscribe(on_event)
@@ -154,7 +155,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def command(argv: list[str]) -> str:
     """The command line that ran this, ``chrt`` included when the host ran real-time."""
-    line = ".venv/bin/python benchmarks/idle_failsafe.py " + " ".join(argv)
+    line = command_line(argv)
     policy = os.sched_getscheduler(0)
     if policy in (os.SCHED_RR, os.SCHED_FIFO):
         flag = "-r" if policy == os.SCHED_RR else "-f"
@@ -172,13 +173,9 @@ def scheduling() -> str:
 
 
 def record(path: Path, level: dict[str, Any]) -> None:
-    """Add this level to ``path``'s failsafe keys; every other key is left as it was
-    (the file itself is locked for the read-modify-write: runs may end together)."""
-    with open(path, "a+") as file:
-        fcntl.flock(file, fcntl.LOCK_EX)
-        file.seek(0)
-        text = file.read()
-        data = json.loads(text) if text.strip() else {}
+    """Add this level to ``path``'s failsafe keys; every other key is left as it was."""
+
+    def update(data: dict[str, Any]) -> None:
         detail = data.get("failsafe_false_trips_detail", {})
         detail[f"{level['fault_probability']:g}"] = level
         data["failsafe_false_trips_detail"] = detail
@@ -188,9 +185,8 @@ def record(path: Path, level: dict[str, Any]) -> None:
             max(0, d["false_trips"] - d.get("trips_right_after_a_host_stall", 0))
             for d in detail.values()
         )
-        file.seek(0)
-        file.truncate()
-        file.write(json.dumps(data, indent=2) + "\n")
+
+    merge_result(path, update)
 
 
 def main() -> None:

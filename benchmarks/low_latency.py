@@ -1,4 +1,4 @@
-"""Low-latency mode behind the 16U2 bridge model (issue 13, item 3): read ID latency.
+"""Low-latency mode behind the 16U2 bridge model: read ID latency.
 
 Sequential READ_ID round trips (one in flight, each after a random pause) on the project
 firmware behind the virtual Uno's 16U2 model (``--usb-bridge 16u2``: board-to-host bytes
@@ -8,19 +8,17 @@ every round starts a fresh board per baud rate, so a busy moment of the shared m
 hits both modes.  ``--cpu-idle both`` adds the CPU idle states as a second dimension
 (the CPUs' default idle states, or held out of deep ones: :mod:`arduinoio_async.bench.cpu_idle`),
 interleaved the same way.
-Goal (issue 13): 2 Mbaud, low-latency mode, mean at most 1.8 ms.
+Goal: 2 Mbaud, low-latency mode, mean at most 1.8 ms.
 
-    .venv/bin/python benchmarks/low_latency.py --cpu-idle both \
+    .venv/bin/python -m benchmarks.low_latency --cpu-idle both \
         --json benchmarks/results/low_latency.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import random
 import statistics
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -30,27 +28,25 @@ import anyio
 from arduinoio_async.bench import cpu_idle
 from arduinoio_async.bench.cpu_idle import ShallowCpuIdle
 from arduinoio_async.bench.model import LinkModel
-from arduinoio_async.bench.runner import blocking_pause
+from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, write_result
+from ._timing import blocking_pause
 
 GOAL_MEAN_MS = 1.8
 
 
 def figures(samples: list[float]) -> dict[str, Any]:
-    ordered = sorted(samples)
-
-    def pct(q: float) -> float:
-        return round(ordered[round(q * (len(ordered) - 1))], 3)
-
+    """n, mean, p50, p90, p99 (:mod:`arduinoio_async.bench.stats`), min and max, in ms."""
+    summary = summarize(samples).rounded(3, "_ms")
     return {
-        "n": len(samples),
-        "mean_ms": round(statistics.fmean(samples), 3),
-        "p50_ms": pct(0.5),
-        "p90_ms": pct(0.9),
-        "p99_ms": pct(0.99),
-        "min_ms": round(ordered[0], 3),
-        "max_ms": round(ordered[-1], 3),
+        "n": summary["n"],
+        "mean_ms": summary["mean_ms"],
+        **{key: summary[key] for key in ("p50_ms", "p90_ms", "p99_ms")},
+        "min_ms": round(min(samples), 3),
+        "max_ms": round(max(samples), 3),
     }
 
 
@@ -120,9 +116,8 @@ async def main(args: argparse.Namespace, idle: ShallowCpuIdle, conditions: list[
         )
     print(f"garbage bytes seen by the host: {garbage} (filler must never count)")
     if args.json:
-        command = " ".join([".venv/bin/python", *sys.argv])
-        result = {"command": command, "goal_mean_ms": GOAL_MEAN_MS, "garbage_bytes": garbage}
-        args.json.write_text(json.dumps({**result, "rows": rows}, indent=1) + "\n")
+        result = {"command": command_line(), "goal_mean_ms": GOAL_MEAN_MS}
+        write_result(args.json, {**result, "garbage_bytes": garbage, "rows": rows})
     return 0
 
 

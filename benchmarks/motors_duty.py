@@ -1,4 +1,4 @@
-"""Duty-cycle PWM accuracy on the virtual Uno (issue 26): ``duty_error_ticks_max``.
+"""Duty-cycle PWM accuracy on the virtual Uno: ``duty_error_ticks_max``.
 
 For every frequency each timer offers (D5: Timer0, D9: Timer1, D3: Timer2) and duties of
 1, 37, 50 and 99 %, the fixture captures the pin's edges (simulated cycle counter) while
@@ -15,15 +15,13 @@ a timer-driven pin low until its next compare edge; silicon's compare output ove
 PORT and has no such glitch.  The first run, with the writes on D13, measured that
 simulator artifact on D9 (errors of hundreds of ticks), not the firmware.
 
-    .venv/bin/python benchmarks/motors_duty.py --json benchmarks/results/motors.json
+    .venv/bin/python -m benchmarks.motors_duty --json benchmarks/results/motors.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import platform
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +32,8 @@ from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import DigitalPin, DutyPwmPin
 from arduinoio_async.protocol.timers import DUTY_FREQUENCIES, TIMER_OF, timer_setting
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, write_result
 
 PINS: tuple[DutyPwmPin, ...] = (D5, D9, D3)
 DUTIES = (0.01, 0.37, 0.5, 0.99)
@@ -89,7 +89,7 @@ def main() -> int:
     args = parser.parse_args()
     result = anyio.run(measure, args.baud)
     result = {
-        "command": " ".join([".venv/bin/python", *sys.argv]),
+        "command": command_line(),
         "machine": platform.node(),
         "baud": args.baud,
         "load": "pipelined GPIO WRITE, 8 in flight, to D4 (D9 measured) or D13 (D5, D3)",
@@ -97,7 +97,7 @@ def main() -> int:
     }
     print(f"duty_error_ticks_max: {result['duty_error_ticks_max']} over {len(result['rows'])}")
     if args.json:
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        write_result(args.json, result, indent=2)
     return 0
 
 

@@ -1,5 +1,5 @@
 """The served board under attack: the legitimate client's latency and the server's memory
-(issue 28 item 8).
+under the per-client limits of ``network/_limits.py``.
 
 One virtual Uno is served by ``arduinoio serve`` in a process of its own (loopback TCP).
 A legitimate client in this process (``open_remote_board``) calls ``read_id()`` one after
@@ -24,7 +24,7 @@ rest that follows it.  The legitimate client's round trips count successful call
 longest stall is the longest time between two successful replies (a failed call is
 retried after 1 ms).  Every loop is bounded by a count and a deadline; loopback only.
 
-    .venv/bin/python benchmarks/network_attacks.py --json benchmarks/results/network_attacks.json
+    .venv/bin/python -m benchmarks.network_attacks --json benchmarks/results/network_attacks.json
 """
 
 from __future__ import annotations
@@ -35,7 +35,6 @@ import json
 import os
 import platform
 import socket
-import statistics
 import sys
 import threading
 import time
@@ -48,10 +47,17 @@ import zenoh
 from anyio.streams.buffered import BufferedByteReceiveStream
 
 from arduinoio_async import protocol as p
+from arduinoio_async.bench.stats import percentile
 from arduinoio_async.errors import ArduinoIOError
 from arduinoio_async.network import open_remote_board, zenoh_config
 from arduinoio_async.network._keys import decode_fault, request_key
 from arduinoio_async.sim import VirtualUno
+
+from ._network import serve_command
+from ._results import command_line, write_result
+
+#: This module in a child process (the attacker).
+SELF = [sys.executable, "-m", "benchmarks.network_attacks"]
 
 BOARD_ID = 1
 PHASES = ("baseline", "oversized", "attachments", "flood", "flood_anonymous")
@@ -162,14 +168,14 @@ async def start_server(command: list[str]) -> anyio.abc.Process:
 
 
 def summary_ms(values: list[float]) -> dict[str, float | int]:
+    """Count, p50, p99 (:mod:`arduinoio_async.bench.stats`) and max of seconds, in ms."""
     if not values:
         return {"count": 0}
-    ordered = sorted(values)
     return {
         "count": len(values),
-        "p50": round(statistics.median(ordered) * 1e3, 3),
-        "p99": round(ordered[min(len(ordered) - 1, int(len(ordered) * 0.99))] * 1e3, 3),
-        "max": round(ordered[-1] * 1e3, 3),
+        "p50": round(percentile(values, 0.5) * 1e3, 3),
+        "p99": round(percentile(values, 0.99) * 1e3, 3),
+        "max": round(max(values) * 1e3, 3),
     }
 
 
@@ -210,7 +216,7 @@ async def run_phase(
             if kind == "baseline":
                 await anyio.sleep(args.baseline_seconds)
             else:
-                command = [sys.executable, __file__, "--attack", kind, "--endpoint", endpoint]
+                command = [*SELF, "--attack", kind, "--endpoint", endpoint]
                 command += ["--count", str(counts[kind]), "--window", str(args.window)]
                 command += ["--oversize-mb", str(args.oversize_mb)]
                 result = await anyio.run_process(command, check=True)
@@ -231,21 +237,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
     endpoint = free_endpoint()
     phases: dict[str, Any] = {}
     async with VirtualUno(board_id=BOARD_ID, baud=args.baud) as uno:
-        server = await start_server(
-            [
-                sys.executable,
-                "-m",
-                "arduinoio_async",
-                "serve",
-                "--no-usb",
-                "--ports",
-                uno.port,
-                "--baud",
-                str(args.baud),
-                "--listen",
-                endpoint,
-            ]
-        )
+        server = await start_server(serve_command(uno.port, args.baud, endpoint))
         try:
             for kind in args.phases:
                 phases[kind] = await run_phase(args, endpoint, server, kind)
@@ -254,7 +246,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
             server.terminate()
             await server.wait()
     return {
-        "command": " ".join(["python", *sys.argv]),
+        "command": command_line(),
         "machine": {
             "cpus": os.cpu_count(),
             "load_average": os.getloadavg(),
@@ -287,7 +279,7 @@ def main() -> None:
         return
     result = anyio.run(bench, args)
     if args.json:
-        args.json.write_text(json.dumps(result, indent=1) + "\n")
+        write_result(args.json, result)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Remote round trip against local, next to Zenoh's own get/queryable floor (issue 15).
+"""Remote round trip against local, next to Zenoh's own get/queryable floor.
 
 Two virtual Unos with the same firmware and baud rate: board 1 is served by
 ``arduinoio serve`` in a process of its own and reached over Zenoh (loopback TCP); board
@@ -47,7 +47,7 @@ request, :mod:`arduinoio_async.bench.cpu_idle`; every process on the machine get
 the remote path has more thread hand-offs than the floor, and on this VM a halted CPU
 takes ~70 us to wake, so it shows how much of the ratio is the idle states'.
 
-    .venv/bin/python benchmarks/network_bench.py --json benchmarks/results/network.json
+    .venv/bin/python -m benchmarks.network_bench --json benchmarks/results/network.json
 """
 
 from __future__ import annotations
@@ -58,7 +58,6 @@ import json
 import os
 import platform
 import socket
-import statistics
 import sys
 import time
 from collections.abc import Awaitable, Callable
@@ -73,13 +72,19 @@ from anyio.streams.buffered import BufferedByteReceiveStream
 
 from arduinoio_async import protocol as p
 from arduinoio_async.bench import cpu_idle
-from arduinoio_async.bench.stats import summarize
+from arduinoio_async.bench.stats import median, quartiles, summarize
 from arduinoio_async.board import Board
 from arduinoio_async.network import open_remote_board, zenoh_config
 from arduinoio_async.network._keys import undeclare
 from arduinoio_async.network._loop import LoopHandle, zenoh_callback
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.transport import run
+
+from ._network import serve_command
+from ._results import command_line, write_result
+
+#: This module in a child process (the echo queryable).
+SELF = [sys.executable, "-m", "benchmarks.network_bench"]
 
 ECHO_KEY = "arduinoio/bench/echo"
 ECHO_LOOP_KEY = "arduinoio/bench/echo_loop"
@@ -197,23 +202,9 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         VirtualUno(board_id=1, baud=args.baud) as served,
         VirtualUno(board_id=2, baud=args.baud) as local_uno,
     ):
-        server, _ = await start(
-            [
-                sys.executable,
-                "-m",
-                "arduinoio_async",
-                "serve",
-                "--no-usb",
-                "--ports",
-                served.port,
-                "--baud",
-                str(args.baud),
-                "--listen",
-                serve_ep,
-            ]
-        )
+        server, _ = await start(serve_command(served.port, args.baud, serve_ep))
         echo_loop = ["--uvloop"] if args.uvloop else []
-        echo, _ = await start([sys.executable, __file__, "--echo", echo_ep, *echo_loop])
+        echo, _ = await start([*SELF, "--echo", echo_ep, *echo_loop])
         try:
             session = await anyio.to_thread.run_sync(
                 zenoh.open, zenoh_config(connect=[serve_ep, echo_ep])
@@ -284,7 +275,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                 ):
                     await batch(call, 20)  # warm-up
                 # The held floor's queries wait as long as the local call takes.
-                hold_us = round(statistics.median(await batch(local.read_id, 20)) * 1000)
+                hold_us = round(median(await batch(local.read_id, 20)) * 1000)
                 hold = zenoh.ZBytes(hold_us.to_bytes(4, "little"))
                 await held_batch(floor_held, 20)
                 await held_batch(floor_held_looped, 20)
@@ -324,38 +315,8 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
                     await process.stdin.aclose()
                 process.terminate()
                 await process.wait()
-    summary = {kind: summarize(values).as_dict() for kind, values in samples.items()}
-    # The machine's load drifts: each round's medians are compared within the round.
-    per_round = {
-        kind: [
-            statistics.median(values[i : i + args.batch]) for i in range(0, len(values), args.batch)
-        ]
-        for kind, values in samples.items()
-    }
-    ratios = {
-        floor: sorted(
-            (remote - local) / low
-            for remote, local, low in zip(
-                per_round["remote"], per_round["local"], per_round[floor], strict=True
-            )
-        )
-        for floor in (
-            "floor",
-            "floor_server_loop",
-            "floor_blocking",
-            "floor_held",
-            "floor_held_server_loop",
-        )
-    }
-    overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
-    done_cost = sorted(
-        (with_done - plain) * 1000
-        for with_done, plain in zip(
-            per_round["floor_done_callback"], per_round["floor"], strict=True
-        )
-    )
     return {
-        "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
+        "command": command_line(),
         "machine": f"{platform.machine()} {os.cpu_count()} cpus, {platform.python_version()}",
         "zenoh": zenoh.__version__ if hasattr(zenoh, "__version__") else "1.x",
         "baud": args.baud,
@@ -364,38 +325,74 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
         "client_loop": "uvloop" if args.uvloop else "asyncio",
         "rounds": args.rounds,
         "batch": args.batch,
-        "round_trip_ms": summary,
-        "remote_overhead_ms": overhead,
-        "overhead_over_floor_per_round": {
-            floor: {
-                "median": round(statistics.median(values), 3),
-                "quartiles": [
-                    round(values[len(values) // 4], 3),
-                    round(values[-1 - len(values) // 4], 3),
-                ],
-            }
-            for floor, values in ratios.items()
-        },
-        "done_callback_cost_us": {
-            "median": round(statistics.median(done_cost), 1),
-            "quartiles": [
-                round(done_cost[len(done_cost) // 4], 1),
-                round(done_cost[-1 - len(done_cost) // 4], 1),
-            ],
-        },
-        "goal": "overhead (remote p50 - local p50, per round) <= 1.5 x floor p50 (per round)",
-        "goal_met_median_round": statistics.median(ratios["floor"]) <= 1.5,
-        "overhead_over_floor_p50": overhead["p50"] / summary["floor"]["p50"],
-        "overhead_over_blocking_floor_p50": overhead["p50"] / summary["floor_blocking"]["p50"],
-        "overhead_over_server_loop_floor_p50": overhead["p50"]
-        / summary["floor_server_loop"]["p50"],
+        **figures(samples, args.batch),
         "pipelined_requests_per_s": {
-            kind: {"median": sorted(v)[1], "runs": [round(x, 1) for x in v]}
+            kind: {"median": median(v), "runs": [round(x, 1) for x in v]}
             for kind, v in rates.items()
         },
         "pipelined_tasks": args.tasks,
         "samples_ms": {k: [round(x, 4) for x in v] for k, v in samples.items()},
     }
+
+
+def figures(samples: dict[str, list[float]], batch: int) -> dict[str, Any]:
+    """The round-trip figures from the samples of every kind (``batch`` a round, in
+    order): also how :mod:`benchmarks.rederive` recomputes a stored result's figures."""
+    summary = {kind: summarize(values).as_dict() for kind, values in samples.items()}
+    # The machine's load drifts: each round's medians are compared within the round.
+    per_round = {
+        kind: [median(values[i : i + batch]) for i in range(0, len(values), batch)]
+        for kind, values in samples.items()
+    }
+    ratios = {
+        floor: [
+            (remote - local) / low
+            for remote, local, low in zip(
+                per_round["remote"], per_round["local"], per_round[floor], strict=True
+            )
+        ]
+        for floor in (
+            "floor",
+            "floor_server_loop",
+            "floor_blocking",
+            "floor_held",
+            "floor_held_server_loop",
+        )
+        if floor in per_round
+    }
+    overhead = {q: summary["remote"][q] - summary["local"][q] for q in ("p50", "p90", "p99")}
+    done_cost = [
+        (with_done - plain) * 1000
+        for with_done, plain in zip(
+            per_round.get("floor_done_callback", []), per_round["floor"], strict=False
+        )
+    ]
+    out: dict[str, Any] = {
+        "round_trip_ms": summary,
+        "remote_overhead_ms": overhead,
+        "overhead_over_floor_per_round": {
+            floor: {
+                "median": round(median(values), 3),
+                "quartiles": [round(q, 3) for q in quartiles(values)],
+            }
+            for floor, values in ratios.items()
+        },
+        "goal": "overhead (remote p50 - local p50, per round) <= 1.5 x floor p50 (per round)",
+        "goal_met_median_round": median(ratios["floor"]) <= 1.5,
+    }
+    if done_cost:
+        out["done_callback_cost_us"] = {
+            "median": round(median(done_cost), 1),
+            "quartiles": [round(q, 1) for q in quartiles(done_cost)],
+        }
+    for name, floor in (
+        ("overhead_over_floor_p50", "floor"),
+        ("overhead_over_blocking_floor_p50", "floor_blocking"),
+        ("overhead_over_server_loop_floor_p50", "floor_server_loop"),
+    ):
+        if floor in summary:
+            out[name] = overhead["p50"] / summary[floor]["p50"]
+    return out
 
 
 def main() -> None:
@@ -426,7 +423,7 @@ def main() -> None:
     shown = {k: v for k, v in result.items() if k != "samples_ms"}
     print(json.dumps(shown, indent=2))
     if args.json:
-        args.json.write_text(json.dumps(result, separators=(",", ":")) + "\n")
+        write_result(args.json, result, indent=None)
 
 
 if __name__ == "__main__":

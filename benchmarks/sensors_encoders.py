@@ -1,4 +1,4 @@
-"""Quadrature encoder ceiling on the virtual Uno (issue 27): ``encoder_max_edges_per_s``.
+"""Quadrature encoder ceiling on the virtual Uno: ``encoder_max_edges_per_s``.
 
 Two encoders, slot 0 on D2/D3 (INT0/INT1) and slot 1 on D8/D9 (pin-change interrupts),
 driven by the harness's quadrature generators (firmware/sim/quadrature.c) with random
@@ -9,18 +9,18 @@ was seen (a skipped state is a lost state, even when the count comes out right).
 search steps the aggregate rate up until one fails (100,000 edges each); the best passing
 rate is then soaked for 10**6 edges in all, stepping down while a soak loses a count.
 Rates are edges per *simulated* second (the generator's clock; firmware/sim/README.md,
-"Two clocks").
+"Two clocks").  No percentile: counts and rates only.  ``sensors.json`` collects the
+sensor benchmarks' keys: this one merges its own (``encoders``, ``encoder_max_edges_per_s``)
+and leaves the others as they are.
 
-    .venv/bin/python benchmarks/sensors_encoders.py --json benchmarks/results/sensors.json
+    .venv/bin/python -m benchmarks.sensors_encoders --json benchmarks/results/sensors.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -28,8 +28,10 @@ import anyio
 
 from arduinoio_async import A0, A1, A2, A3, D2, D3, D8, D9, D13
 from arduinoio_async.board import Board
-from arduinoio_async.encoders import Encoder
+from arduinoio_async.board.encoders import Encoder
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, merge_result
 
 PAIRS = (("D2", "D3"), ("D8", "D9"))
 GOAL = 100_000
@@ -145,7 +147,7 @@ def main() -> int:
     args = parser.parse_args()
     result = anyio.run(measure, args.baud, args.search_edges, args.soak_edges)
     result = {
-        "command": " ".join([".venv/bin/python", *sys.argv]),
+        "command": command_line(),
         "machine": platform.node(),
         "load_avg_at_start": os.getloadavg()[0],
         "baud": args.baud,
@@ -157,12 +159,12 @@ def main() -> int:
         f"(goal {GOAL}, met: {result['encoder_goal_met']})"
     )
     if args.json:
-        old: dict[str, Any] = {}
-        if args.json.exists():
-            old = json.loads(args.json.read_text())
-        old["encoders"] = result
-        old["encoder_max_edges_per_s"] = result["encoder_max_edges_per_s"]
-        args.json.write_text(json.dumps(old, indent=2) + "\n")
+
+        def update(data: dict[str, Any]) -> None:
+            data["encoders"] = result
+            data["encoder_max_edges_per_s"] = result["encoder_max_edges_per_s"]
+
+        merge_result(args.json, update)
     return 0
 
 

@@ -1,30 +1,28 @@
-"""Peer test (a) "host sets D2 -> host knows D3" at the fast baud rates (issue 13, items 1-2).
+"""Peer test (a) "host sets D2 -> host knows D3" at the fast baud rates.
 
-The peer benchmark (``benchmarks/peers/peer_bench.py``) runs the project at 115200 baud,
+The peer benchmark (``benchmarks.peers.peer_bench``) runs the project at 115200 baud,
 where each way's byte count decides; this runs the same four client functions on the
 project's 1,000,000 and 2,000,000 baud builds, with and without the 16U2 bridge model,
 in rounds that interleave ways and links (a busy moment of the shared machine hits all).
 
-    .venv/bin/python benchmarks/set_and_know_fast.py \\
+    .venv/bin/python -m benchmarks.set_and_know_fast \\
         --json benchmarks/results/set_and_know_fast.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import statistics
-import sys
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
 import anyio
 
+from arduinoio_async.bench.stats import summarize
 from arduinoio_async.sim import VirtualUno
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "peers"))
-from peer_bench import project_a, project_a_event, project_a_transaction
+from ._results import command_line, write_result
+from .peers.peer_bench import project_a, project_a_event, project_a_transaction
 
 Way = Callable[[VirtualUno, int], Awaitable[list[float]]]
 WAYS: dict[str, Way] = {
@@ -36,14 +34,10 @@ WAYS: dict[str, Way] = {
 
 
 def figures(samples: list[float]) -> dict[str, Any]:
-    ordered = sorted(samples)
-    return {
-        "n": len(samples),
-        "p50_ms": round(statistics.median(samples), 3),
-        "p90_ms": round(ordered[int(0.9 * (len(ordered) - 1))], 3),
-        "mean_ms": round(statistics.fmean(samples), 3),
-        "spread_ms": round(ordered[-1] - ordered[0], 3),
-    }
+    """n, p50, p90, mean (:mod:`arduinoio_async.bench.stats`) and max - min, in ms."""
+    summary = summarize(samples).rounded(3, "_ms")
+    del summary["p99_ms"]
+    return {**summary, "spread_ms": round(max(samples) - min(samples), 3)}
 
 
 async def main(args: argparse.Namespace) -> int:
@@ -71,8 +65,7 @@ async def main(args: argparse.Namespace) -> int:
             f"{row['p50_ms']:.2f} | {row['p90_ms']:.2f} | {row['mean_ms']:.2f} |"
         )
     if args.json:
-        command = " ".join([".venv/bin/python", *sys.argv])
-        args.json.write_text(json.dumps({"command": command, "rows": rows}, indent=1) + "\n")
+        write_result(args.json, {"command": command_line(), "rows": rows})
     return 0
 
 

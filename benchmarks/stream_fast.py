@@ -1,4 +1,4 @@
-"""Streams below 1 ms on the virtual Uno (issue 13, item 6): gaps over a timed run.
+"""Streams below 1 ms on the virtual Uno: gaps over a timed run.
 
 Each case streams analog channels at a period and counts what arrives in ``--seconds``
 of simulated time (the sample count, so a simulation running behind the wall clock on a
@@ -7,7 +7,7 @@ link lost) and the board-side spacing.  ``library`` reads with ``Board.stream``;
 ``raw`` with bare pyserial in a thread (the host floor: a Python consumer that falls
 behind fills the pty, and the harness then drops bytes it cannot hand over).
 
-    .venv/bin/python benchmarks/stream_fast.py --seconds 20 \\
+    .venv/bin/python -m benchmarks.stream_fast --seconds 20 \\
         --json benchmarks/results/stream_fast.json
 """
 
@@ -18,7 +18,6 @@ import functools
 import itertools
 import json
 import operator
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -30,6 +29,8 @@ from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import AnalogPin
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, write_result
 
 CASES = [
     # (baud, channels, period_us, reader)
@@ -104,8 +105,7 @@ async def main(args: argparse.Namespace) -> None:
         print(json.dumps(result), flush=True)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        record = {"command": "benchmarks/stream_fast.py " + " ".join(sys.argv[1:])}
-        args.json.write_text(json.dumps(record | {"results": results}, indent=1) + "\n")
+        write_result(args.json, {"command": command_line(), "results": results})
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ the board admits for ``--seconds`` and count what arrives, the sequence gaps and
 consumer-side drops.  The paper could not read four channels every 10 ms (100 Hz);
 Firmata reports at most about 1 kHz, without loss detection.
 
-    .venv/bin/python benchmarks/stream_rates.py --seconds 60 --json benchmarks/results/stream.json
+    .venv/bin/python -m benchmarks.stream_rates --seconds 60 --json benchmarks/results/stream.json
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import AnalogPin
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, write_result
 
 
 async def measure(baud: int, channels: int, seconds: float) -> dict[str, Any]:
@@ -75,16 +77,13 @@ async def main(args: argparse.Namespace) -> None:
             print(json.dumps(result))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(
-            json.dumps(
-                {
-                    "command": "benchmarks/stream_rates.py",
-                    "seconds": args.seconds,
-                    "results": results,
-                },
-                indent=1,
-            )
-            + "\n"
+        write_result(
+            args.json,
+            {
+                "command": command_line(),
+                "seconds": args.seconds,
+                "results": results,
+            },
         )
 
 

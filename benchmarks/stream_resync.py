@@ -6,14 +6,12 @@ with probability ``--fault`` each.  Every resync used to wait for a quiet line t
 running stream never gives (the full 0.25 s drain); the figure is read-ID calls per
 second, and how many failed.
 
-    .venv/bin/python benchmarks/stream_resync.py --json benchmarks/results/stream-resync.json
+    .venv/bin/python -m benchmarks.stream_resync --json benchmarks/results/stream-resync.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -24,6 +22,8 @@ from arduinoio_async.board import Board
 from arduinoio_async.errors import LinkError
 from arduinoio_async.protocol.pins import AnalogPin
 from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, report
 
 
 async def measure(args: argparse.Namespace) -> dict[str, Any]:
@@ -57,7 +57,7 @@ async def measure(args: argparse.Namespace) -> dict[str, Any]:
                 tg.cancel_scope.cancel()
         stats = board.link.stats.as_dict()
     return {
-        "command": "benchmarks/stream_resync.py " + " ".join(sys.argv[1:]),
+        "command": command_line(),
         "seconds": round(elapsed, 2),
         "read_id_ok": ok,
         "read_id_failed": failed,
@@ -76,10 +76,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     result = anyio.run(measure, args)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    report(result, args.json)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Markdown tables from a recorded ``arduinoio bench --json`` file (for docs/performance.md).
 
-.venv/bin/python benchmarks/tables.py benchmarks/results/latest.json
+.venv/bin/python -m benchmarks.tables benchmarks/results/latest.json
 """
 
 from __future__ import annotations

@@ -23,68 +23,46 @@ figure depends on the machine as much as on the line.  Recorded, never asserted;
 ``tx_success_pct_1e3`` and ``tx_wrong`` into ``benchmarks/results/link.json`` (only those
 keys and ``tx_soak``, the details; other keys in the file are left as they are):
 
-    .venv/bin/python benchmarks/tx_soak.py --transactions 25000 --record
+    .venv/bin/python -m benchmarks.tx_soak --transactions 25000 --record
+
+The soak core (tasks, hang guard, fault injection, figures) is :mod:`benchmarks._soak`,
+shared with ``benchmarks.soak``.
 """
 
 from __future__ import annotations
 
 import argparse
-import collections
-import json
-import os
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import anyio
+import anyio.abc
 
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.errors import ArduinoIOError
 from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
 
-HANG_GUARD = 5.0
+from . import _soak
+from ._results import LINK_JSON, command_line, merge_result, report
+from ._soak import Tally, guarded
+
 OUTPUT_PINS = [DigitalPin(n) for n in range(4, 14)]
 ANALOG_MV = {0: 1000.0, 1: 2500.0, 2: 4000.0, 3: 500.0}
-LINK_JSON = Path(__file__).resolve().parent / "results" / "link.json"
-
-
-class Tally:
-    def __init__(self, total: int) -> None:
-        self.remaining = total
-        self.issued = 0
-        self.ok = 0
-        self.errors: collections.Counter[str] = collections.Counter()
-        self.wrong: list[str] = []
-        self.hangs = 0
-
-    def take(self) -> bool:
-        if self.remaining <= 0:
-            return False
-        self.remaining -= 1
-        self.issued += 1
-        return True
 
 
 async def run_one(
     board: Board, tally: Tally, requests: list[p.Request[Any]]
 ) -> list[p.Reply] | None:
     """One transaction: its item replies, or None when it raised or hung."""
-    with anyio.move_on_after(HANG_GUARD) as guard:
-        try:
-            async with board.transaction() as tx:
-                items = [tx.add(request) for request in requests]
-            replies = [item.result() for item in items]
-        except ArduinoIOError as exc:
-            tally.errors[type(exc).__name__] += 1
-            return None
-        tally.ok += 1
-        return replies
-    assert guard.cancelled_caught
-    tally.hangs += 1
-    return None
+
+    async def transaction() -> list[p.Reply]:
+        async with board.transaction() as tx:
+            items = [tx.add(request) for request in requests]
+        return [item.result() for item in items]
+
+    return (await guarded(tally, transaction))[1]
 
 
 def check(
@@ -134,61 +112,48 @@ async def reader_task(board: Board, index: int, truth: dict[Any, p.Reply], tally
             check(tally, requests, replies, truth)
 
 
+async def _truth(uno: VirtualUno, board: Board) -> dict[Any, p.Reply]:
+    for channel, mv in ANALOG_MV.items():
+        await uno.set_analog(channel, mv)
+    for pin in OUTPUT_PINS:
+        await board.digital_output(pin)
+    truth: dict[Any, p.Reply] = {}
+    for request in [*(p.AnalogRead(c) for c in ANALOG_MV), p.ReadId()]:
+        truth[request] = await board.request(request)
+    return truth
+
+
 async def soak(args: argparse.Namespace) -> dict[str, Any]:
     tally = Tally(args.transactions)
-    async with (
-        VirtualUno(board_id=0x0033, baud=args.baud, seed=args.seed) as uno,
-        Board.open(uno.port, baudrate=args.baud, timeout=args.timeout) as board,
-    ):
-        for channel, mv in ANALOG_MV.items():
-            await uno.set_analog(channel, mv)
-        for pin in OUTPUT_PINS:
-            await board.digital_output(pin)
-        truth: dict[Any, p.Reply] = {}
-        for request in [*(p.AnalogRead(c) for c in ANALOG_MV), p.ReadId()]:
-            truth[request] = await board.request(request)
-        await uno.set_faults(drop=args.fault, insert=args.fault, flip=args.fault, seed=args.seed)
-        start = time.monotonic()
-        load_start = os.getloadavg()[0]
-        async with anyio.create_task_group() as tg:
-            for index in range(args.tasks):
-                if index < len(OUTPUT_PINS):
-                    tg.start_soon(pin_task, board, uno, OUTPUT_PINS[index], truth, tally)
-                else:
-                    tg.start_soon(reader_task, board, index, truth, tally)
-        elapsed = time.monotonic() - start
-        faults = (await uno.status())["faults"]
-        stats = board.link.stats
-    total = tally.issued
+
+    def start_task(
+        tg: anyio.abc.TaskGroup, uno: VirtualUno, board: Board, truth: Any, index: int
+    ) -> None:
+        if index < len(OUTPUT_PINS):
+            tg.start_soon(pin_task, board, uno, OUTPUT_PINS[index], truth, tally)
+        else:
+            tg.start_soon(reader_task, board, index, truth, tally)
+
+    figures = await _soak.run(args, tally, _truth, start_task)
     return {
-        "command": "benchmarks/tx_soak.py " + " ".join(args.argv),
-        "transactions": total,
-        "tasks": args.tasks,
-        "baud": args.baud,
-        "fault_probability": args.fault,
+        "transactions": tally.issued,
         "timeout_s": args.timeout,
-        "machine_load_1min": [round(load_start, 2), round(os.getloadavg()[0], 2)],
-        "cpus": os.cpu_count(),
-        "seconds": round(elapsed, 2),
-        "transactions_per_s": round(total / elapsed, 1),
-        "succeeded": tally.ok,
-        "success_pct": round(100 * tally.ok / total, 3),
-        "errors": dict(tally.errors),
+        **figures,
+        "transactions_per_s": round(tally.issued / figures["seconds"], 1),
+        "success_pct": round(100 * tally.ok / tally.issued, 3),
         "wrong_items": len(tally.wrong),
-        "wrong_examples": tally.wrong[:10],
-        "hangs": tally.hangs,
-        "injected": faults,
-        "link_stats": stats.as_dict(),
     }
 
 
 def record(result: dict[str, Any]) -> None:
-    """Merge this script's keys into link.json (read, update, write: other keys stay)."""
-    data = json.loads(LINK_JSON.read_text()) if LINK_JSON.exists() else {}
-    data["tx_success_pct_1e3"] = result["success_pct"]
-    data["tx_wrong"] = result["wrong_items"]
-    data["tx_soak"] = result
-    LINK_JSON.write_text(json.dumps(data, indent=2) + "\n")
+    """Merge this script's keys into link.json (other keys stay as they are)."""
+
+    def update(data: dict[str, Any]) -> None:
+        data["tx_success_pct_1e3"] = result["success_pct"]
+        data["tx_wrong"] = result["wrong_items"]
+        data["tx_soak"] = result
+
+    merge_result(LINK_JSON, update)
 
 
 def main() -> None:
@@ -204,12 +169,8 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--record", action="store_true", help="merge into results/link.json")
     args = parser.parse_args()
-    args.argv = sys.argv[1:]
-    result = anyio.run(soak, args)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    result = {"command": command_line(), **anyio.run(soak, args)}
+    report(result, args.json)
     if args.record:
         if args.fault != 1e-3:
             sys.exit("--record stores the 1e-3 figures: run with --fault 1e-3")

@@ -2,7 +2,7 @@
 
     python examples/notebook_blocking.py [--port P]
 
-``arduinoio_async.sync.connect`` opens a board that stays open across notebook cells until
+``arduinoio_async.blocking.connect`` opens a board that stays open across notebook cells until
 ``close()``; every call blocks until the board has answered.  The async library runs
 underneath, on an event loop in a worker thread, so the link's heartbeat (and an armed
 failsafe) keeps being fed between cells.
@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from anyio.from_thread import start_blocking_portal
 
 from arduinoio_async import A0, D2, D3, VirtualUno
-from arduinoio_async.sync import connect
+from arduinoio_async.blocking import connect
 
 
 @contextmanager

@@ -1,4 +1,4 @@
-"""``Board.adopt`` checks that a fresh boot is still the same board (issue 28, item 5)."""
+"""``Board.adopt`` checks that a fresh boot is still the same board."""
 
 from __future__ import annotations
 

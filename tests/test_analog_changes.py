@@ -12,7 +12,7 @@ import pytest
 
 from arduinoio_async import A0, A2
 from arduinoio_async import protocol as p
-from arduinoio_async.changes import AnalogMove
+from arduinoio_async.board.changes import AnalogMove
 from arduinoio_async.errors import BoardError, UsageError, ValueRangeError
 from arduinoio_async.testing import FakeBoard
 

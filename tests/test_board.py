@@ -28,8 +28,8 @@ from arduinoio_async import (
 from arduinoio_async import manager as manager_module
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.handles import PinState
 from arduinoio_async.errors import BoardDisconnectedError
-from arduinoio_async.handles import PinState
 from arduinoio_async.manager import BoardManager
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport import memory_link
@@ -204,7 +204,7 @@ def test_mypy_rejects_a_servo_on_a_pin_table_iii_forbids(tmp_path: Path) -> None
     assert "misuse.py:7" in errors[0] and "misuse.py:8" in errors[1]
 
 
-# ---- defects of the landed link core (issue 11) --------------------------------------------
+# ---- defects once found in the link core, kept fixed -------------------------------------
 
 
 def test_a_reboot_wait_on_a_closing_link_ends_instead_of_freezing() -> None:

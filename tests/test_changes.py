@@ -11,7 +11,7 @@ import pytest
 
 from arduinoio_async import D2, D3, D5, D7
 from arduinoio_async import protocol as p
-from arduinoio_async.changes import Change
+from arduinoio_async.board.changes import Change
 from arduinoio_async.errors import BoardError, UsageError
 
 from .fake_boards import connected

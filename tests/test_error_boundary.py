@@ -3,7 +3,7 @@
 Every public coroutine of :class:`Board` is called on a board that goes silent (every
 reply lost), on a line so noisy that most replies are damaged, and on a board whose cable
 was pulled.  A call may succeed or raise; what it raises must be an
-:class:`~arduinoio_async.errors.ArduinoIOError` (issue 28: ``write_id`` let a builtin
+:class:`~arduinoio_async.errors.ArduinoIOError` (``write_id`` once let a builtin
 ``TimeoutError`` escape when its reply was lost and the board stayed silent past the
 read-back deadline).  A new public coroutine fails ``test_the_scan_covers_every_public
 coroutine`` until it gets a call here.
@@ -21,8 +21,8 @@ import pytest
 from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.handles import DigitalOutput, output_setup
 from arduinoio_async.errors import ArduinoIOError
-from arduinoio_async.handles import DigitalOutput, output_setup
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.testing._faults import Faults
 

@@ -1,4 +1,4 @@
-"""Error messages say in words what was refused and why (issue 25 item 9)."""
+"""Error messages say in words what was refused and why."""
 
 from __future__ import annotations
 

@@ -108,8 +108,9 @@ def test_the_bridge_is_known_by_the_ports_usb_ids(
     monkeypatch.setattr(list_ports, "comports", lambda: ports)
     by_id = tmp_path / "usb-Arduino_Uno-if00"
     by_id.symlink_to("/dev/ttyACM0")  # as /dev/serial/by-id/ names it
-    assert tick_holding_bridge("/dev/ttyACM0") == "Arduino Uno R3 (ATmega16U2 bridge)"
-    assert tick_holding_bridge(str(by_id)) == "Arduino Uno R3 (ATmega16U2 bridge)"
+    name = "ATmega16U2/8U2 (arduino-usbserial: Uno, Mega 2560)"  # transport.BRIDGES
+    assert tick_holding_bridge("/dev/ttyACM0") == name
+    assert tick_holding_bridge(str(by_id)) == name
     assert tick_holding_bridge("/dev/ttyUSB0") is None
     assert tick_holding_bridge("/dev/ttyS0") is None
     assert tick_holding_bridge("/dev/pts/3") is None  # a pseudo-terminal: no USB IDs

@@ -1,4 +1,4 @@
-"""Duty PWM, motors and servo limits in the library, against FakeBoard (issue 26).
+"""Duty PWM, motors and servo limits in the library, against FakeBoard.
 
 The timer rules are checked before anything is sent: each refusal here names the other
 user of the timer, and the fake board (which follows the firmware's checks) is never

@@ -12,8 +12,8 @@ import pytest
 from arduinoio_async import D3, D4, D5, D9, PinRoleError, StaleHandleError
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Claim, PinRoles
+from arduinoio_async.board.handles import DigitalOutput, input_setup, output_setup
 from arduinoio_async.errors import BoardError
-from arduinoio_async.handles import DigitalOutput, input_setup, output_setup
 
 from .fake_boards import connected
 

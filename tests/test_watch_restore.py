@@ -17,7 +17,7 @@ import pytest
 from arduinoio_async import A0, A1, D2, D3, D4, D5, D6, D7
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.changes import AnalogChanges, Change, ChangeStream
+from arduinoio_async.board.changes import AnalogChanges, Change, ChangeStream
 from arduinoio_async.errors import UsageError, WatchLostError
 from arduinoio_async.testing import FakeBoard
 

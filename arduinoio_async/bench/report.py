@@ -13,9 +13,10 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from .. import __version__
 from .. import protocol as p
+from .._version import __version__
 from .runner import ScenarioResult
+from .stats import STATS_VERSION
 
 __all__ = ["print_scenario", "to_json", "write_json", "write_plot"]
 
@@ -102,6 +103,7 @@ def to_json(
 
     return {
         "command": ["arduinoio", "bench", *argv],
+        "stats_version": STATS_VERSION,
         "versions": {
             "arduinoio_async": __version__,
             "protocol": p.PROTOCOL_VERSION,

@@ -10,12 +10,9 @@ model assumes; back to back, the loop would lock to the tick.
 
 from __future__ import annotations
 
-import asyncio
+import functools
 import os
 import random
-import statistics
-import subprocess
-import sys
 import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from contextlib import asynccontextmanager, contextmanager
@@ -23,24 +20,23 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import anyio
-import serial
 
 from .. import protocol as p
 from ..board import Board
 from ..manager import BoardManager
 from ..sim import VirtualUno
-from ..transport import FRAMING_ENV, Transport, backend_options, open_serial_stream
+from ..transport import FRAMING_ENV, Transport, backend_options
+from .clients import bare_round, library_round, minimal_round
 from .commands import COMMANDS, BenchCommand, prepare
 from .model import LinkModel, predict_ms
-from .responder import InstantStream
-from .stats import Summary, summarize
+from .responder import InstantStream, pty_responder
+from .stats import Summary, median, quartiles, summarize
 
 __all__ = [
     "SCENARIO_GROUPS",
     "CommandResult",
     "ScenarioResult",
     "Target",
-    "blocking_pause",
     "host_overhead",
     "run_scenario",
 ]
@@ -146,7 +142,7 @@ def link_model(baud: int, bridge: bool, *, simulated: bool) -> LinkModel:
     )
 
 
-async def blocking_pause(seconds: float) -> None:
+async def _blocking_pause(seconds: float) -> None:
     """Pause between sequential requests so the next one meets the bridge at a random phase.
 
     time.sleep, not anyio.sleep: the event loop's timers have 1 ms granularity (epoll),
@@ -213,7 +209,7 @@ async def _sequential(
     samples: list[float] = []
     for index in range(warmup + n):
         if gap_ms:
-            await blocking_pause(rnd.uniform(0, gap_ms) / 1e3)
+            await _blocking_pause(rnd.uniform(0, gap_ms) / 1e3)
         start = time.perf_counter_ns()
         await call()
         if index >= warmup:
@@ -280,7 +276,7 @@ async def run_scenario(
                 samples = await _sequential(board, command, n, warmup, gap, rnd)
                 if uno is not None:
                     measured = [c for c in (await uno.firmware_cycles()).samples if c > 0]
-                    cycles = statistics.median(measured) if measured else None
+                    cycles = median(measured) if measured else None
             predicted = None
             if cycles is not None:
                 predicted = predict_ms(
@@ -338,6 +334,8 @@ HOST_ROUNDS = 100
 #: Round trips per variant and round: short rounds, many of them, so a neighbour's burst
 #: falls inside few rounds and the median ignores it.
 HOST_ROUND_TRIPS = 500
+#: Untimed round trips each client makes on its freshly opened port before a round.
+PTY_WARMUP = 50
 
 
 async def _pty_floor(n: int, rounds: int = HOST_ROUNDS) -> dict[str, Any]:
@@ -352,62 +350,57 @@ async def _pty_floor(n: int, rounds: int = HOST_ROUNDS) -> dict[str, Any]:
     ratios is the figure, with its interquartile range as the spread.  A neighbour's burst
     slows every variant of the round alike and cancels in the ratio.
 
-    Two reference variants show what the event loop itself costs: a minimal client
-    (``_minimal_round``: a reader callback resolving one future per round trip, no
-    library) on asyncio and on uvloop.  No asyncio client can go below that floor.
+    The clients are the reference clients of :mod:`.clients`; two of the variants show
+    what the event loop itself costs: the minimal client (a reader callback resolving
+    one future per round trip, no library) on asyncio and on uvloop.  No asyncio client
+    can go below that floor.
     """
     return await anyio.to_thread.run_sync(_pty_rounds, min(n, HOST_ROUND_TRIPS), rounds)
 
 
+#: The library variant of the host comparison: the transport's round trip alone.
+_library_link_round = functools.partial(library_round, through="link")
+
+
 def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
-    master, slave = os.openpty()
-    path = os.ttyname(slave)
-    child = subprocess.Popen(
-        [sys.executable, "-m", "arduinoio_async.bench.responder", str(master)],
-        pass_fds=(master,),
-    )
-    os.close(master)
     loops = ["asyncio"] + (["uvloop"] if backend_options()["use_uvloop"] else [])
     variants = [*loops, *(f"{loop}_minimal" for loop in loops)]
     order = ["bare", *variants]
     cpu: dict[str, list[float]] = {name: [] for name in order}
     rtts: dict[str, list[float]] = {name: [] for name in order}
-    try:
+    with pty_responder() as path:
         for index in range(rounds):
             shift = index % len(order)
             for variant in order[shift:] + order[:shift]:
                 if variant == "bare":
-                    round_cpu, round_rtts = _bare_round(path, n)
+                    got = bare_round(path, p.DEFAULT_BAUD, n, PTY_WARMUP)
                 else:
-                    round_cpu, round_rtts = anyio.run(
-                        _minimal_round if variant.endswith("_minimal") else _library_round,
+                    got = anyio.run(
+                        minimal_round if variant.endswith("_minimal") else _library_link_round,
                         path,
+                        p.DEFAULT_BAUD,
                         n,
+                        PTY_WARMUP,
                         backend="asyncio",
                         backend_options={"use_uvloop": variant.startswith("uvloop")},
                     )
-                cpu[variant].append(round_cpu)
-                rtts[variant] += round_rtts
-    finally:
-        os.close(slave)
-        child.terminate()
-        child.wait()
+                cpu[variant].append(got.cpu_us)
+                rtts[variant] += got.rtts_us
     out: dict[str, Any] = {
         "rounds": rounds,
         "round_trips_per_round": n,
         "method": "interleaved rotating rounds; thread CPU time; median of per-round ratios",
-        "bare_pyserial_rtt_us_p50": statistics.median(rtts["bare"]),
-        "bare_pyserial_cpu_us": statistics.median(cpu["bare"]),
-        "library_rtt_us_p50": statistics.median(rtts["asyncio"]),
-        "library_cpu_us": statistics.median(cpu["asyncio"]),
+        "bare_pyserial_rtt_us_p50": median(rtts["bare"]),
+        "bare_pyserial_cpu_us": median(cpu["bare"]),
+        "library_rtt_us_p50": median(rtts["asyncio"]),
+        "library_cpu_us": median(cpu["asyncio"]),
     }
     for variant in variants:
         ratios = sorted(lib / bare for lib, bare in zip(cpu[variant], cpu["bare"], strict=True))
-        quartiles = statistics.quantiles(ratios, n=4)
-        out[f"{variant}_cpu_us"] = statistics.median(cpu[variant])
-        out[f"{variant}_rtt_us_p50"] = statistics.median(rtts[variant])
-        out[f"{variant}_ratio_median"] = statistics.median(ratios)
-        out[f"{variant}_ratio_iqr"] = [quartiles[0], quartiles[2]]
+        out[f"{variant}_cpu_us"] = median(cpu[variant])
+        out[f"{variant}_rtt_us_p50"] = median(rtts[variant])
+        out[f"{variant}_ratio_median"] = median(ratios)
+        out[f"{variant}_ratio_iqr"] = list(quartiles(ratios))
         out[f"{variant}_ratio_spread"] = [ratios[0], ratios[-1]]
         out[f"{variant}_ratios"] = ratios
     for loop in loops:
@@ -415,78 +408,7 @@ def _pty_rounds(n: int, rounds: int) -> dict[str, Any]:
         # the event loop, less sensitive than the ratio to bare pyserial to how loaded the
         # machine is (a busy neighbour slows the event loop's own code too).
         over = [lib / floor for lib, floor in zip(cpu[loop], cpu[f"{loop}_minimal"], strict=True)]
-        quartiles = statistics.quantiles(over, n=4)
-        out[f"{loop}_over_minimal_median"] = statistics.median(over)
-        out[f"{loop}_over_minimal_iqr"] = [quartiles[0], quartiles[2]]
+        out[f"{loop}_over_minimal_median"] = median(over)
+        out[f"{loop}_over_minimal_iqr"] = list(quartiles(over))
+        out[f"{loop}_over_minimal"] = over
     return out
-
-
-def _bare_round(path: str, n: int) -> tuple[float, list[float]]:
-    request = p.ReadId().encode()
-    port = serial.Serial(path, timeout=1)
-    try:
-        for _ in range(50):
-            port.write(request)
-            port.read(5)
-        rtts = []
-        cpu = time.thread_time()
-        for _ in range(n):
-            start = time.perf_counter_ns()
-            port.write(request)
-            port.read(5)
-            rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.thread_time() - cpu) / n * 1e6, rtts
-    finally:
-        port.close()
-
-
-async def _library_round(path: str, n: int) -> tuple[float, list[float]]:
-    stream = await open_serial_stream(path)
-    async with Transport(stream, name=path) as link:
-        for _ in range(50):
-            await link.request(p.ReadId())
-        rtts = []
-        cpu = time.thread_time()
-        for _ in range(n):
-            start = time.perf_counter_ns()
-            await link.request(p.ReadId())
-            rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.thread_time() - cpu) / n * 1e6, rtts
-
-
-async def _minimal_round(path: str, n: int) -> tuple[float, list[float]]:
-    """The event loop's own floor: write, then a reader callback resolves a future."""
-    loop = asyncio.get_running_loop()
-    port = serial.Serial(path, timeout=0)
-    fd = port.fd
-    request = p.ReadId().encode()
-    reply_size = len(p.ReadIdReply(0).encode())
-    waiting: list[asyncio.Future[None]] = []
-    received = [0]
-
-    def readable() -> None:
-        received[0] += len(os.read(fd, 256))
-        if received[0] >= reply_size and waiting:
-            received[0] -= reply_size
-            waiting.pop().set_result(None)
-
-    async def round_trip() -> None:
-        future = loop.create_future()
-        waiting.append(future)
-        os.write(fd, request)
-        await future
-
-    loop.add_reader(fd, readable)
-    try:
-        for _ in range(50):
-            await round_trip()
-        rtts = []
-        cpu = time.thread_time()
-        for _ in range(n):
-            start = time.perf_counter_ns()
-            await round_trip()
-            rtts.append((time.perf_counter_ns() - start) / 1e3)
-        return (time.thread_time() - cpu) / n * 1e6, rtts
-    finally:
-        loop.remove_reader(fd)
-        port.close()

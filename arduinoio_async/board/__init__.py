@@ -1,15 +1,24 @@
-"""One I/O board: :class:`Board`, its pin-role table, its failsafe and keepalive.
+"""One I/O board: :class:`Board`, its handles, and what keeps them across resets.
 
-* :mod:`.board`: :class:`Board` itself (opening, requests, the typed-handle factories);
-* :mod:`.roles`: :class:`PinRoles`, the public record of which pin holds which role,
-  which the handles use and the board replays after a reset;
-* :mod:`.failsafe`: the failsafe and the keepalive heartbeat that feeds it.
+The board layer sits on the transport and under the manager; inside it the modules import
+in one direction (``tests/test_import_graph.py`` checks it):
 
-The handles themselves are in :mod:`arduinoio_async.handles`.
+* :mod:`.roles`: :class:`PinRoles`, the public record of which pin holds which role;
+* :mod:`.watches`: the change, counter, analog and stream subscriptions, restored after a
+  reset;
+* :mod:`._core`: :class:`BoardCore`, what a handle may use of its board;
+* the handles, typed against ``BoardCore`` (they never import :class:`Board`):
+  :mod:`.handles` (pins), :mod:`.changes` (pushed input changes), :mod:`.streaming`
+  (firmware-timed samples), :mod:`.transactions`, :mod:`.motors`;
+* :mod:`.failsafe`: the failsafe and the keepalive heartbeat; :mod:`.boot`: waiting for
+  a boot of the board;
+* :mod:`.board`: :class:`Board` itself (opening, requests, restore), with the handle
+  factories mixed in from :mod:`._pin_methods` and :mod:`._motor_methods`.
 """
 
 from __future__ import annotations
 
+from ._core import BoardCore
 from .board import READY_TIMEOUT, Board
 from .failsafe import HEARTBEATS_PER_TIMEOUT, IDLE_HEARTBEAT, FailsafeConfig
 from .roles import Claim, PinRoles
@@ -19,6 +28,7 @@ __all__ = [
     "IDLE_HEARTBEAT",
     "READY_TIMEOUT",
     "Board",
+    "BoardCore",
     "Claim",
     "FailsafeConfig",
     "PinRoles",

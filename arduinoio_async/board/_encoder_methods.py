@@ -1,8 +1,8 @@
-"""The board's encoder method (issue 27 item 1), mixed into :class:`Board`.
+"""The board's encoder method, mixed into :class:`~arduinoio_async.board.Board`.
 
 Kept apart from ``board.py`` by idea: it combines the pin-role machinery (both pins of an
 encoder are claimed before anything is sent, refused with :class:`PinRoleError` naming
-the pin's other user) with :mod:`arduinoio_async.encoders`.
+the pin's other user) with :mod:`arduinoio_async.board.encoders`.
 """
 
 from __future__ import annotations
@@ -10,18 +10,18 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, cast
 
 from .. import protocol as p
-from ..encoders import Encoder, ModeName, encoder_mode
 from ..errors import UsageError, ValueRangeError
 from ..protocol.pins import DigitalPin, Function
 from ..protocol.pins import require as require_capable
+from .encoders import Encoder, ModeName, encoder_mode
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = ["EncoderMethods"]
 
 
-def _slots_in_use(board: Board) -> set[int]:
+def _slots_in_use(board: BoardCore) -> set[int]:
     return {
         claim.handle.slot
         for claim in board.roles.values()
@@ -48,7 +48,7 @@ class EncoderMethods:
         pins' pull-ups (open-collector encoders need them).  Raises PinCapabilityError,
         PinRoleError (a pin held by another role, named) or ValueRangeError.
         """
-        board = cast("Board", self)
+        board = cast("BoardCore", self)
         require_capable(a, Function.ENCODER)
         require_capable(b, Function.ENCODER)
         assert isinstance(a, DigitalPin) and isinstance(b, DigitalPin)

@@ -1,8 +1,9 @@
-"""The board's actuator methods (servos, duty-cycle PWM, motors; issue 26), mixed into
-:class:`Board`.
+"""The board's actuator methods (servos, duty-cycle PWM, motors), mixed into
+:class:`~arduinoio_async.board.Board`.
 
 Kept apart from ``board.py`` by idea: they only combine the board's pin-role machinery
-(``_new_handle``, ``set_up``, ``roles``) with :mod:`arduinoio_async.motors`.
+(``_new_handle`` of :mod:`._pin_methods`, ``set_up``, ``roles``) with
+:mod:`arduinoio_async.board.motors`.
 """
 
 from __future__ import annotations
@@ -11,8 +12,6 @@ from typing import TYPE_CHECKING, TypeVar, cast
 
 from .. import protocol as p
 from ..errors import PinCapabilityError
-from ..handles import PulseOutput, Servo, SoftPwm
-from ..motors import DutyPwm, Motor, check_timer, resolve_frequency
 from ..protocol.pins import (
     D11,
     DigitalPin,
@@ -23,9 +22,12 @@ from ..protocol.pins import (
     capable_pins,
 )
 from ..protocol.timers import TIMER_OF
+from ._pin_methods import PinMethods
+from .handles import PulseOutput, Servo, SoftPwm
+from .motors import DutyPwm, Motor, check_timer, resolve_frequency
 
 if TYPE_CHECKING:
-    from .board import Board
+    from ._core import BoardCore
 
 __all__ = ["MotorMethods"]
 
@@ -38,7 +40,7 @@ D11_REASON = (
 )
 
 
-class MotorMethods:
+class MotorMethods(PinMethods):
     """``board.servo()``, ``board.soft_pwm()``, ``board.pwm()``, ``board.motor()`` and
     ``board.motor_2pwm()``: the board's actuator outputs."""
 
@@ -50,8 +52,8 @@ class MotorMethods:
         pulse_us: int,
         limits: tuple[int, int],
     ) -> PO:
-        board = cast("Board", self)
-        handle = board._new_handle(pin, function, cls)
+        board = cast("BoardCore", self)
+        handle = self._new_handle(pin, function, cls)
         check_timer(board, handle.pin, cls.ROLE)  # duty PWM may hold the timer it needs
         handle.set_limits(*limits)
         pulse_us = handle.check_pulse(pulse_us)
@@ -101,13 +103,13 @@ class MotorMethods:
         another user holds the timer (servo PWM on Timer1, software PWM on Timer0, the
         other pin at another frequency), PinRoleError when the pin has another role.
         """
-        board = cast("Board", self)
+        board = cast("BoardCore", self)
         if cast(object, pin) is D11:
             capable = [q.name for q in capable_pins(Function.DUTY_PWM)]
             exc = PinCapabilityError("D11", Function.DUTY_PWM.value, capable)
             exc.args = (exc.args[0] + D11_REASON,)
             raise exc
-        handle = board._new_handle(pin, Function.DUTY_PWM, DutyPwm)
+        handle = self._new_handle(pin, Function.DUTY_PWM, DutyPwm)
         hz = resolve_frequency(board, handle.pin, frequency_hz)
         check_timer(board, handle.pin, DutyPwm.ROLE, hz)
         raw = DutyPwm.check_duty(duty)
@@ -130,7 +132,7 @@ class MotorMethods:
         ``direction2`` (IN2, low going forward) the motor can also brake.  Every pin is
         checked before any is taken.
         """
-        return await _build(cast("Board", self), (pwm,), (direction, direction2), frequency_hz)
+        return await _build(self, (pwm,), (direction, direction2), frequency_hz)
 
     async def motor_2pwm(
         self, in1: DutyPwmPin, in2: DutyPwmPin, *, frequency_hz: int | None = None
@@ -138,11 +140,11 @@ class MotorMethods:
         """A motor behind a two-PWM driver (DRV8833 IN1/IN2): forward drives IN1 with
         PWM and holds IN2 low, reverse the other way round; brake holds both high.
         Both pins share one frequency, so a timer's pair (D9/D10, D5/D6) suits best."""
-        return await _build(cast("Board", self), (in1, in2), (), frequency_hz)
+        return await _build(self, (in1, in2), (), frequency_hz)
 
 
 async def _build(
-    board: Board,
+    board: MotorMethods,
     pwm_pins: tuple[DutyPwmPin, ...],
     direction_pins: tuple[DigitalPin | None, ...],
     frequency_hz: int | None,
@@ -153,7 +155,8 @@ async def _build(
         raise ValueError(f"a motor needs distinct pins, got {', '.join(str(q) for q in pins)}")
     for pin in pwm_pins:  # check all before taking any
         if pin in TIMER_OF:
-            check_timer(board, pin, DutyPwm.ROLE, resolve_frequency(board, pin, frequency_hz))
+            core = cast("BoardCore", board)
+            check_timer(core, pin, DutyPwm.ROLE, resolve_frequency(core, pin, frequency_hz))
     taken: list[DutyPwm] = []
     outs = []
     try:

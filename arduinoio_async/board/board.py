@@ -24,31 +24,17 @@ import anyio.lowlevel
 import anyio.to_thread
 
 from .. import protocol as p
+from .._schemes import opener_for
 from ..errors import (
     BoardDisconnectedError,
     BoardSilentError,
     FailsafeTrippedError,
     LinkError,
-    PinRoleError,
     ProtocolError,
     ValueRangeError,
 )
-from ..handles import (
-    AnalogInput,
-    Counter,
-    DigitalInput,
-    DigitalOutput,
-    Gpio,
-    I2CBus,
-    PinHandle,
-    input_setup,
-    output_setup,
-)
-from ..motors import Motor, check_stream
-from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function
+from ..protocol.pins import AnalogPin, DigitalPin, Function
 from ..protocol.pins import require as require_capable
-from ..streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
-from ..transactions import Transaction
 from ..transport import (
     DEFAULT_TIMEOUT,
     TraceHook,
@@ -67,7 +53,14 @@ from .boot import (
     wait_new_boot,
 )
 from .failsafe import Failsafe, FailsafeConfig, Recovery
-from .roles import PinRoles
+from .handles import (
+    Gpio,
+    PinHandle,
+)
+from .motors import Motor, check_stream
+from .roles import PinRoles, RoleHolder
+from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
+from .transactions import Transaction
 from .watches import Watches
 
 logger = logging.getLogger(__name__)
@@ -98,7 +91,7 @@ class Board(MotorMethods, EncoderMethods):
         self.low_latency = False
         #: The change, counter and analog watches, restored after a reset with the roles.
         self.watches = Watches(self)
-        self._failsafe = Failsafe(self)
+        self._failsafe: Failsafe[Board] = Failsafe(self)
         self._failsafe.listen(link)
 
     def __repr__(self) -> str:
@@ -124,13 +117,14 @@ class Board(MotorMethods, EncoderMethods):
         for a board that resets when its port opens.  ``low_latency``: see
         :meth:`choose_low_latency` (None, the default, turns it on behind an Uno's 16U2
         bridge at 1,000,000 baud and up).  ``zenoh://0x0007[@endpoint]`` opens a board
-        served on the network (:mod:`arduinoio_async.network`), whose server chose.
+        served on the network (:mod:`arduinoio_async.network`), whose server chose: the
+        board layer does not know the network, so such an address goes to the opener
+        registered for its scheme (:mod:`arduinoio_async.opener`).
         """
-        if port.startswith("zenoh://"):
-            from ..network import open_remote_board
-
-            async with open_remote_board(port, timeout=timeout, ready_timeout=ready_timeout) as b:
-                yield b
+        remote = opener_for(port)
+        if remote is not None:
+            async with remote(port, timeout=timeout, ready_timeout=ready_timeout) as board:
+                yield board
             return
         stream = await open_serial_stream(port, baudrate)
         try:
@@ -254,7 +248,7 @@ class Board(MotorMethods, EncoderMethods):
 
     def transaction(self) -> Transaction:
         """Requests run back to back in one frame: ``async with board.transaction() as tx:
-        d3 = tx.add(p.GpioRead(D3))`` (extension; see :mod:`arduinoio_async.transactions`)."""
+        d3 = tx.add(p.GpioRead(D3))`` (extension; see :mod:`arduinoio_async.board.transactions`)."""
         return Transaction(self)
 
     # ---- pin roles ---------------------------------------------------------------------------
@@ -267,7 +261,7 @@ class Board(MotorMethods, EncoderMethods):
         """
         return self._roles
 
-    async def set_up(self, handle: PinHandle, setup: p.Request[Any]) -> None:
+    async def set_up(self, handle: RoleHolder, setup: p.Request[Any]) -> None:
         """Give ``handle`` its pin by sending ``setup``, and record it in :attr:`roles`.
 
         What the typed handles do when they take a pin or change its direction.  A pin
@@ -282,15 +276,6 @@ class Board(MotorMethods, EncoderMethods):
         except BaseException:
             roles.withdraw(handle, previous)
             raise
-
-    def _new_handle(
-        self, pin: object, function: Function, factory: Callable[[Board, DigitalPin], H]
-    ) -> H:
-        require_capable(pin, function)
-        assert isinstance(pin, DigitalPin)
-        handle = factory(self, pin)
-        self._roles.check_free(handle)
-        return handle
 
     async def release(self, pin: DigitalPin) -> None:
         """End whatever role ``pin`` has, on the board and here."""
@@ -361,62 +346,6 @@ class Board(MotorMethods, EncoderMethods):
             )
         await self.request(p.SetLowLatency(enabled))
         self.low_latency = enabled
-
-    # ---- handles -----------------------------------------------------------------------------
-
-    def gpio(self, pin: DigitalPin) -> Gpio:
-        """A digital pin that configures itself on first use (output on write, input on read)."""
-        require_capable(pin, Function.DIGITAL_OUTPUT)
-        handle = self._gpio.get(pin)
-        if handle is None:
-            handle = Gpio(self, pin)
-            self._roles.check_free(handle)
-            self._gpio[pin] = handle
-        return handle
-
-    async def digital_output(self, pin: DigitalPin, *, initial: bool = False) -> DigitalOutput:
-        """Make ``pin`` an output that starts at ``initial`` (no glitch to the other level).
-
-        The role is recorded and replayed after a reset.  Raises PinCapabilityError for a
-        pin that cannot be a digital output, PinRoleError when another handle holds it.
-        """
-        handle = self._new_handle(pin, Function.DIGITAL_OUTPUT, DigitalOutput)
-        await self.set_up(handle, output_setup(handle.pin, initial))
-        return handle
-
-    async def digital_input(self, pin: DigitalPin, *, pull_up: bool = False) -> DigitalInput:
-        """Make ``pin`` an input, with the internal pull-up (20-50 kOhm to 5 V) if asked.
-
-        The board latches rising and falling edges between reads (:meth:`DigitalInput.read
-        <arduinoio_async.handles.DigitalInput.read>`).  Raises PinCapabilityError or
-        PinRoleError as :meth:`digital_output` does.
-        """
-        handle = self._new_handle(pin, Function.DIGITAL_INPUT, DigitalInput)
-        await self.set_up(handle, input_setup(handle.pin, pull_up))
-        return handle
-
-    def analog(self, pin: AnalogPin) -> AnalogInput:
-        """An analog input (no configuration needed); A4/A5 are busy while I2C is on."""
-        if self._roles.i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
-            raise PinRoleError(pin.name, "I2C", "analog input")
-        return AnalogInput(self, pin)
-
-    async def read_analog_all(self) -> tuple[int, ...]:
-        """All six analog inputs, A0 first, in one request."""
-        return (await self.request(p.AnalogReadAll())).values
-
-    async def counter(self, pin: CounterPin, *, edge: p.Edge = p.Edge.RISING) -> Counter:
-        """An event counter on D2/D3 counting rising or falling edges, from zero."""
-        handle = self._new_handle(pin, Function.COUNTER, Counter)
-        await self.set_up(handle, p.CounterConfig(handle.pin, p.Edge(edge)))
-        return handle
-
-    async def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> I2CBus:
-        """The I2C bridge on A4/A5 at 100 or 400 kHz."""
-        reply = await self.request(p.I2CConfig(p.I2CSpeed(speed)))
-        bus = I2CBus(self, reply.speed)
-        self._roles.set_i2c(bus)
-        return bus
 
     # ---- misc ------------------------------------------------------------------------------
 
@@ -491,7 +420,7 @@ class Board(MotorMethods, EncoderMethods):
         ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
         async for s in samples: ...``.  Commands keep working meanwhile.  A period the
         link cannot carry is refused by the board with :class:`LinkCapacityError`; see
-        :mod:`arduinoio_async.streaming` for gaps and the overflow policy.
+        :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms, encoders)
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need

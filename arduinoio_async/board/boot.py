@@ -25,7 +25,7 @@ from ..errors import (
     BoardTimeoutError,
     LinkError,
 )
-from ..transport import DEFAULT_TIMEOUT, TraceHook, Transport, open_serial_stream
+from ..transport import DEFAULT_TIMEOUT, LinkAttribute, TraceHook, Transport, open_serial_stream
 from ..transport._ready import wait_ready
 
 __all__ = [
@@ -56,7 +56,7 @@ async def start_link(
     The stream is closed if the board never answers or the wait is cancelled: the caller
     only owns it again once it is inside a transport.
     """
-    name = name or getattr(stream, "port", "") or "board"
+    name = name or stream.extra(LinkAttribute.port, "") or "board"
     try:
         await wait_ready(stream, deadline=anyio.current_time() + ready_timeout, name=name)
     except (anyio.BrokenResourceError, anyio.ClosedResourceError, anyio.EndOfStream) as exc:

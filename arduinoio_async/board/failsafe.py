@@ -16,23 +16,24 @@ import logging
 import math
 from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Generic, TypeVar
 
 import anyio
 import anyio.lowlevel
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, LinkError, PinRoleError, StaleHandleError, ValueRangeError
-from ..handles import DigitalOutput, Gpio, PinHandle, PulseOutput
-from ..motors import DutyPwm, Motor
 from ..transport import LinkState, Transport
-
-if TYPE_CHECKING:
-    from .board import Board
+from ._core import BoardCore
+from .handles import DigitalOutput, Gpio, PinHandle, PulseOutput
+from .motors import DutyPwm, Motor
 
 __all__ = ["HEARTBEATS_PER_TIMEOUT", "IDLE_HEARTBEAT", "Failsafe", "FailsafeConfig", "Recovery"]
 
 logger = logging.getLogger(__name__)
+
+#: The board the failsafe guards (a Board; its listeners are called with it).
+B = TypeVar("B", bound=BoardCore)
 
 #: Status poll interval of an idle link without failsafe (detects resets, costs ~1 frame).
 IDLE_HEARTBEAT = 0.25
@@ -54,15 +55,15 @@ class FailsafeConfig:
     safe_states: tuple[p.FailsafeSafeState, ...]
 
 
-class Failsafe:
+class Failsafe(Generic[B]):
     """One board's failsafe as the host runs it: what is armed, trip news, the keepalive."""
 
-    def __init__(self, board: Board) -> None:
+    def __init__(self, board: B) -> None:
         self.board = board
         #: The armed failsafe, or None when disarmed (kept to re-arm after a reset).
         self.config: FailsafeConfig | None = None
         self.tripped = False
-        self._listeners: list[Callable[[Board], None]] = []
+        self._listeners: list[Callable[[B], None]] = []
         self._unsubscribe: Callable[[], None] | None = None
         #: Wakes the keepalive: the failsafe was armed, a poll brought news, a recovery ended.
         self._wake = anyio.Event()
@@ -97,7 +98,7 @@ class Failsafe:
             except Exception:  # a listener's bug must not hurt the link or the caller
                 logger.exception("%r: on_failsafe callback %r failed", self.board, callback)
 
-    def on_trip(self, callback: Callable[[Board], None]) -> Callable[[], None]:
+    def on_trip(self, callback: Callable[[B], None]) -> Callable[[], None]:
         """Call ``callback(board)`` when the failsafe fires; returns the unsubscriber."""
         self._listeners.append(callback)
         return lambda: self._listeners.remove(callback)

@@ -21,22 +21,48 @@ The table sends nothing itself: it is plain bookkeeping, testable without a boar
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 from .. import protocol as p
 from ..errors import PinRoleError, StaleHandleError
 from ..protocol.pins import DigitalPin
 
-if TYPE_CHECKING:
-    from ..handles import I2CBus, PinHandle
+__all__ = ["Claim", "I2CHolder", "PinRoles", "RoleHolder"]
 
-__all__ = ["Claim", "PinRoles"]
+
+class RoleHolder(Protocol):
+    """What the table needs of a pin handle (:class:`~arduinoio_async.board.handles.PinHandle`
+    is the one in the library): kept this small so the table sits below the handles."""
+
+    #: The role in words ("digital output", ...).
+    ROLE: str
+    pin: DigitalPin
+    #: Set when the role ended; the handle then refuses to touch the pin.
+    released: bool
+
+    @property
+    def board(self) -> object:
+        """The board the handle belongs to."""
+        ...
+
+    def check_usable(self) -> None:
+        """Raise StaleHandleError if the handle's role was released."""
+        ...
+
+
+class I2CHolder(Protocol):
+    """What the table needs of the I2C bus: its speed, replayed after a reset."""
+
+    @property
+    def speed(self) -> p.I2CSpeed:
+        """The bus speed the board runs."""
+        ...
 
 
 class Claim(NamedTuple):
     """One pin's role: the handle that holds it and the request that set it up."""
 
-    handle: PinHandle
+    handle: RoleHolder
     #: The request that gives the pin this role as it is now (replayed after a reset).
     setup: p.Request[Any]
 
@@ -56,8 +82,8 @@ class PinRoles(Mapping[DigitalPin, Claim]):
     def __init__(self, owner: object) -> None:
         self._owner = owner
         #: Plain (handle, setup) pairs: amended on every write, so no Claim is built there.
-        self._claims: dict[DigitalPin, tuple[PinHandle, p.Request[Any]]] = {}
-        self._i2c: I2CBus | None = None
+        self._claims: dict[DigitalPin, tuple[RoleHolder, p.Request[Any]]] = {}
+        self._i2c: I2CHolder | None = None
 
     def __repr__(self) -> str:
         held = ", ".join(f"{pin.name}: {claim.role}" for pin, claim in self.items())
@@ -74,13 +100,13 @@ class PinRoles(Mapping[DigitalPin, Claim]):
     def __len__(self) -> int:
         return len(self._claims)
 
-    def holder(self, pin: DigitalPin) -> PinHandle | None:
+    def holder(self, pin: DigitalPin) -> RoleHolder | None:
         """The handle holding ``pin``, or None if the pin has no role."""
         claim = self._claims.get(pin)
         return None if claim is None else claim[0]
 
     @property
-    def i2c(self) -> I2CBus | None:
+    def i2c(self) -> I2CHolder | None:
         """The I2C bus when it is on (A4/A5 then belong to it), else None."""
         return self._i2c
 
@@ -99,10 +125,10 @@ class PinRoles(Mapping[DigitalPin, Claim]):
 
     # ---- changing (the board and its handles) ------------------------------------------
 
-    def check_free(self, handle: PinHandle) -> None:
+    def check_free(self, handle: RoleHolder) -> None:
         """Raise unless ``handle`` may take its pin: it is this board's, not released,
         and no other handle holds the pin (:class:`PinRoleError` names the pin and role)."""
-        if getattr(handle, "board", None) is not self._owner:
+        if handle.board is not self._owner:
             raise StaleHandleError(
                 repr(handle), f"belongs to another board, not to {self._owner!r}"
             )
@@ -111,7 +137,7 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         if current is not None and current[0] is not handle:
             raise PinRoleError(handle.pin.name, current[0].ROLE, handle.ROLE)
 
-    def claim(self, handle: PinHandle, setup: p.Request[Any]) -> Claim | None:
+    def claim(self, handle: RoleHolder, setup: p.Request[Any]) -> Claim | None:
         """Record that ``handle`` holds its pin, set up by ``setup``.
 
         Done *before* the set-up is sent, so a concurrent claim of the same pin is refused
@@ -123,7 +149,7 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         self._claims[handle.pin] = (handle, setup)
         return previous
 
-    def withdraw(self, handle: PinHandle, previous: Claim | None) -> None:
+    def withdraw(self, handle: RoleHolder, previous: Claim | None) -> None:
         """Undo :meth:`claim` after its set-up failed: put back ``previous`` (None: free)."""
         current = self._claims.get(handle.pin)
         if current is None or current[0] is not handle:
@@ -133,7 +159,7 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         else:
             self._claims[handle.pin] = (previous.handle, previous.setup)
 
-    def amend(self, handle: PinHandle, setup: p.Request[Any]) -> None:
+    def amend(self, handle: RoleHolder, setup: p.Request[Any]) -> None:
         """The pin's set-up changed (a level written, a pulse width set): replay ``setup``.
 
         Ignored unless ``handle`` still holds its pin, so a late reply cannot rewrite the
@@ -143,7 +169,7 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         if current is not None and current[0] is handle:
             self._claims[handle.pin] = (handle, setup)
 
-    def release(self, pin: DigitalPin) -> PinHandle | None:
+    def release(self, pin: DigitalPin) -> RoleHolder | None:
         """The role of ``pin`` ended: forget it and mark its handle released (returned)."""
         claim = self._claims.pop(pin, None)
         if claim is None:
@@ -152,6 +178,6 @@ class PinRoles(Mapping[DigitalPin, Claim]):
         handle.released = True
         return handle
 
-    def set_i2c(self, bus: I2CBus) -> None:
+    def set_i2c(self, bus: I2CHolder) -> None:
         """The I2C bus is on at ``bus.speed`` (A4/A5 are no longer analog inputs)."""
         self._i2c = bus

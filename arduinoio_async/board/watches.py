@@ -43,7 +43,7 @@ import logging
 from collections.abc import AsyncIterator, Callable, Hashable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import anyio
 
@@ -53,13 +53,25 @@ from ..errors import ArduinoIOError, BoardError, UsageError, WatchLostError
 if TYPE_CHECKING:
     from .._event_queue import EventQueue
     from ..transport import Transport
-    from .board import Board
 
 __all__ = ["Subscription", "Watches"]
 
 logger = logging.getLogger(__name__)
 
 R = TypeVar("R", bound=p.Reply)
+
+
+class _Owner(Protocol):
+    """What the record uses of its board (a part of
+    :class:`~arduinoio_async.board._core.BoardCore`, which holds this record, so the record
+    cannot name it)."""
+
+    session: int
+
+    @property
+    def link(self) -> Transport: ...
+
+    async def request(self, request: p.Request[R], *, timeout: float | None = None) -> R: ...
 
 
 @dataclass(eq=False)
@@ -80,7 +92,7 @@ class Subscription:
 class Watches:
     """The subscriptions of one board, by key (``("gpio", 3)``, ``("analog", 0)``, ...)."""
 
-    def __init__(self, board: Board) -> None:
+    def __init__(self, board: _Owner) -> None:
         self._board = board
         self._subscriptions: dict[Hashable, Subscription] = {}
         self._lock = anyio.Lock()

@@ -47,6 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
         "serve", help="serve this machine's boards on the network", add_help=False
     )
     serve.add_argument("rest", nargs=argparse.REMAINDER)
+    ros2 = sub.add_parser("ros2", help="run the boards as ROS 2 nodes (rmw_zenoh)", add_help=False)
+    ros2.add_argument("rest", nargs=argparse.REMAINDER)
     return parser
 
 
@@ -74,6 +76,10 @@ def _dispatch(args_list: list[str], console: Console) -> int:
         from ..network.cli import main as serve_main
 
         return serve_main(args_list[1:])
+    if args_list[:1] == ["ros2"]:
+        from ..ros2.cli import main as ros2_main
+
+        return ros2_main(args_list[1:])
     args = build_parser().parse_args(args_list)
     result: int = run_event_loop(args.handler, args, console)
     return result

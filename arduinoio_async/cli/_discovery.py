@@ -11,6 +11,7 @@ from rich.console import Console
 from .. import protocol as p
 from ..board import Board
 from ..network.options import add_remote_options, remote_boards_listing
+from ..transport import last_tuning
 from ._output import print_record, print_rows
 from ._roles import pin_roles
 from ._target import (
@@ -80,12 +81,20 @@ async def list_boards(args: argparse.Namespace, console: Console) -> int:
                             "firmware": f"{caps.firmware_major}.{caps.firmware_minor}",
                             "protocol": caps.protocol_version,
                             "baud": caps.baud,
+                            **_bridge_cell(port),
                             "status": "ok",
                         }
                     )
                 else:
                     status = result.error or "not answering"
-                    rows.append({"port": port, "id": result.board_id, "status": status})
+                    rows.append(
+                        {
+                            "port": port,
+                            "id": result.board_id,
+                            **_bridge_cell(port),
+                            "status": status,
+                        }
+                    )
     return _print_listing(console, rows, args.json)
 
 
@@ -102,12 +111,41 @@ def _print_listing(console: Console, rows: list[dict[str, Any]], as_json: bool) 
         ("protocol", "protocol"),
         ("baud", "baud"),
         ("status", "status"),
+        ("bridge", "USB bridge"),
     ]
     print_rows(console, "arduinoio boards", columns, rows, as_json=as_json, shown=shown)
     if not any(row["status"] == "ok" for row in rows):
         print(f"no board answered on {len(rows)} port(s)", file=sys.stderr)
         return 1
     return 0
+
+
+def _bridge_cell(port: str) -> dict[str, str]:
+    """``list``'s USB bridge column (absent without a bridge): the bridge's kind, and a
+    pointer to ``info`` when the fastest link could not be set (an FTDI's timer)."""
+    tuning = last_tuning(port)
+    if tuning is None or tuning.bridge is None:
+        return {}
+    if tuning.problem:
+        return {"bridge": f"{tuning.bridge.kind}: latency timer not lowered (`arduinoio info`)"}
+    return {"bridge": tuning.bridge.kind}
+
+
+def _usb_bridge(port: str) -> tuple[dict[str, str] | None, str | None]:
+    """The bridge ``port`` is on and what opening it set (raw, shown); (None, None) for a
+    port this process did not open as a serial port (a network board)."""
+    tuning = last_tuning(port)
+    if tuning is None:
+        return None, None
+    if tuning.bridge is None:
+        return {}, "none (no USB device: a pseudo-terminal, a URL or an on-board UART)"
+    raw = {
+        "kind": tuning.bridge.kind,
+        "name": tuning.bridge.name,
+        "set": tuning.applied,
+        "problem": tuning.problem,
+    }
+    return raw, f"{tuning.bridge.name}: {tuning.problem or tuning.applied or 'nothing to set'}"
 
 
 def _hex_id(value: object) -> str:
@@ -170,9 +208,13 @@ async def board_info(args: argparse.Namespace, console: Console) -> int:
             "features": _features(caps.features),
             "temperature_c": round(await board.temperature(), 1),
         }
+    bridge_raw, bridge_shown = _usb_bridge(board.port)
+    if bridge_raw is not None:
+        raw["usb_bridge"] = bridge_raw or None
     shown = {
         "board ID": f"0x{board.board_id:04X}",
         "port": board.port,
+        **({"USB bridge": bridge_shown} if bridge_shown else {}),
         "firmware": raw["firmware"],
         "protocol": str(caps.protocol_version),
         "baud": str(caps.baud),

@@ -1,4 +1,4 @@
-"""``arduinoio encoder A B``: watch a quadrature encoder from the command line (issue 27).
+"""``arduinoio encoder A B``: watch a quadrature encoder from the command line.
 
 ``arduinoio encoder D2 D3 --seconds 5`` sets up an encoder on the board and prints its count,
 direction, speed (from the board's edge times) and invalid transitions every
@@ -13,7 +13,7 @@ from typing import Any
 import anyio
 from rich.console import Console
 
-from ..encoders import encoder_mode
+from ..board.encoders import encoder_mode
 from ..errors import UsageError
 from ._board_commands import digital_pin
 from ._target import add_target_options, target_board

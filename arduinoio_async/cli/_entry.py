@@ -66,6 +66,8 @@ EXTRAS = {
     "websockets": "monitor",
     "zenoh": "network",
     "matplotlib": "plot",
+    "rosbags": "ros2",
+    "yaml": "ros2",
 }
 
 

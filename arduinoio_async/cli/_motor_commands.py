@@ -1,4 +1,4 @@
-"""Bench commands for issue 26: ``pwm`` (duty-cycle PWM) and ``motor`` (an H-bridge).
+"""Bench commands for the motor outputs: ``pwm`` (duty-cycle PWM) and ``motor`` (an H-bridge).
 
 ``arduinoio pwm D5 0.4 --freq 62.5k`` leaves D5 at 40 % on the board (the role stays
 until ``arduinoio release D5`` or a reset, as ``servo`` does); ``arduinoio motor D9 D7 D8

@@ -9,7 +9,6 @@ all: the command fails at once and says how to name ports, instead of waiting fo
 from __future__ import annotations
 
 import argparse
-import math
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ from ..board import Board
 from ..errors import ArduinoIOError, BoardError
 from ..manager import BoardManager, candidate_ports
 from ..network.options import add_remote_options, remote_board
-from ..protocol import DEFAULT_BAUD
+from ..scan_options import add_scan_options, board_id
 from ._roles import explain_busy_pin
 
 __all__ = [
@@ -37,51 +36,6 @@ NO_PORTS_HINT = (
     "or name ports with --ports PATH_OR_GLOB or ARDUINOIO_PORTS (paths or globs "
     "separated by ':' or ',')"
 )
-
-
-def board_id(text: str) -> int:
-    value = int(text, 0)
-    if not 0 <= value <= 0xFFFF:
-        raise argparse.ArgumentTypeError(f"board ID must be 0x0000-0xFFFF, got {text}")
-    return value
-
-
-def baud_rate(text: str) -> int:
-    """A positive whole number of bits per second."""
-    try:
-        value = int(text, 10)
-    except ValueError:
-        value = 0
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"baud rate must be a positive whole number, got {text}")
-    return value
-
-
-def probe_seconds(text: str) -> float:
-    """A finite, positive number of seconds (NaN or a negative deadline never ends well)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(
-            f"probe timeout must be a positive number of seconds, got {text}"
-        )
-    return value
-
-
-def add_scan_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--ports",
-        action="append",
-        default=[],
-        metavar="PATH_OR_GLOB",
-        help="also probe these ports (repeatable; ARDUINOIO_PORTS works too)",
-    )
-    parser.add_argument("--baud", type=baud_rate, default=DEFAULT_BAUD)
-    parser.add_argument(
-        "--probe-timeout", type=probe_seconds, default=5.0, help="seconds per port (auto-reset)"
-    )
 
 
 def add_target_options(parser: argparse.ArgumentParser) -> None:

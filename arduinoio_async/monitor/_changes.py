@@ -1,7 +1,7 @@
 """Levels and edges of the digital inputs, pushed by the board as change events.
 
 Every pin with an input role is subscribed to the board's change events
-(:func:`arduinoio_async.changes.watch_changes`, protocol extension 7.4): the board sends
+(:func:`arduinoio_async.board.changes.watch_changes`, protocol extension 7.4): the board sends
 each edge its pin-change interrupt sees, with the level after it and a sequence number.
 The page so counts *every* edge (a stream sample can only say "rose and/or fell since the
 previous sample") and shows the events the sequence numbers say were lost.  Nothing is
@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 import anyio
 
 from .. import protocol as p
-from ..changes import Change, ChangeStream, watch_changes
+from ..board.changes import Change, ChangeStream, watch_changes
 from ..protocol.pins import DigitalPin
 from ._sources import Activity, Emit, PinKey, SubscribingSource
 

@@ -1,7 +1,7 @@
 """The event counters' counts, reported by the board as they count (counter reports).
 
 Every pin with a counter role (D2/D3) asks the board for a report every ``every`` counts
-(:func:`arduinoio_async.changes.watch_counter`, protocol extension 7.4); one read per
+(:func:`arduinoio_async.board.changes.watch_counter`, protocol extension 7.4); one read per
 subscription gives the starting count.  A report per count is what a button or a slow
 encoder wants, but a counter at kilohertz would then fill the link with reports the page
 (about 20 updates a second) could never show.  So ``every`` follows the counting rate:
@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import anyio
 
 from .. import protocol as p
-from ..changes import CountReports, watch_counter
+from ..board.changes import CountReports, watch_counter
 from ..errors import ArduinoIOError
 from ..protocol.pins import DigitalPin
 from ._sources import Activity, Emit, PinKey, SubscribingSource

@@ -30,9 +30,10 @@ from typing import TYPE_CHECKING, Any
 import anyio
 
 from .. import protocol as p
+from ..board.handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
+from ..board.motors import DutyPwm, Motor
+from ..board.roles import RoleHolder
 from ..errors import ArduinoIOError, PinRoleError, UsageError
-from ..handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
-from ..motors import DutyPwm, Motor
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -80,12 +81,12 @@ class PinRole:
     role: str = "free"
     #: Output level, or pulse width in us, or duty in 0.1 % (0-1000), or None.
     value: int | None = None
-    handle: PinHandle | None = None
+    handle: RoleHolder | None = None
     #: The board's role in words when it was set up elsewhere (``role`` is "elsewhere").
     elsewhere: str | None = None
 
 
-def _role_of(handle: PinHandle, config: p.Request[Any]) -> PinRole:
+def _role_of(handle: RoleHolder, config: p.Request[Any]) -> PinRole:
     if isinstance(config, p.GpioConfig):
         if config.flags & p.GpioFlags.OUTPUT:
             return PinRole("output", int(bool(config.flags & p.GpioFlags.INITIAL_HIGH)), handle)

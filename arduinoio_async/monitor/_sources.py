@@ -7,7 +7,7 @@ what it receives into :class:`Activity`:
   (:meth:`arduinoio_async.board.Board.stream` with the analog channels, levels, edges and
   counters): the analog plots, and the levels of pins nobody watches (outputs, PWM).
 * :class:`~._changes.ChangeSource` subscribes every digital input to the board's change
-  events (:mod:`arduinoio_async.changes`): each edge arrives as it happens, with its
+  events (:mod:`arduinoio_async.board.changes`): each edge arrives as it happens, with its
   level and the board's sequence number, so the page counts every edge and shows lost
   events.  While a pin is watched, its level and edges come from the events only.
 
@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, Protocol
 
 import anyio
 
+from ..board.streaming import Sample
 from ..errors import ArduinoIOError
 from ..protocol.pins import AnalogPin, DigitalPin
-from ..streaming import Sample
 from ..transport import LinkState
 
 if TYPE_CHECKING:

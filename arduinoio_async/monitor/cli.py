@@ -17,10 +17,10 @@ import anyio
 from rich.console import Console
 
 from ..board import Board
-from ..cli._target import add_scan_options, board_id
 from ..errors import ArduinoIOError, UsageError
 from ..manager import BoardManager
 from ..network.options import add_remote_options, remote_board
+from ..scan_options import add_scan_options, board_id
 from ..transport import run as run_event_loop  # uvloop when installed
 
 __all__ = ["build_parser", "main"]

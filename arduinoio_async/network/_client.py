@@ -19,15 +19,17 @@ from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
+from typing import NoReturn
 
 import anyio
 import anyio.abc
 import zenoh
 
+from .._supervisor import Events, ManagerEvent, retry_forever, supervise_link
 from ..board import READY_TIMEOUT, Board
-from ..errors import ArduinoIOError, BoardNotFoundError, DuplicateBoardError, UsageError
-from ..manager import BoardManager, ManagerEvent, attach_board
-from ..transport import DEFAULT_TIMEOUT, LinkState, Transport
+from ..errors import BoardNotFoundError, DuplicateBoardError, UsageError
+from ..manager import BoardManager
+from ..transport import DEFAULT_TIMEOUT
 from ._keys import (
     ALL_BOARDS,
     DEFAULT_ENDPOINT,
@@ -80,8 +82,7 @@ class RemoteBoards:
     _announced: dict[int, set[str]] = field(default_factory=dict, init=False)
     _boards: dict[int, Board] = field(default_factory=dict, init=False)
     _supervised: set[int] = field(default_factory=set, init=False)
-    _changed: anyio.Event = field(default_factory=anyio.Event, init=False)
-    _listeners: list[Callable[[ManagerEvent], None]] = field(default_factory=list, init=False)
+    _events: Events = field(default_factory=lambda: Events(log), init=False)
     _task_group: anyio.abc.TaskGroup | None = field(default=None, init=False)
     _exit: list[Callable[[], None]] = field(default_factory=list, init=False)
 
@@ -130,7 +131,7 @@ class RemoteBoards:
     async def wait_announced(self, board_id: int, *, servers: int = 1) -> set[str]:
         """Wait until exactly ``servers`` servers announce ``board_id``; return them."""
         while len(self._announced.get(board_id, ())) != servers:
-            await self._changed.wait()
+            await self._events.changed()
         return self.servers(board_id)
 
     def check_unique(self, board_id: int) -> None:
@@ -149,8 +150,7 @@ class RemoteBoards:
 
     def subscribe(self, callback: Callable[[ManagerEvent], None]) -> Callable[[], None]:
         """Call ``callback`` on every connect, disconnect, reset and failsafe re-arm."""
-        self._listeners.append(callback)
-        return lambda: self._listeners.remove(callback)
+        return self._events.subscribe(callback)
 
     async def get(self, board_id: int, *, timeout: float | None = None) -> Board:
         """The remote board ``board_id``, waiting up to ``timeout`` for it to connect."""
@@ -180,18 +180,9 @@ class RemoteBoards:
             board = self._boards.get(board_id)
             if board is not None and board.connected:
                 return board
-            await self._changed.wait()
+            await self._events.changed()
 
     # ---- internals -------------------------------------------------------------------
-
-    def _notify(self) -> None:
-        changed, self._changed = self._changed, anyio.Event()
-        changed.set()
-
-    def _emit(self, event: ManagerEvent) -> None:
-        self._notify()
-        for callback in list(self._listeners):
-            callback(event)
 
     def _on_token(self, sample: zenoh.Sample) -> None:
         announcement = announcement_from_key(str(sample.key_expr))
@@ -205,71 +196,36 @@ class RemoteBoards:
             servers.discard(server)
             if not servers:
                 del self._announced[board_id]
-        self._notify()
+        self._events.wake()
 
-    async def _supervise(self, board_id: int) -> None:
+    async def _supervise(self, board_id: int) -> NoReturn:
         """Connect whenever the board is announced; keep the same Board across links."""
-        while True:
+
+        async def connect_and_run() -> None:
             while len(self._announced.get(board_id, ())) != 1:
-                await self._changed.wait()
+                await self._events.changed()
             assert self.session is not None
             stream = RemoteByteStream(self.session, board_id, self.client_id)
-            try:
-                link = await Board.start_link(
-                    stream, timeout=self.timeout, ready_timeout=self.ready_timeout
-                )
-                stream.relay_failures_to(link.relay_failure)
-                await self._run_link(board_id, link)
-            except (ArduinoIOError, anyio.BrokenResourceError, anyio.ClosedResourceError) as exc:
-                # Announced but not answering (yet): the server is restarting, or access
-                # control lets us see the token but not query.
-                log.info("remote board 0x%04X: %s", board_id, exc)
-            await anyio.sleep(RETRY_DELAY)
-
-    async def _run_link(self, board_id: int, link: Transport) -> None:
-        closed = anyio.Event()
-        link.on_state_change(lambda state: closed.set() if state is LinkState.CLOSED else None)
-        board = self._boards.get(board_id)
-        detail = ""
-        try:
-            async with link:
-                board = await attach_board(self._boards, board_id, link)
-                self._emit(ManagerEvent("connected", board_id, link.name))
-                await self._heartbeat(board, link, closed)
-        except ArduinoIOError as exc:
-            detail = str(exc)
-        finally:
-            if board is not None:
-                board.detach(link)
-                self._emit(ManagerEvent("disconnected", board_id, link.name, detail))
-
-    async def _heartbeat(self, board: Board, link: Transport, closed: anyio.Event) -> None:
-        async def restore_after_reset() -> None:
-            self._emit(ManagerEvent("reset", board.board_id, link.name, "restoring"))
-            await board.adopt(link)
-            self._notify()  # connected again: wake wait_connected()
-
-        async def rearm_after_trip() -> None:
-            if board.failsafe is None:
-                return  # another client's failsafe tripped; ours was not armed
-            self._emit(ManagerEvent("failsafe", board.board_id, link.name, "re-arming"))
-            await board.rearm_failsafe(restore=True)
-
-        async def drop_when_duplicated() -> None:
-            while len(self._announced.get(board.board_id, ())) <= 1:
-                await self._changed.wait()
-            log.warning("remote board 0x%04X: two servers announce it; dropped", board.board_id)
-            closed.set()
-
-        async with anyio.create_task_group() as tg:
-            tg.start_soon(
-                partial(
-                    board.keepalive, link, on_reset=restore_after_reset, on_trip=rearm_after_trip
-                )
+            link = await Board.start_link(
+                stream, timeout=self.timeout, ready_timeout=self.ready_timeout
             )
-            tg.start_soon(drop_when_duplicated)
-            await closed.wait()
-            tg.cancel_scope.cancel()
+            stream.relay_failures_to(link.relay_failure)
+            await supervise_link(
+                board_id, link, self._boards, self._events, watch=self._until_duplicated
+            )
+
+        # A failure is an announced board not answering (yet): the server is restarting,
+        # or access control lets us see the token but not query.
+        await retry_forever(
+            connect_and_run, pause=RETRY_DELAY, what=f"remote board 0x{board_id:04X}", log=log
+        )
+
+    async def _until_duplicated(self, board: Board) -> str:
+        """Return once two servers announce ``board``'s ID: the link is given up then."""
+        while len(self._announced.get(board.board_id, ())) <= 1:
+            await self._events.changed()
+        log.warning("remote board 0x%04X: two servers announce it; dropped", board.board_id)
+        return "two servers announce it"
 
 
 @asynccontextmanager

@@ -9,17 +9,14 @@ from __future__ import annotations
 
 import logging
 import threading
-from typing import TYPE_CHECKING, Any
 
 import anyio
 
 from .. import protocol as p
 from ..errors import ArduinoIOError
 from ..transport import Transport
-
-if TYPE_CHECKING:
-    from ._limits import ClientRecords
-    from ._server import BoardServer
+from ._client_policy import ClientPolicy
+from ._host import ServingHost
 
 __all__ = ["STARVE_MARGIN", "STARVE_TICK", "FailsafeOwner"]
 
@@ -35,29 +32,24 @@ STARVE_TICK = 0.02
 class FailsafeOwner:
     """The owner watch and the starving of a served board (mixed into ServedBoard)."""
 
-    server: BoardServer
+    server: ServingHost
     link: Transport
     board_id: int
     closed: bool
-    owner: str | None
-    owner_timeout: float
-    arms: int
-    streamer: str | None
+    policy: ClientPolicy
     gate: anyio.Event | None
     tripped: anyio.Event
-    tags: ClientRecords[Any]
-    last_heard: ClientRecords[float]
     _lock: threading.Lock
 
     # ---- the failsafe's owner ----------------------------------------------------------
 
     def client_gone(self, client: str) -> None:
-        self.tags.pop(client)
-        self.last_heard.pop(client)
-        if client == self.owner and not self.tripped.is_set():
+        """A client's liveliness token vanished: its records and pins go (see
+        :meth:`ClientPolicy.client_gone`); the board starves if it owned the failsafe."""
+        streamed = self.policy.client_gone(client)
+        if client == self.policy.owner and not self.tripped.is_set():
             self._starve(f"client {client} vanished")
-        if client == self.streamer:
-            self.streamer = None
+        if streamed:
             self.server.start_soon(self._stop_stream_of, client)
 
     async def _stop_stream_of(self, client: str) -> None:
@@ -75,17 +67,18 @@ class FailsafeOwner:
 
     async def _watch_owner(self, client: str, arm: int) -> None:
         """While ``client`` owns this arming, starve the board once it falls silent."""
+        policy = self.policy
         while (
-            self.arms == arm
-            and self.owner == client
+            policy.arms == arm
+            and policy.owner == client
             and not self.closed
             and not self.tripped.is_set()
         ):
-            silent_for = anyio.current_time() - self.last_heard.peek(client, 0.0)
-            if silent_for > self.owner_timeout and self.gate is None:
+            silent_for = anyio.current_time() - policy.last_heard.peek(client, 0.0)
+            if silent_for > policy.owner_timeout and self.gate is None:
                 self._starve(f"client {client} silent for {silent_for * 1000:.0f} ms")
                 return
-            await anyio.sleep(max(STARVE_TICK, self.owner_timeout - silent_for))
+            await anyio.sleep(max(STARVE_TICK, policy.owner_timeout - silent_for))
 
     def _starve(self, reason: str) -> None:
         if self.gate is not None or self.closed:
@@ -96,7 +89,7 @@ class FailsafeOwner:
         self.server.start_soon(self._starve_until_tripped, self.gate)
 
     async def _starve_until_tripped(self, gate: anyio.Event) -> None:
-        give_up = anyio.current_time() + self.owner_timeout + STARVE_MARGIN
+        give_up = anyio.current_time() + self.policy.owner_timeout + STARVE_MARGIN
         try:
             while not self.tripped.is_set() and anyio.current_time() < give_up:
                 # The manager's heartbeat skips a link that sent recently: keep it quiet.
@@ -106,6 +99,6 @@ class FailsafeOwner:
             if not self.tripped.is_set():
                 log.warning("board 0x%04X: no failsafe trip reported", self.board_id)
         finally:
-            self.owner = None
+            self.policy.owner = None
             self.gate = None
             gate.set()

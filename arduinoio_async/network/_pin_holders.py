@@ -59,29 +59,6 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     return [] if found is None else [found]
 
 
-def _items(request: p.Transaction) -> list[p.Request[Any]]:
-    """The requests a transaction carries (those that decode; the board checks the rest)."""
-    out: list[p.Request[Any]] = []
-    items, pos = request.items, 0
-    decoder = p.Decoder.from_host()
-    while pos + 2 <= len(items):
-        cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
-        if cls is None:
-            break
-        layout = cls.LAYOUT
-        size = layout.base_size - 1
-        if layout.length_offset >= 0 and pos + layout.length_offset < len(items):
-            size += items[pos + layout.length_offset]
-        raw = items[pos : pos + size]
-        if len(raw) != size:
-            break
-        frames = decoder.feed(raw + bytes((p.checksum(raw),)))
-        decoder.reset()
-        out.extend(frame for frame in frames if isinstance(frame, p.Request))
-        pos += size
-    return out
-
-
 @dataclass
 class _Held:
     role: str
@@ -124,7 +101,7 @@ class PinHolders:
 
     @staticmethod
     def _requests(request: p.Request[Any]) -> list[p.Request[Any]]:
-        return _items(request) if isinstance(request, p.Transaction) else [request]
+        return p.readable_items(request.items) if isinstance(request, p.Transaction) else [request]
 
     def _conflict(self, client: str, pin: int, role: str) -> str | None:
         held = self.pins.get(pin)

@@ -28,36 +28,22 @@ transport without suspending in between.  Either way requests reach the link in 
 order the queries arrived, on any scheduler, and several clients' requests are pipelined
 on it like one client's.
 
-What the server changes on the way (everything else passes through untouched):
+What the server changes on the way (everything else passes through untouched) is the
+clients' policy, pure logic in :mod:`._client_policy`: sessions are virtual, the
+failsafe has an owner, board IDs are fixed, pins are held by their client.  This module
+does what follows from it in Zenoh and in tasks:
 
-* **Sessions are virtual.**  Every client's ``Board`` tags the board's session at
-  connect and polls it to notice resets.  A client's ``SetSession`` is answered by the
-  server and recorded with the *boot* it was set in (the server's own tag of the real
-  board, which changes whenever the manager meets a fresh boot); a client's
-  ``ReadStatus`` shows the client its own tag while that boot lasts and 0 -- a fresh
-  board -- once the board has reset or been replugged since.  So clients never take each
-  other's tags for a reset, and a real reset still reaches every client, which then
-  restores its own pin roles.
-* **The failsafe follows its owner.**  The client whose ``FailsafeArm`` went through
-  owns the failsafe.  When its liveliness token vanishes (the process died, the session
-  closed, the lease ran out) or it has sent nothing for the failsafe's timeout, the
-  server stops every byte to that board -- other clients' requests wait, and the
-  manager's heartbeat is held off -- until the board trips (or the timeout has passed
-  with a margin).  A dead controller's outputs therefore go safe within its timeout, as
-  they would if it had been on the USB cable itself.
+* **The failsafe follows its owner** (:mod:`._owner`).  When the owner's liveliness
+  token vanishes (the process died, the session closed, the lease ran out) or it has
+  sent nothing for the failsafe's timeout, the server stops every byte to that board --
+  other clients' requests wait, and the manager's heartbeat is held off -- until the
+  board trips (or the timeout has passed with a margin).  A dead controller's outputs
+  therefore go safe within its timeout, as they would if it had been on the USB cable.
+* A vanished client's roles stay configured (outputs hold their levels unless its
+  failsafe makes them safe); its sample stream, which nobody reads any more, is stopped.
 
-* **Board IDs are fixed.**  ``WriteId`` is refused with a ``UsageError`` (relayed to the
-  caller with its class): everything on the network -- the keys, the server's manager,
-  every client's ``Board`` -- names the board by its ID, and a new ID would leave them
-  all pointing at a board that no longer answers to it.
-
-Pin roles are the board's, and a client's pins are its own: a set-up or release of a pin
-another live client holds in another role is refused with ``PIN_BUSY``
-(:mod:`._pin_holders`).  A vanished client's roles stay configured (outputs hold their
-levels unless its failsafe makes them safe); its sample stream, which nobody reads any
-more, is stopped.  Configuring a pin in the role it already has
-is accepted by the board, so a restarted controller sets its pins up again as usual; a
-different role needs the pin released first, as on any board.
+The server is handed in as a :class:`~._host.ServingHost`: this module does not know
+:class:`~._server.BoardServer`, which imports it.
 """
 
 from __future__ import annotations
@@ -69,8 +55,7 @@ import logging
 import math
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import anyio
 import zenoh
@@ -88,6 +73,8 @@ from ..errors import (
 )
 from ..protocol.session import Exchange
 from ..transport import Transport
+from ._client_policy import LOOP_ONLY, ClientPolicy
+from ._host import ServingHost
 from ._keys import (
     announcement_key,
     encode_fault,
@@ -96,53 +83,27 @@ from ._keys import (
     samples_key,
     undeclare,
 )
-from ._limits import ClientQueues, ClientRecords, fair_key, oversized
+from ._limits import ClientQueues, fair_key, oversized
 from ._loop import zenoh_callback
 from ._owner import FailsafeOwner
-from ._pin_holders import CLAIMS, PinHolders
 from ._resumer import Resumer
-
-if TYPE_CHECKING:
-    from ._server import BoardServer
 
 __all__ = ["ServedBoard"]
 
 log = logging.getLogger(__name__)
 
-#: Why a remote ``write_id`` is refused (it reaches the client as a UsageError).
-WRITE_ID_REFUSED = (
-    "board 0x{board:04X}: write_id(0x{new:04X}) is refused over the network: the server, "
-    "its clients and the board's keys name the board by its ID, which would change under "
-    "them; set the ID on the computer the board is plugged into (arduinoio set-id)"
-)
 NOT_ONE_REQUEST = "a query carries one request frame"
 #: Queries of one board in progress at once (the transport keeps at most 64 in flight).
 WORKERS = 64
 #: Request frames remembered with their decoded request (see ``ServedBoard._request_in``);
 #: past this many distinct frames the memory starts over.
 KNOWN_FRAMES = 256
-#: Requests whose handling depends on the client that sent them: only for these (and
-#: for every request while a client owns the failsafe) the query's attachment is read.
-_PER_CLIENT: frozenset[type[p.Request[Any]]] = (
-    frozenset({p.SetSession, p.ReadStatus, p.FailsafeArm, p.StreamStart}) | CLAIMS
-)
-#: Requests that always go through the loop: their client matters, or the server answers
-#: them itself.
-_LOOP_ONLY: frozenset[type[p.Request[Any]]] = _PER_CLIENT | {p.WriteId}
-
-
-@dataclass
-class _Tag:
-    """A client's virtual session tag and the boot of the board it was set in."""
-
-    tag: int
-    boot: int | None  # None: set after a reboot the server has not re-tagged yet
 
 
 class ServedBoard(FailsafeOwner):
     """One board on the network: queryable, event publisher, liveliness token."""
 
-    def __init__(self, server: BoardServer, board: Board) -> None:
+    def __init__(self, server: ServingHost, board: Board) -> None:
         self.server = server
         self.board = board
         # The transport is captured now: during a restore the manager detaches the Board
@@ -152,14 +113,7 @@ class ServedBoard(FailsafeOwner):
         # Parsed once: a key given as a string is parsed and checked on every reply.
         self.key = zenoh.KeyExpr(request_key(self.board_id))
         self.closed = False
-        self.stale = False  # the board rebooted and the manager has not re-tagged it yet
-        self.owner: str | None = None  # the client whose failsafe is armed
-        self.owner_timeout = 0.0
-        self.arms = 0  # FailsafeArm requests seen: one owner watch per arming
-        self.streamer: str | None = None  # the client whose stream runs (one per board)
-        self._streamer_before: str | None = None  # while a StreamStart is on its way
         self._samples: tuple[str, zenoh.Publisher] | None = None  # (streamer, publisher)
-        self.pins = PinHolders()  # which client holds which pin, in which role
         self.gate: anyio.Event | None = None  # while the board is being starved
         self.tripped = anyio.Event()
         self._decoder = p.Decoder.from_host()  # the loop's
@@ -176,9 +130,7 @@ class ServedBoard(FailsafeOwner):
         except RuntimeError:
             self._now = anyio.current_time
             self._direct = False
-        # Bounded and expiring (see ._limits); the failsafe's owner and the streamer stay.
-        self.tags = ClientRecords[_Tag](self._now, self._keeps)
-        self.last_heard = ClientRecords[float](self._now, self._keeps)
+        self.policy = ClientPolicy(self.board_id, self._now, server.live_clients)
         self._queues = ClientQueues()  # queries in progress and waiting, per client
         self._clients: dict[bytes, str] = {}  # attachments seen, decoded once
         self._requests: dict[bytes, p.Request[Any]] = {}  # frames seen, decoded once
@@ -222,8 +174,9 @@ class ServedBoard(FailsafeOwner):
         if isinstance(event, p.FailsafeTripped):
             self.tripped.set()
         publisher = self.publisher
-        if isinstance(event, p.StreamSample) and self.streamer:
-            publisher = self._samples_publisher(self.streamer)
+        streamer = self.policy.streamer
+        if isinstance(event, p.StreamSample) and streamer:
+            publisher = self._samples_publisher(streamer)
         try:
             publisher.put(event.encode())
         except zenoh.ZError as exc:
@@ -254,11 +207,11 @@ class ServedBoard(FailsafeOwner):
                 if admitted is not False:
                     self._refuse(query, UsageError(admitted))
                 return  # False: it waits; ``_reply`` of the client's earlier query admits it
-            if self._in_loop == 0 and self.gate is None and self.owner is None:
+            if self._in_loop == 0 and self.gate is None and self.policy.owner is None:
                 request = self._request_in(query, self._thread_decoder)
                 if (
                     request is not None
-                    and type(request) not in _LOOP_ONLY
+                    and type(request) not in LOOP_ONLY
                     and self._direct
                     and not self.closed
                 ):
@@ -342,7 +295,7 @@ class ServedBoard(FailsafeOwner):
         request = self._request_in(query, self._decoder)
         if request is None:
             return "", None
-        if self.owner is None and type(request) not in _PER_CLIENT:
+        if not self.policy.needs_client(request):
             return "", request
         attachment = query.attachment
         if attachment is None:
@@ -386,11 +339,11 @@ class ServedBoard(FailsafeOwner):
             self._reply(query, None, None, ProtocolError(NOT_ONE_REQUEST))
             return
         if client:
-            self.last_heard[client] = self._now()
+            self.policy.last_heard[client] = self._now()
         try:
             if self.closed:
                 raise self._gone()
-            local = self._answer_locally(client, request)
+            local = self.policy.answer_locally(client, request, self.board.session)
         except ArduinoIOError as exc:
             self._reply(query, request, None, exc)
             return
@@ -401,7 +354,7 @@ class ServedBoard(FailsafeOwner):
         def done(reply: p.Reply | None, error: BaseException | None) -> None:
             frame = None
             if isinstance(error, BoardError):
-                self._refused(client, request)
+                self.policy.refused(client, request)
             if reply is not None:
                 try:
                     frame = self._after_link(client, request, reply)
@@ -424,16 +377,16 @@ class ServedBoard(FailsafeOwner):
                 error = ProtocolError(NOT_ONE_REQUEST)
             else:
                 if client:
-                    self.last_heard[client] = self._now()
+                    self.policy.last_heard[client] = self._now()
                 try:
                     if self.closed:
                         raise self._gone()
-                    frame = self._answer_locally(client, request)
+                    frame = self.policy.answer_locally(client, request, self.board.session)
                     if frame is None:
                         try:
                             reply = await self.link.request(request)
                         except BoardError:
-                            self._refused(client, request)
+                            self.policy.refused(client, request)
                             raise
                         frame = self._after_link(client, request, reply)
                 except ArduinoIOError as exc:
@@ -483,71 +436,14 @@ class ServedBoard(FailsafeOwner):
         with query, contextlib.suppress(zenoh.ZError):  # not counted in progress: no release
             query.reply_err(encode_fault(error))
 
-    def _keeps(self, client: str) -> bool:
-        """Whether ``client``'s records stay: owner, streamer, or its liveliness is up."""
-        return client in (self.owner, self.streamer) or client in self.server.live_clients
-
-    def _answer_locally(self, client: str, request: p.Request[Any]) -> bytes | None:
-        """The reply of a request the server answers itself, or None: it goes to the link."""
-        if isinstance(request, p.WriteId):
-            raise UsageError(WRITE_ID_REFUSED.format(board=self.board_id, new=request.board_id))
-        if isinstance(request, p.SetSession):
-            self.tags[client] = _Tag(request.session, None if self.stale else self.board.session)
-            return p.SetSessionReply(request.session).encode()
-        if isinstance(request, p.StreamStart):
-            # The stream's samples go to this client from its first sample on: the board
-            # sends them after its reply, which may be handled after they are published.
-            self._streamer_before, self.streamer = self.streamer, client
-        if type(request) in CLAIMS:
-            why = self.pins.claim(client, request)
-            if why is not None:  # the client gets the board's own refusal frame
-                log.info("board 0x%04X: refused %r of %s: %s", self.board_id, request, client, why)
-                raise BoardError(p.ErrorCode.PIN_BUSY, request, why)
-        return None
-
-    def _refused(self, client: str, request: p.Request[Any]) -> None:
-        """The board refused ``request``: undo what the server recorded when it was
-        admitted.  Only a refusal: a request that timed out or lost its reply may have
-        been carried out (and the client's retry of an idempotent set-up may already be
-        on its way), so its claim stands."""
-        self.pins.refused(client, request)
-        if isinstance(request, p.StreamStart) and self.streamer == client:
-            self.streamer = self._streamer_before  # the board kept the stream it had
-
     def _after_link(self, client: str, request: p.Request[Any], reply: p.Reply) -> bytes:
-        """The board's reply as ``client`` gets it; the server's records follow the request."""
-        if isinstance(reply, p.ReadStatusReply):
-            return self._virtual_status(client, reply).encode()
+        """The board's reply as ``client`` gets it (see :meth:`ClientPolicy.after_link`);
+        an arming starts the watch on its owner, a disarming clears the trip."""
+        frame = self.policy.after_link(client, request, reply, self.board.session)
         if isinstance(request, p.FailsafeArm):
-            self.owner, self.owner_timeout = client, request.timeout_ms / 1000
             self.tripped = anyio.Event()
             self.board.failsafe_tripped = False
-            self.arms += 1
-            self.server.start_soon(self._watch_owner, client, self.arms)
+            self.server.start_soon(self._watch_owner, client, self.policy.arms)
         elif isinstance(request, p.FailsafeDisarm):
-            self.owner = None
             self.board.failsafe_tripped = False
-        elif isinstance(request, p.StreamStop):
-            self.streamer = None
-        frame: bytes = reply.encode()
         return frame
-
-    def _virtual_status(self, client: str, raw: p.ReadStatusReply) -> p.ReadStatusReply:
-        """The status as ``client`` must see it: its own tag, or 0 after a reboot."""
-        self.stale = raw.session != self.board.session
-        record = self.tags.get(client)
-        if record is None:
-            return raw
-        if self.stale:
-            session = record.tag if record.boot is None else 0
-        elif record.boot is None or record.boot == self.board.session:
-            record.boot = self.board.session
-            session = record.tag
-        else:
-            session = 0
-        return p.ReadStatusReply(raw.flags, session)
-
-    def client_gone(self, client: str) -> None:
-        """A client's liveliness token vanished: it holds no pins any more."""
-        self.pins.client_gone(client)
-        super().client_gone(client)

@@ -47,7 +47,8 @@ from __future__ import annotations
 
 import collections
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import anyio
 import anyio.abc
@@ -55,6 +56,7 @@ import zenoh
 
 from .. import protocol as p
 from ..errors import ArduinoIOError
+from ..transport import ImmediateSender, LinkAttribute, PushStream, RelayingStream
 from ._keys import RemoteFault, decode_fault, events_key, request_key, samples_key, undeclare
 from ._loop import LoopHandle, zenoh_callback
 
@@ -100,7 +102,7 @@ class _Slot:
         self._loop.call_soon(self._stream._settle, self._number, result)
 
 
-class RemoteByteStream(anyio.abc.ByteStream):
+class RemoteByteStream(anyio.abc.ByteStream, PushStream, ImmediateSender, RelayingStream):
     """The byte stream of board ``board_id`` served somewhere on the Zenoh network."""
 
     def __init__(
@@ -147,6 +149,11 @@ class RemoteByteStream(anyio.abc.ByteStream):
             session.declare_subscriber(key, self._loop.forward(self._deliver_event))
             for key in (events_key(board_id), samples_key(board_id, client_id))
         ]
+
+    @property
+    def extra_attributes(self) -> Mapping[Any, Callable[[], Any]]:
+        """The link's name, ``zenoh://0x0007`` (:class:`LinkAttribute`.port)."""
+        return {LinkAttribute.port: lambda: self.port}
 
     # ---- push mode: the transport's receive path --------------------------------------
 

@@ -21,7 +21,7 @@ import anyio
 import zenoh
 
 from ..errors import ArduinoIOError
-from ..manager import BoardManager
+from ..manager import BoardManager, add_ports_option
 from ..protocol import DEFAULT_BAUD
 from ..transport import run as run_event_loop  # uvloop when installed
 from ._keys import DEFAULT_ENDPOINT, zenoh_config
@@ -37,13 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="arduinoio serve",
         description="Serve the boards of this machine on the network (Zenoh).",
     )
-    parser.add_argument(
-        "--ports",
-        action="append",
-        default=[],
-        metavar="PATH_OR_GLOB",
-        help="also probe these ports (repeatable; ARDUINOIO_PORTS works too)",
-    )
+    add_ports_option(parser)
     parser.add_argument("--no-usb", action="store_true", help="do not probe USB serial ports")
     parser.add_argument("--baud", type=int, default=DEFAULT_BAUD)
     parser.add_argument(

@@ -26,7 +26,7 @@ class ClassTag(IntEnum):
     COUNTER = 0x06
     STREAM = 0x07  # extension
     FAILSAFE = 0x08  # extension
-    ENCODER = 0x0A  # extension: quadrature encoders (issue 27)
+    ENCODER = 0x0A  # extension: quadrature encoders
     EVENT = 0x40  # extension: frames the board sends without a request
 
 
@@ -170,13 +170,13 @@ class Feature(IntFlag):
     ANALOG_CHANGES = 0x2000
     #: SET_LOW_LATENCY and filler bytes after replies (extension, docs/protocol.md 7.6).
     LOW_LATENCY = 0x4000
-    #: PWM DUTY_CONFIG/DUTY_SET: duty-cycle PWM on the timers' pins (extension, issue 26).
+    #: PWM DUTY_CONFIG/DUTY_SET: duty-cycle PWM on the timers' pins (extension).
     DUTY_PWM = 0x8000
     #: SET_FRAMING: frames checked by CRC-16/CCITT-FALSE instead of the XOR byte
     #: (extension, docs/protocol.md 7.7).
     CRC16 = 0x10000
     #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
-    #: in the stream and EncoderReport events (extension, issue 27).
+    #: in the stream and EncoderReport events (extension).
     ENCODER = 0x40000
 
 

@@ -10,8 +10,8 @@ table as the firmware header, so the document cannot drift from the code (a test
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
-from .._resources import project_path
 from ._constants import FIRMWARE_BAUDS, STREAM_FRAME_OVERHEAD, ClassTag, StreamFlags
 from ._layout import Layout
 from ._messages import EVENT_TYPES, REQUEST_TYPES
@@ -19,7 +19,8 @@ from .commands.stream import sample_payload_size, stream_min_period_us
 
 __all__ = ["DOC_PATH", "main", "render_layouts", "splice"]
 
-DOC_PATH = project_path("docs/protocol.md")
+#: The specification in a clone, relative to its root (run the generator from there).
+DOC_PATH = Path("docs/protocol.md")
 BEGIN = "<!-- BEGIN GENERATED: python -m arduinoio_async.protocol.docgen -->"
 END = "<!-- END GENERATED -->"
 

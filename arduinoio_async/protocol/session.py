@@ -17,19 +17,6 @@ never overtaken: it always gets its turn.
 flight only if it *matches* it (type and every echoed field); an error reply only if it
 names the request's tags.  Board-initiated frames (events) never touch the FIFO.
 
-*Line noise.*  Garbage means some reply was damaged.  The session does not give up on
-the whole window: it marks the stream *suspect* and sends a marker request behind
-everything in flight.  The next valid frame tells where the stream is: if it matches the
-k-th request in flight, and no later request could have produced the same frame, the
-replies of the k requests before it were lost -- only those fail (with
-:class:`ReplyLostError`), the rest of the in-order stream is still verified.  A frame that
-could answer several of them (two requests alike in flight) is counted as noise: the one
-it answered lost its reply, and the next frame placed settles it with the others before
-it.  A frame that matches nothing, a framing error reported by the board or a request
-whose deadline passed while in flight make the session *lose sync*: everything in flight
-fails, and the shell drains the line and probes the board with an ID request
-(:meth:`Session.start_probe`) before the queue moves again.
-
 *Checksum blind spots.*  An 8-bit XOR passes a reply that lost byte ``b`` when the
 next frame starts with ``b`` (the candidate steals it), or that gained a byte equal to its
 checksum; either way garbage follows the bad frame at once.  So a frame followed by
@@ -42,48 +29,34 @@ temperature reading outside what the chip's sensor can report
 (:data:`~._bounds.TEMPERATURE_RAW_RANGE`) is noise too, so an idempotent read is asked again
 instead of answering with a wrong value.  Docs: ``docs/protocol.md``, "Residual errors".
 
-*Retries.*  A request whose reply was lost is re-sent at the head of the queue -- before
-anything queued later -- when it is idempotent (``Request.IDEMPOTENT``), has attempts
-left, and no request sent after it could make the repeat observable (a request with side
-effects on the same pin, or on no particular pin).  Everything else fails to its caller:
-its fate on the board is unknown.  The caller's deadline bounds the retries (the shell
-calls :meth:`Session.expire`).
-
-*Board ID.*  A ``WriteId`` whose reply was lost may or may not have changed the ID; the
-probe that follows accepts the new ID as well as the old one and adopts what it finds.
-
-*Framing.*  A board whose capabilities (read through the session) announce CRC-16 framing
-is switched to it with a ``SetFraming`` barrier, and switched again after a reset drops it
-back to XOR framing; the probe decodes both framings to tell.  See
-:mod:`~arduinoio_async.protocol._framing`.
+*Line noise, retries, loss of sync* are :mod:`._recovery`'s; *probing and framing*
+:mod:`._probing`'s; the state both work on, the admission of queued requests and the
+way out of the FIFO are :mod:`._session_core`'s.  :class:`Session` puts them together.
 """
 
 from __future__ import annotations
 
-import collections
-from collections.abc import Callable
 from typing import Any
 
 from ..errors import (
     ArduinoIOError,
     BoardDisconnectedError,
     BoardError,
-    BoardTimeoutError,
-    LinkResyncError,
     ReplyMismatchError,
 )
 from ._bounds import BOUNDED, TEMPERATURE_RAW_RANGE, possible
-from ._constants import RX_FIFO_SIZE, Framing
-from ._decoder import Decoded, Decoder, Garbage
+from ._constants import Framing
+from ._decoder import Decoded, Garbage
 from ._exchange import Exchange, LinkStats, Received, SessionState, board_error
-from ._framing import MAX_NEGOTIATIONS, LinkFraming, frame_bytes
+from ._framing import LinkFraming, frame_bytes
 from ._layout import Frame
 from ._messages import ErrorReply, Event, Reply, Request
+from ._probing import Probing
+from ._recovery import MAX_ATTEMPTS, Recovery
+from ._session_core import MAX_IN_FLIGHT, TraceFn
 from .commands.misc import (
     ReadCapabilities,
     ReadCapabilitiesReply,
-    ReadId,
-    ReadIdReply,
     ResetReply,
 )
 from .commands.misc import WriteId as _WriteId
@@ -98,87 +71,15 @@ __all__ = [
     "Received",
     "Session",
     "SessionState",
+    "TraceFn",
     "board_error",
 ]
-
-#: Requests in flight at once, whatever their size.
-MAX_IN_FLIGHT = 64
-#: Sends of one idempotent request (the first and the retries).
-MAX_ATTEMPTS = 3
-
-
-TraceFn = Callable[[str, "Decoded"], None]
 
 _NOT_A_REPLY = (Garbage, Event)
 
 
-class Session:
+class Session(Recovery, Probing):
     """Pending FIFO, byte window, in-order matching and loss of sync for one link."""
-
-    def __init__(
-        self,
-        *,
-        window_bytes: int = RX_FIFO_SIZE,
-        max_in_flight: int = MAX_IN_FLIGHT,
-        expected_id: int | None = None,
-        name: str = "link",
-        trace: TraceFn | None = None,
-        framing: Framing = Framing.XOR,
-    ) -> None:
-        self.window_bytes = window_bytes
-        self.max_in_flight = max_in_flight
-        #: Board ID a probe must find (None: any).
-        self.expected_id = expected_id
-        self.name = name
-        #: Called with ("tx"|"rx", item) for every frame and garbage run.
-        self.trace = trace
-        self.state = SessionState.READY
-        self.stats = LinkStats()
-        #: Why the link last lost sync, and the history of reasons (newest last).
-        self.last_loss: str | None = None
-        self.close_error: BoardDisconnectedError | None = None
-        #: The framing in force and wanted (``framing``: used once the board says it can).
-        self.framing = LinkFraming(framing)
-        self._crc = False
-        self._decoder = Decoder.from_board()
-        #: While probing: a decoder of the framing not in force (see ``_framing``).
-        self._other: Decoder | None = None
-        #: A RESET was answered: the next reply comes from a fresh boot (XOR framing).
-        self._after_reset = False
-        self._queue: collections.deque[Exchange] = collections.deque()
-        self._flight: collections.deque[Exchange] = collections.deque()
-        self._flight_bytes = 0
-        self._suspect = False
-        #: Garbage bytes since the last frame that was placed (to place the next one).
-        self._noise = 0
-        #: The last frame of a chunk, kept until the next chunk vouches for it.
-        self._held: Frame | None = None
-        self._marker: Exchange | None = None
-        self._candidate_ids: set[int] = set()
-        self._aligned = True
-
-    # ---- introspection -------------------------------------------------------------------
-
-    @property
-    def in_flight(self) -> int:
-        return len(self._flight)
-
-    @property
-    def in_flight_bytes(self) -> int:
-        return self._flight_bytes
-
-    @property
-    def queued(self) -> int:
-        return len(self._queue)
-
-    def pending(self) -> list[Exchange]:
-        """Every exchange not done yet: in flight (oldest first), then queued."""
-        return [*self._flight, *self._queue]
-
-    @property
-    def aligned(self) -> bool:
-        """While draining: the last bytes fed ended on a valid frame's boundary."""
-        return self._aligned and not self._decoder.buffered
 
     # ---- requests ------------------------------------------------------------------------
 
@@ -222,54 +123,6 @@ class Session:
             exchange.done = True
             return
         exchange.abandoned = True
-
-    def expire(self, exchange: Exchange) -> Received:
-        """``exchange``'s deadline passed.  Unsent, it just fails; in flight, the board
-        did not answer in time and the session loses sync."""
-        out = Received()
-        if exchange.done:
-            return out
-        self.stats.timeouts += 1
-        negotiation = self.framing.negotiation
-        if exchange.queued and negotiation is not None and not negotiation.queued:
-            # It waited behind a SetFraming whose reply never came: the board's framing
-            # is unknown, and only a probe can tell.
-            self._lose_sync("no reply to SetFraming", out)
-        if exchange.queued:
-            self._queue.remove(exchange)
-            self._finish(
-                exchange,
-                None,
-                BoardTimeoutError(
-                    f"{self.name}: {type(exchange.request).__name__} timed out "
-                    f"{'before its retry was sent' if exchange.attempts else 'unsent'} "
-                    f"(link {self.state}, {len(self._flight)} in flight, "
-                    f"{len(self._queue)} queued before it)"
-                ),
-                out,
-            )
-            return out
-        error = BoardTimeoutError(
-            f"{self.name}: no reply to {type(exchange.request).__name__} in time"
-        )
-        self._lose_sync(f"{type(exchange.request).__name__} timed out", out, exchange, error)
-        return out
-
-    def close(self, error: BoardDisconnectedError) -> Received:
-        """The port is gone: everything queued or in flight fails with ``error``."""
-        out = Received()
-        if self.state is SessionState.CLOSED:
-            return out
-        self.state = SessionState.CLOSED
-        self.close_error = error
-        self._held = None
-        for exchange in [*self._flight, *self._queue]:
-            self._finish(exchange, None, BoardDisconnectedError(str(error)), out)
-        self._flight.clear()
-        self._queue.clear()
-        self._flight_bytes = 0
-        self._marker = None
-        return out
 
     def relay_failure(self, error: ArduinoIOError) -> Received:
         """The oldest request in flight failed beyond this link, with ``error``.
@@ -481,6 +334,13 @@ class Session:
                 )
                 self._marker = marker
                 self._queue.appendleft(marker)
+            elif self._marker_reply_lost():
+                # More bytes came than every request up to the marker could answer with:
+                # the marker's reply was destroyed too, and nothing else can place the
+                # replies in flight (status polls' replies cannot be told apart).  Resync
+                # now, not at the oldest request's deadline: until then the window fills
+                # and the host falls silent (a failsafe's heartbeat with it).
+                self._lose_sync("the marker's reply was destroyed", out)
 
     def _locate(self, item: Reply | ErrorReply, out: Received) -> None:
         """After noise (or a mismatch): which request in flight does ``item`` answer?"""
@@ -531,17 +391,6 @@ class Session:
         else:
             self._complete_head(None, board_error(item, flight[0].request), out)
 
-    def _explains_noise(self, k: int) -> bool:
-        """Could the replies of the first ``k`` requests in flight have become the garbage
-        seen?  A damaged reply of L bytes leaves L - 1 (a byte dropped), L (flipped) or
-        L + 1 (one inserted) bytes of garbage; one stray byte more is allowed."""
-        low = high = 0
-        for exchange in list(self._flight)[:k]:
-            layout = exchange.request.REPLY.LAYOUT
-            low += layout.base_size - 1 + self._crc
-            high += layout.max_size + 1 + self._crc
-        return low <= self._noise <= high + 1
-
     def _complete_head(self, reply: Reply | None, error: BoardError | None, out: Received) -> None:
         exchange = self._flight.popleft()
         self._noise = 0
@@ -578,269 +427,3 @@ class Session:
         exchange.reply = reply
         exchange.error = error
         out.done.append(exchange)
-
-    def _lose_head(self, out: Received, retries: list[Exchange]) -> None:
-        """The oldest request's reply was destroyed by line noise."""
-        exchange = self._flight.popleft()
-        self._flight_bytes -= exchange.size
-        self.stats.lost_replies += 1
-        if exchange is self._marker:
-            self._marker = None
-            exchange.done = True
-            return
-        self._fail_unknown(
-            exchange,
-            LinkResyncError(f"{self.name}: line noise destroyed the reply to {exchange.request!r}"),
-            list(self._flight),
-            out,
-            retries,
-        )
-
-    def _fail_unknown(
-        self,
-        exchange: Exchange,
-        error: ArduinoIOError,
-        later: list[Exchange],
-        out: Received,
-        retries: list[Exchange],
-    ) -> None:
-        """``exchange`` may or may not have run: retry it if that is safe, else fail it."""
-        if isinstance(exchange.request, _WriteId):
-            self._candidate_ids.add(exchange.request.board_id)
-        if exchange.abandoned or exchange.internal:
-            exchange.done = True
-            return
-        if self._may_retry(exchange, later):
-            exchange.queued = True
-            self.stats.retries += 1
-            retries.append(exchange)
-            return
-        self._finish(exchange, None, error, out)
-
-    def _may_retry(self, exchange: Exchange, later: list[Exchange]) -> bool:
-        """Sending it again must look like sending it once: every part idempotent, and
-        no part's effect observable through a request sent after it.  A transaction's
-        items count one by one; two of its own items acting on one pin (or one acting on
-        no particular pin beside another) would replay a sequence, so it is not retried."""
-        parts = exchange.request.parts()
-        if exchange.attempts >= MAX_ATTEMPTS or not all(r.IDEMPOTENT for r in parts):
-            return False
-        pins = [getattr(r, "pin", None) for r in parts if not r.READS_ONLY]
-        if not pins:
-            return True
-        if len(pins) > 1 and (None in pins or len(set(pins)) != len(pins)):
-            return False
-        for other in later:
-            if other.internal:
-                continue
-            for part in other.request.parts():
-                if part.READS_ONLY:
-                    continue
-                other_pin = getattr(part, "pin", None)
-                if None in pins or other_pin is None or other_pin in pins:
-                    return False
-        return True
-
-    # ---- losing and regaining sync -------------------------------------------------------
-
-    def _lose_sync(
-        self,
-        reason: str,
-        out: Received,
-        blame: Exchange | None = None,
-        error: ArduinoIOError | None = None,
-    ) -> None:
-        if self.state is not SessionState.READY:
-            return
-        self.last_loss = reason
-        out.lost = reason
-        self.state = SessionState.DRAINING
-        self._aligned = False
-        self._held = None
-        flight = list(self._flight)
-        self._flight.clear()
-        self._flight_bytes = 0
-        self._suspect = False
-        self._noise = 0
-        self._marker = None
-        negotiation = self.framing.negotiation
-        if negotiation is not None and not negotiation.queued:
-            self.framing.negotiation = None
-            self.framing.failures += 1
-        retries: list[Exchange] = []
-        for index, exchange in enumerate(flight):
-            if exchange is blame and error is not None:
-                if isinstance(exchange.request, _WriteId):
-                    self._candidate_ids.add(exchange.request.board_id)
-                if exchange.abandoned:
-                    exchange.done = True
-                else:
-                    self._finish(exchange, None, error, out)
-                continue
-            self._fail_unknown(
-                exchange,
-                LinkResyncError(f"{self.name}: link lost sync ({reason}); request aborted"),
-                flight[index + 1 :],
-                out,
-                retries,
-            )
-        self._queue.extendleft(reversed(retries))
-
-    def start_probe(self) -> bytes:
-        """The line is drained: forget buffered bytes and ask the board for its ID."""
-        self._decoder.reset()
-        self._other = self.framing.other_decoder()
-        self.state = SessionState.PROBING
-        probe = ReadId()
-        if self.trace is not None:
-            self.trace("tx", probe)
-        return frame_bytes(probe, self._crc)
-
-    def probe_failed(self, reason: str) -> None:
-        """No valid answer in time: drain again."""
-        if self.state is SessionState.PROBING:
-            self.last_loss = reason
-            self.state = SessionState.DRAINING
-            self._aligned = False
-
-    def _probe_both_framings(self, data: bytes, out: Received) -> Received:
-        """Probing a board that may use either framing.  The framing in force decides
-        when it yields the answer; otherwise a framing error about the probe in the other
-        framing switches the session to it, and the next probe goes in that framing.  A
-        board in the other framing always answers so (the probe's first check byte, 0x03
-        or 0x0E, is never the other framing's), and noise cannot forge it: it takes four
-        particular bytes that pass the other check.  An ID reply in the other framing is
-        not taken as evidence: one inserted byte can make a damaged reply pass it."""
-        assert self._other is not None
-        other_error = any(LinkFraming.probe_error(item) for item in self._other.feed(data))
-        items = self._decoder.feed(data)
-        if self.trace is not None:
-            for item in items:
-                self.trace("rx", item)
-        for item in items:
-            if isinstance(item, Event):
-                self.stats.events += 1
-                out.events.append(item)
-            elif self.state is SessionState.PROBING:
-                self._probe_item(item, out)
-            # (after the answer: late replies to requests that failed are skipped)
-        if other_error and self.state is not SessionState.READY:
-            self._set_framing(not self._crc)
-            self.stats.framing_switches += 1
-            self.state = SessionState.PROBING  # (probe_failed needs it)
-            self.probe_failed(f"probe answered in {self.framing.current.name} framing")
-        return out
-
-    def _set_framing(self, crc: bool) -> None:
-        """Frames are checked by CRC-16 (``crc``) or XOR from now on, both ways."""
-        self._crc = crc
-        self.framing.crc = crc
-        self._decoder = Decoder.from_board(framing=self.framing.current)
-        self._other = None
-
-    def _negotiated(self, reply: Reply | None, out: Received) -> None:
-        """The SetFraming barrier's answer arrived (in the new framing: it checked)."""
-        self.framing.negotiation = None
-        if reply is not None and getattr(reply, "framing", None) is self.framing.current:
-            self.framing.failures = 0
-            self.stats.framing_switches += 1
-            return
-        # refused (an error reply that passed the new framing's check): the old framing
-        self.framing.failures = MAX_NEGOTIATIONS
-        self._set_framing(not self._crc)
-
-    def _probe_item(self, item: Decoded, out: Received) -> None:
-        if isinstance(item, ReadIdReply):
-            found = item.board_id
-            acceptable = self.expected_id is None or found == self.expected_id
-            if not acceptable and found in self._candidate_ids:
-                acceptable = True
-            if not acceptable:
-                closed = self.close(
-                    BoardDisconnectedError(
-                        f"{self.name}: board 0x{self.expected_id:04X} was replaced by a "
-                        f"board with ID 0x{found:04X}"
-                    )
-                )
-                out.done.extend(closed.done)
-                out.lost = "board replaced"
-                return
-            if self.expected_id is not None:
-                self.expected_id = found
-            self._candidate_ids.clear()
-            self._other = None
-            self.state = SessionState.READY
-            if self.framing.wants_negotiation():  # the board reset to XOR framing
-                self._queue.appendleft(self.framing.start_negotiation())
-            self.stats.resyncs += 1
-            self.stats.probes += 1
-        elif isinstance(item, Garbage) or (isinstance(item, ErrorReply) and item.framing):
-            # What the probe got instead of an answer: no use waiting for the timeout.
-            self.probe_failed(f"probe answered by {type(item).__name__}")
-        # Late replies to requests that failed when sync was lost are skipped.
-
-    # ---- internals -----------------------------------------------------------------------
-
-    def _admit(self, out: Received) -> None:
-        queue = self._queue
-        flight = self._flight
-        chunks = []
-        negotiation = self.framing.negotiation
-        while queue:
-            exchange = queue[0]
-            if negotiation is not None:
-                if not negotiation.queued:
-                    break  # the barrier is in flight: nothing goes behind it
-                if exchange is negotiation:
-                    if not self.framing.wants_switch():
-                        queue.popleft()  # a probe found the board in that framing already
-                        exchange.done = True
-                        self.framing.negotiation = negotiation = None
-                        continue
-                    if flight:
-                        break  # it goes alone
-                    queue.popleft()
-                    self._put_in_flight(exchange)
-                    chunks.append(exchange.frame)
-                    # the board answers in the framing asked for
-                    self._set_framing(self.framing.preferred is Framing.CRC16)
-                    break
-            if len(flight) >= self.max_in_flight or (
-                flight and self._flight_bytes + exchange.size > self.window_bytes
-            ):
-                break
-            queue.popleft()
-            self._put_in_flight(exchange)
-            chunks.append(exchange.frame)
-        if chunks:
-            out.outgoing += b"".join(chunks)
-
-    def admit(self) -> bytes:
-        """Bytes of queued requests that may go now (after a probe succeeded)."""
-        out = Received()
-        if self.state is SessionState.READY:
-            self._admit(out)
-        return out.outgoing
-
-    def _put_in_flight(self, exchange: Exchange) -> None:
-        if exchange.crc != self._crc:
-            self.framing.reframe(exchange)
-        exchange.queued = False
-        exchange.attempts += 1
-        self._flight.append(exchange)
-        self._flight_bytes += exchange.size
-        if self.trace is not None:
-            self.trace("tx", exchange.request)
-
-    def _finish(
-        self,
-        exchange: Exchange,
-        reply: Reply | None,
-        error: ArduinoIOError | None,
-        out: Received | None = None,
-    ) -> None:
-        exchange.done = True
-        exchange.reply = reply
-        exchange.error = error
-        if out is not None:
-            out.done.append(exchange)

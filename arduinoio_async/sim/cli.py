@@ -48,7 +48,16 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
     p.add_argument("--fixture", choices=["open", "loopback", "r2r"], default="open")
     p.add_argument("--baud", type=int, choices=FIRMWARE_BAUDS, default=DEFAULT_BAUD)
     p.add_argument("--fast", action="store_true", help="run unpaced, as fast as possible")
-    p.add_argument("--usb-bridge", choices=["none", "16u2"], default="none")
+    p.add_argument(
+        "--usb-bridge",
+        "--bridge",
+        dest="usb_bridge",
+        choices=["none", "16u2", "ftdi", "ch340"],
+        default="none",
+        help="model a USB bridge: the Uno's 16U2 (4.096 ms tick), an FTDI (latency timer, "
+        "16 ms unless --ftdi-latency-ms), a CH340 (next USB frame)",
+    )
+    p.add_argument("--ftdi-latency-ms", type=int, default=None, help="the FTDI model's timer")
     p.add_argument("--reset-on-open", action="store_true", help="reset like a real Uno on open")
     p.add_argument("--boot-delay-ms", type=int, default=None)
     p.add_argument("--fault-drop", type=float, default=0.0)
@@ -80,6 +89,7 @@ async def _run(args: argparse.Namespace) -> None:
         "baud": args.baud,
         "fast": args.fast,
         "usb_bridge": args.usb_bridge,
+        "ftdi_latency_ms": args.ftdi_latency_ms,
         "reset_on_open": args.reset_on_open,
         "boot_delay_ms": args.boot_delay_ms,
         "fault_drop": args.fault_drop,
@@ -123,7 +133,12 @@ async def _run(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: 0 after Ctrl-C/SIGTERM, 2 when the simulator is unavailable, 1 on failure."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.ftdi_latency_ms is not None and (
+        args.usb_bridge != "ftdi" or not 1 <= args.ftdi_latency_ms <= 255
+    ):
+        parser.error("--ftdi-latency-ms needs --usb-bridge ftdi and 1..255 ms")
     try:
         anyio.run(_run, args)
     except SimulatorNotAvailable as exc:

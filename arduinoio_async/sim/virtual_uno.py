@@ -46,7 +46,11 @@ __all__ = [
 ]
 
 Fixture = Literal["open", "loopback", "r2r"]
-UsbBridge = Literal["none", "16u2"]
+#: The USB bridge model between the simulated UART and the pty (firmware/sim/README.md):
+#: none, the Uno's ATmega16U2 (4.096 ms tick), an FTDI FT232R (latency timer, 62-byte
+#: packets) or a CH340 (next USB frame).
+UsbBridge = Literal["none", "16u2", "ftdi", "ch340"]
+_USB_BRIDGES = ("none", "16u2", "ftdi", "ch340")
 PinName = int | str
 
 
@@ -123,6 +127,7 @@ class VirtualUno(QuadratureMethods):
         reset_on_open: bool = False,
         boot_delay_ms: int | None = None,
         usb_bridge: UsbBridge = "none",
+        ftdi_latency_ms: int | None = None,
         fault_drop: float = 0.0,
         fault_insert: float = 0.0,
         fault_flip: float = 0.0,
@@ -138,8 +143,12 @@ class VirtualUno(QuadratureMethods):
             raise ValueError(f"board_id must be 0..65535, got {board_id}")
         if fixture not in ("open", "loopback", "r2r"):
             raise ValueError(f"unknown fixture {fixture!r}")
-        if usb_bridge not in ("none", "16u2"):
+        if usb_bridge not in _USB_BRIDGES:
             raise ValueError(f"unknown usb_bridge {usb_bridge!r}")
+        if ftdi_latency_ms is not None and (
+            usb_bridge != "ftdi" or not 1 <= ftdi_latency_ms <= 255
+        ):
+            raise ValueError("ftdi_latency_ms needs usb_bridge='ftdi' and 1..255 ms")
         self.board_id = board_id
         self.fixture: Fixture = fixture
         self.baud = baud
@@ -147,6 +156,7 @@ class VirtualUno(QuadratureMethods):
         self.reset_on_open = reset_on_open
         self.boot_delay_ms = boot_delay_ms
         self.usb_bridge: UsbBridge = usb_bridge
+        self.ftdi_latency_ms = ftdi_latency_ms
         self.fault_drop = fault_drop
         self.fault_insert = fault_insert
         self.fault_flip = fault_flip
@@ -192,6 +202,8 @@ class VirtualUno(QuadratureMethods):
             args += ["--elf", str(elf)]
         args += ["--baud", str(self.baud), "--fixture", self.fixture]
         args += ["--usb-bridge", self.usb_bridge, "--exit-with-parent"]
+        if self.ftdi_latency_ms is not None:
+            args += ["--ftdi-latency-ms", str(self.ftdi_latency_ms)]
         if self.board_id is not None:
             args += ["--id", str(self.board_id)]
         if self.fast:
@@ -284,12 +296,11 @@ class VirtualUno(QuadratureMethods):
         if process is not None:
             with anyio.CancelScope(shield=True):
                 if process.returncode is None:
-                    with suppress(ProcessLookupError):
-                        process.send_signal(signal.SIGTERM)
+                    _signal(process.pid, signal.SIGTERM)
                     with anyio.move_on_after(5):
                         await process.wait()
                     if process.returncode is None:
-                        process.kill()
+                        _signal(process.pid, signal.SIGKILL)
                         await process.wait()
                 await process.aclose()
         self._close_stderr()
@@ -418,6 +429,11 @@ class VirtualUno(QuadratureMethods):
         self.port = str(r["port"])
         return self.port
 
+    async def set_latency_timer(self, ms: int) -> None:
+        """Set the FTDI model's latency timer (1..255 ms), as the host's driver sets a real
+        chip's when its sysfs ``latency_timer`` is written (``usb_bridge="ftdi"`` only)."""
+        await self.command("set_latency_timer", ms=ms)
+
     async def reset(self) -> None:
         """Power-on reset of the AVR (EEPROM kept)."""
         await self.command("reset")
@@ -459,3 +475,14 @@ async def start_virtual_unos(
         with anyio.CancelScope(shield=True):
             for board in boards:
                 await board.stop()
+
+
+def _signal(pid: int, signum: int) -> None:
+    """Signal the harness without reaping it.  ``Process.send_signal`` first polls the
+    child (``Popen.send_signal`` does), and a harness that had just died -- Ctrl-C reaches
+    the whole process group -- was reaped there, behind the back of asyncio's child
+    watcher, which then printed "Unknown child process pid ..." under the CLI's one-line
+    error.  A child that died stays a zombie until the watcher reaps it (and sets the
+    returncode the caller checked), so its pid is not reused meanwhile."""
+    with suppress(ProcessLookupError):
+        os.kill(pid, signum)

@@ -2,7 +2,10 @@
 
 It decodes with ``Decoder.from_host()`` and encodes real reply frames, so a test never
 keeps a second copy of the protocol; the model follows the firmware's checks in the
-firmware's order (refusals included), and the timer-driven parts live in :mod:`._timed`.
+firmware's order (refusals included).  The digital and analog pins are modelled in
+:mod:`._gpio`, the I2C bridge, pulse outputs and counters in :mod:`._peripherals`, the
+timer-driven parts in :mod:`._timed`, and the board's end of the link (framing, filler,
+faults) in :mod:`._fake_wire`.
 """
 
 from __future__ import annotations
@@ -20,13 +23,13 @@ from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
-from ._faults import Faults, corrupt
+from ._fake_wire import FakeWire
+from ._faults import Faults
 from ._peripherals import (
     DIGITAL,
     DUTY,
     INPUT,
     PULSE,
-    PeripheralModels,
     PinModel,
     check_pulse,
     has,
@@ -42,7 +45,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(PeripheralModels, EncoderModels):
+class FakeBoard(EncoderModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -131,10 +134,7 @@ class FakeBoard(PeripheralModels, EncoderModels):
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
-            p.EncoderConfig: self._encoder_config,
-            p.EncoderRead: self._encoder_read,
-            p.EncoderPreset: self._encoder_preset,
-            p.EncoderWatch: self._encoder_watch,
+            **self._encoder_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -209,35 +209,6 @@ class FakeBoard(PeripheralModels, EncoderModels):
         except anyio.WouldBlock:
             self.changes_dropped += 1
 
-    def _report_change(self, pin: int, level: bool) -> None:
-        edge = p.GpioState.HIGH | p.GpioState.ROSE if level else p.GpioState.FELL
-        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
-        event = p.GpioChange(pin, edge, self.change_sequence, board_us)
-        self.change_sequence = (self.change_sequence + 1) & 0xFFFF
-        try:
-            self._changes_in.send_nowait(event)
-        except anyio.WouldBlock:
-            self.changes_dropped += 1  # its sequence number is used up, as on the board
-
-    def _report_count(self, pin: int, state: PinModel) -> None:
-        state.since_report += 1
-        if state.since_report < state.report_every:
-            return
-        state.since_report = 0
-        board_us = int((anyio.current_time() - self._booted) * 1_000_000) & 0xFFFFFFFF
-        report = p.CounterReport(pin, self.counters[pin] & 0xFFFFFFFF, board_us)
-        try:
-            self._changes_in.send_nowait(report)
-        except anyio.WouldBlock:
-            self.changes_dropped += 1
-
-    async def _send_changes(self) -> None:
-        async for event in self._changes_out:
-            try:
-                await self._send(self._board_stream, event.encode())
-            except (anyio.BrokenResourceError, anyio.ClosedResourceError):
-                return
-
     def role(self, pin: int) -> str:
         """What the fake board set ``pin`` (2-13) up as: ``free``, ``input``,
         ``output``, ``pwm`` or ``counter``, for a test's assertions."""
@@ -303,35 +274,6 @@ class FakeBoard(PeripheralModels, EncoderModels):
         if self.failsafe.tripped and _changes_output(request):
             return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
-
-    def _framed(self, frame: bytes, framing: p.Framing | None = None) -> bytes:
-        """An XOR-framed frame in the framing in force (or in ``framing``)."""
-        return p.crc_framed(frame) if (framing or self.framing) is p.Framing.CRC16 else frame
-
-    async def _send(self, stream: MemoryByteStream, frame: bytes, pad: bool = False) -> None:
-        """Send ``frame`` (XOR-framed: reframed here), padded with filler if ``pad`` (a
-        reply), through the faults."""
-        if pad:
-            framing, self._reply_framing = self._reply_framing, None
-            frame = self._padded(self._framed(frame, framing))
-        else:
-            frame = self._framed(frame)
-        faults, rnd = self.faults, self._random
-        low, high = faults.delay
-        if high > 0:
-            await anyio.sleep(rnd.uniform(low, high))
-        out = bytearray(corrupt(frame, faults, rnd))
-        if bytes(out) != frame:
-            self.corrupted_replies += 1
-        async with self._send_lock:
-            if not faults.split:
-                await stream.send(bytes(out))
-                return
-            while out:
-                cut = rnd.randint(1, len(out))
-                await stream.send(bytes(out[:cut]))
-                del out[:cut]
-                await anyio.lowlevel.checkpoint()
 
     # ---- command models ----------------------------------------------------------------------
 
@@ -404,69 +346,9 @@ class FakeBoard(PeripheralModels, EncoderModels):
         self.low_latency = request.enabled
         return p.SetLowLatencyReply(request.enabled)
 
-    def _padded(self, reply: bytes) -> bytes:
-        """``reply`` followed by the filler the firmware sends in low-latency mode (none
-        while a stream runs)."""
-        if not self.low_latency or self.stream.running or len(reply) >= p.LOW_LATENCY_PAD:
-            return reply
-        filler = p.LOW_LATENCY_PAD - len(reply)
-        self.filler_sent += filler
-        return reply + bytes([p.FILLER]) * filler
-
     def _set_session(self, request: p.SetSession) -> p.Frame:
         self.session = request.session
         return p.SetSessionReply(request.session)
-
-    def _gpio_config(self, request: p.GpioConfig) -> p.Frame:
-        if not has(DIGITAL, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        pin = self._pins[request.pin]
-        if pin.role not in ("free", "input", "output"):
-            return self._error(request, E.PIN_BUSY)
-        flags = request.flags
-        output = bool(flags & p.GpioFlags.OUTPUT)
-        if flags & ~0x07 or (output and flags & p.GpioFlags.PULL_UP):
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
-        if not output and flags & p.GpioFlags.INITIAL_HIGH:
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
-        pin.role = "output" if output else "input"
-        pin.pull_up = bool(flags & p.GpioFlags.PULL_UP)
-        pin.rose = pin.fell = False
-        pin.watched = False  # a new configuration ends a subscription
-        if output:
-            self.levels[request.pin] = bool(flags & p.GpioFlags.INITIAL_HIGH)
-        elif pin.pull_up and request.pin not in self._driven:
-            self.levels[request.pin] = True  # nothing attached: the pull-up wins
-        return p.GpioConfigReply(request.pin, request.flags)
-
-    def _gpio_read(self, request: p.GpioRead) -> p.Frame:
-        if not has(DIGITAL, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        pin = self._pins[request.pin]
-        if pin.role not in ("input", "output"):
-            return self._error(request, E.PIN_NOT_CONFIGURED)
-        state = p.GpioState.HIGH if self.levels[request.pin] else p.GpioState.LOW
-        if pin.role == "input":
-            state |= (p.GpioState.ROSE if pin.rose else 0) | (p.GpioState.FELL if pin.fell else 0)
-            pin.rose = pin.fell = False
-        return p.GpioReadReply(request.pin, state)
-
-    def _gpio_write(self, request: p.GpioWrite) -> p.Frame:
-        if not has(DIGITAL, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self._pins[request.pin].role != "output":
-            return self._error(request, E.PIN_NOT_CONFIGURED)
-        self.levels[request.pin] = request.value
-        return p.GpioWriteReply(request.pin, request.value)
-
-    def _gpio_watch(self, request: p.GpioWatch) -> p.Frame:
-        if not has(DIGITAL, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        pin = self._pins[request.pin]
-        if pin.role != "input":
-            return self._error(request, E.PIN_NOT_CONFIGURED)
-        pin.watched = request.enable
-        return p.GpioWatchReply(request.pin, request.enable)
 
     def _transaction(self, request: p.Transaction) -> p.Frame:
         """The firmware's order: check the whole list, then run the items one by one."""
@@ -484,39 +366,6 @@ class FakeBoard(PeripheralModels, EncoderModels):
                 reply = self._answer(item)
             results += reply.encode()[:-1]
         return p.TransactionReply(request.seq, bytes(results))
-
-    def _release(self, request: p.PinRelease) -> p.Frame:
-        if not has(DIGITAL, request.pin):
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        self._encoder_release(request.pin)
-        self._pins[request.pin] = PinModel()
-        self.pulses.pop(request.pin, None)
-        self.duties.pop(request.pin, None)
-        return p.PinReleaseReply(request.pin)
-
-    def _analog_read(self, request: p.AnalogRead) -> p.Frame:
-        if request.channel >= p.ANALOG_CHANNELS:
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self.i2c_speed is not None and request.channel in (4, 5):
-            return self._error(request, E.PIN_BUSY)
-        return p.AnalogReadReply(request.channel, self.analog[request.channel])
-
-    def _analog_watch(self, request: p.AnalogWatch) -> p.Frame:
-        channel, deadband = request.channel, request.deadband
-        if channel >= p.ANALOG_CHANNELS:
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self.i2c_speed is not None and channel in (4, 5):
-            return self._error(request, E.PIN_BUSY)
-        if deadband > p.ANALOG_MAX:
-            return self._error(request, E.VALUE_OUT_OF_RANGE)
-        stream = self.stream.request
-        if deadband and self.stream.running and stream is not None and stream.analog_mask:
-            return self._error(request, E.PIN_BUSY)  # the stream's ADC chain owns the ADC
-        if deadband:
-            self._analog_watches[channel] = [deadband, self.analog[channel]]
-        else:
-            self._analog_watches.pop(channel, None)
-        return p.AnalogWatchReply(channel, deadband, self.analog[channel])
 
     # ---- extensions: stream and failsafe ----------------------------------------------------
 

@@ -1,7 +1,9 @@
-"""The FakeBoard's quadrature encoders: ``firmware/src/encoder.c`` as a model (issue 27).
+"""The FakeBoard's quadrature encoders: ``firmware/src/encoder.c`` as a model.
 
-Mixed into :class:`~arduinoio_async.testing.FakeBoard` like the other peripheral models:
-the board's ``drive()`` calls :meth:`EncoderModels._encoder_edge` for every level change, so
+Mixed into :class:`~arduinoio_async.testing.FakeBoard` over the digital pins' model
+(:mod:`._gpio`), since an encoder is two digital pins: a release of either pin ends the
+encoder and frees both (as in the firmware) before the pin's own release.
+The board's ``drive()`` calls :meth:`EncoderModels._encoder_edge` for every level change, so
 a test turns an encoder by driving its two pins, exactly as the firmware's interrupt sees
 them (one change at a time; a test that wants an invalid transition sets ``levels`` of one
 pin directly and drives the other).
@@ -9,6 +11,7 @@ pin directly and drives the other).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -16,6 +19,7 @@ import anyio
 
 from .. import protocol as p
 from ..protocol.pins import Function, pin_mask
+from ._gpio import GpioModels
 from ._peripherals import PinModel, has
 
 __all__ = ["EncoderModels", "EncoderSlot"]
@@ -77,17 +81,21 @@ class EncoderSlot:
         return True
 
 
-class EncoderModels:
+class EncoderModels(GpioModels):
     """ENCODER CONFIG/READ/PRESET/WATCH and the reports (mixed into the FakeBoard)."""
 
-    _pins: dict[int, PinModel]
-    levels: list[bool]
-    changes_dropped: int
-    _changes_in: Any
-    _booted: float
+    def _encoder_handlers(self) -> dict[type[Any], Callable[[Any], p.Frame]]:
+        """The ENCODER class's request models, for the board's handler table."""
+        return {
+            p.EncoderConfig: self._encoder_config,
+            p.EncoderRead: self._encoder_read,
+            p.EncoderPreset: self._encoder_preset,
+            p.EncoderWatch: self._encoder_watch,
+        }
 
-    def _error(self, request: p.Frame, code: p.ErrorCode) -> p.Frame:
-        raise NotImplementedError
+    def _release(self, request: p.PinRelease) -> p.Frame:
+        self._encoder_release(request.pin)
+        return super()._release(request)
 
     @property
     def encoders(self) -> dict[int, EncoderSlot]:

@@ -33,12 +33,8 @@ re-armed only when it rings or for an earlier deadline, and kept off the event l
 heap, whose cost every loop iteration would pay.  On trio each request waits in its own
 cancel scope.
 
-When the session loses sync it fails what was in flight (or queues idempotent requests
-again, see the session's docstring) and the shell's resync task drains the line and
-probes: the drain ends when nothing was sent for ``quiet_time`` (longer than the board's
-10 ms inter-byte gap, so the board is ready for a frame) and the line was quiet as long,
-or -- with a stream running, when the line never goes quiet -- what arrived decoded into
-whole frames.  The probe ends at its answer, or at once when garbage comes instead.
+When the session loses sync, the resync task drains the line and probes until the board
+answers in frames again (:mod:`._resync` says when the line counts as drained).
 
 A caller that is cancelled leaves its request in place (if sent): the reply is consumed in
 order, then dropped, so cancellation never desynchronises the link.  Losing the port fails
@@ -63,31 +59,39 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-import os
 import threading
 import time
-from collections.abc import Callable, Coroutine, Iterator
-from contextlib import AsyncExitStack, contextmanager, suppress
-from dataclasses import dataclass
-from enum import Enum
-from typing import Any, Literal, TypeVar
+from collections.abc import Callable, Coroutine
+from contextlib import AsyncExitStack, suppress
+from typing import Any, TypeVar
 
 import anyio
 import anyio.abc
 import anyio.lowlevel
 
 from .. import protocol as p
-from ..errors import ArduinoIOError, BoardDisconnectedError, UsageError
+from ..errors import BoardDisconnectedError
 from ..protocol.session import (
     MAX_IN_FLIGHT,
     Exchange,
     LinkStats,
-    Received,
     Session,
     SessionState,
     board_error,
 )
 from ._deadline import DeadlineAlarm
+from ._link_types import (
+    DEFAULT_TIMEOUT,
+    FRAMING_ENV,
+    QUIET_TIME,
+    LinkState,
+    TraceHook,
+    TraceRecord,
+    default_framing,
+)
+from ._resync import Resyncing
+from ._streams import abilities_of
+from ._wire import WRITE_ERRORS
 
 __all__ = [
     "DEFAULT_TIMEOUT",
@@ -105,72 +109,15 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: Default time a request may take, queueing and retries included.  Generous against a
-#: real Uno whose USB bridge adds up to 4 ms per reply and whose I2C or EEPROM commands
-#: take milliseconds.
-DEFAULT_TIMEOUT = 0.5
-#: Silence that proves the line is drained: the board's 10 ms inter-byte gap, plus a 4 ms
-#: USB-bridge tick and a USB frame, with margin.
-QUIET_TIME = 0.03
-#: Longest drain before probing anyway.
-MAX_DRAIN = 0.25
-#: Longest pause between probes that got no answer.
-MAX_PROBE_BACKOFF = 1.0
-#: Environment variable that picks the framing a link asks for when ``framing`` is not
-#: given: ``xor`` (the paper's, the default) or ``crc16``.
-FRAMING_ENV = "ARDUINOIO_FRAMING"
-
-
-def default_framing() -> p.Framing:
-    """The framing a link asks for by default: the paper's XOR unless
-    ``ARDUINOIO_FRAMING=crc16``.
-
-    CRC-16 framing catches what the XOR byte passes, but at 1,000,000 baud on the
-    virtual Uno it costs more than the 5 % the project allows a default (docs/protocol.md
-    7.7 has the derivation and the measured cost), so it is asked for, not assumed; a
-    board without it keeps XOR framing whatever is asked.
-    """
-    value = os.environ.get(FRAMING_ENV, "xor").strip().lower()
-    try:
-        return p.Framing[value.upper()]
-    except KeyError:
-        raise UsageError(f"{FRAMING_ENV}={value!r}: use crc16 or xor") from None
-
-
 R = TypeVar("R", bound=p.Reply)
 
-#: What a stream's write raises when the port is gone.
-_WRITE_ERRORS = (anyio.BrokenResourceError, anyio.ClosedResourceError, OSError)
 
+class Transport(Resyncing):
+    """Owns one byte stream to one board; use as an async context manager.
 
-class LinkState(Enum):
-    READY = "ready"
-    RESYNCING = "resyncing"
-    CLOSED = "closed"
-
-
-_PUBLIC_STATE = {
-    SessionState.READY: LinkState.READY,
-    SessionState.DRAINING: LinkState.RESYNCING,
-    SessionState.PROBING: LinkState.RESYNCING,
-    SessionState.CLOSED: LinkState.CLOSED,
-}
-
-
-@dataclass(frozen=True, slots=True)
-class TraceRecord:
-    """One frame (or garbage run) crossing the link; ``time_ns`` is ``perf_counter_ns``."""
-
-    time_ns: int
-    direction: Literal["tx", "rx"]
-    item: p.Frame | p.Garbage
-
-
-TraceHook = Callable[[TraceRecord], None]
-
-
-class Transport:
-    """Owns one byte stream to one board; use as an async context manager."""
+    The requests, the deadlines and the lifecycle are here; the bytes in and out and what
+    they wake in :class:`~._wire.Wire`, regaining sync in :class:`~._resync.Resyncing`.
+    """
 
     def __init__(
         self,
@@ -191,15 +138,16 @@ class Transport:
         #: hear a frame well within its timeout, and a probe's lost answer would otherwise
         #: silence the host for the whole ``timeout``; the keepalive sets it.
         self.max_silence: float | None = None
-        self.name = name or getattr(stream, "port", "") or "link"
+        #: What the stream declared it can do, looked at once (see ``_streams.py``).
+        self.abilities = abilities = abilities_of(stream)
+        self.name = name or abilities.port or "link"
         # The negotiation step: the session switches the link to ``framing`` as soon as
         # the board's capabilities (the first thing a Board reads) say it can, and again
         # after the board resets (see protocol/_framing.py).  A stream that relays
         # another link (the network client's: ``relay_failures_to``) has no wire of its
         # own to protect: its far end decodes the paper's frames and checks its own wire.
         if framing is None:
-            relays = hasattr(stream, "relay_failures_to")
-            framing = p.Framing.XOR if relays else default_framing()
+            framing = p.Framing.XOR if abilities.relays else default_framing()
         self._session = Session(
             window_bytes=window_bytes,
             max_in_flight=MAX_IN_FLIGHT,
@@ -218,7 +166,8 @@ class Transport:
         self._collect_sends: Callable[[], None] | None = None
         #: Orders the session and the wire between the loop and other threads (see
         #: ``request_from_thread``): the stream's own lock where it has one.
-        self._lock: Any = getattr(stream, "lock", None) or threading.RLock()
+        thread_sender = abilities.thread_sender
+        self._lock: Any = thread_sender.lock if thread_sender is not None else threading.RLock()
         self._send_from_thread: Callable[[bytes], bool] | None = None
         self._outbox = bytearray()
         self._outbox_ready = anyio.Event()
@@ -237,24 +186,6 @@ class Transport:
         #: Callers inside :meth:`expecting_reboot` (nested ones count).
         self._reboots = 0
 
-    @contextmanager
-    def expecting_reboot(self) -> Iterator[None]:
-        """Around a reboot the caller asked for (``Board.reset``): the board is silent
-        while it boots, so requests meanwhile time out and the link resyncs as always,
-        but that is no fault: it is logged at INFO instead of as a warning."""
-        self._reboots += 1
-        try:
-            yield
-        finally:
-            self._reboots -= 1
-
-    def _log_fault(self, message: str, *args: object) -> None:
-        """A warning, or INFO while a reboot is expected (see :meth:`expecting_reboot`)."""
-        if self._reboots:
-            logger.info(message + " (the board is rebooting, as asked)", *args)
-        else:
-            logger.warning(message, *args)
-
     # ---- lifecycle ---------------------------------------------------------------------
 
     async def __aenter__(self) -> Transport:
@@ -270,14 +201,15 @@ class Transport:
         stack = AsyncExitStack()
         try:
             self._task_group = await stack.enter_async_context(anyio.create_task_group())
-            attach = getattr(self.stream, "attach", None)
-            pushed = attach is not None and attach(self._on_data, self._on_lost)
+            abilities = self.abilities
+            push = abilities.push
+            pushed = push is not None and push.attach(self._on_data, self._on_lost)
             if not pushed:
                 self._task_group.start_soon(self._reader, name=f"arduinoio reader {self.name}")
-            self._send_nowait = getattr(self.stream, "send_nowait", None)
-            self._collect_sends = getattr(self.stream, "collect_sends", None)
-            if pushed and self._loop is not None:
-                self._send_from_thread = getattr(self.stream, "send_from_thread", None)
+            self._send_nowait = abilities.send_nowait
+            self._collect_sends = abilities.collect_sends
+            if pushed and self._loop is not None and abilities.thread_sender is not None:
+                self._send_from_thread = abilities.thread_sender.send_from_thread
             if self._send_nowait is None:
                 self._task_group.start_soon(self._writer, name=f"arduinoio writer {self.name}")
             self._task_group.start_soon(self._resyncer, name=f"arduinoio resync {self.name}")
@@ -416,7 +348,7 @@ class Transport:
                     else:
                         try:
                             send_nowait(data)
-                        except _WRITE_ERRORS as exc:
+                        except WRITE_ERRORS as exc:
                             self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
                 future = None
                 if not exchange.done:
@@ -521,222 +453,3 @@ class Transport:
             return True
         finally:
             self._lock.release()
-
-    # ---- bytes in and out --------------------------------------------------------------
-
-    def _write(self, data: bytes) -> None:
-        send_nowait = self._send_nowait
-        if send_nowait is None:
-            self._outbox += data
-            self._outbox_ready.set()
-            return
-        try:
-            send_nowait(data)
-        except _WRITE_ERRORS as exc:
-            self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
-
-    async def _writer(self) -> None:
-        """For streams that cannot write without suspending: writes in call order."""
-        while True:
-            await self._outbox_ready.wait()
-            self._outbox_ready = anyio.Event()
-            while self._outbox:
-                data = bytes(self._outbox)
-                self._outbox.clear()
-                try:
-                    await self.stream.send(data)
-                except _WRITE_ERRORS as exc:
-                    self._close(BoardDisconnectedError(f"{self.name}: write failed: {exc}"))
-                    return
-
-    async def _reader(self) -> None:
-        try:
-            while self._session.state is not SessionState.CLOSED:
-                self._on_data(await self.stream.receive())
-        except (anyio.EndOfStream, anyio.BrokenResourceError, anyio.ClosedResourceError) as exc:
-            self._on_lost(exc)
-        except OSError as exc:
-            self._on_lost(exc)
-
-    def _on_data(self, data: bytes) -> None:
-        """Received bytes (in the fd-readable callback or the reader task)."""
-        # No lock of its own: only the serial stream's sends come from other threads,
-        # and its read callback, which calls this, holds the link's lock.
-        session = self._session
-        exchange = session.receive_reply(data)
-        if exchange is not None:  # the common case, kept flat: wake its caller
-            waiter = exchange.waiter
-            if waiter is None:
-                pass
-            elif self._loop is None:
-                waiter.set()
-            elif not waiter.done():
-                waiter.set_result(None)
-            if self._watchers:
-                self._sync_state()
-            return
-        if session.state is not SessionState.READY:
-            # Only a drain reads these, and a drain starts with a loss of sync, which
-            # stamps ``_lost_at``: bytes received while in sync need no time stamp.
-            self._last_rx = self._now()
-            self._rx_since_loss = True
-        out = session.receive_data(data)
-        self._process(out)
-        if len(out.done) > 1 and self._collect_sends is not None:
-            # Pipelining: the callers just woken may each send their next request in the
-            # loop's next iteration; one write for all of them (see SerialByteStream).
-            self._collect_sends()
-
-    def relay_failure(self, error: ArduinoIOError) -> None:
-        """The oldest request in flight failed beyond the stream (a relaying stream's
-        far end settled it, see ``Session.relay_failure``); call in received order."""
-        with self._lock:
-            self._process(self._session.relay_failure(error))
-
-    def _on_lost(self, exc: BaseException | None) -> None:
-        self._close(BoardDisconnectedError(f"{self.name}: port lost ({exc or 'EOF'})"))
-
-    def _process(self, out: Received) -> None:
-        """Deliver what the session produced: replies, events, bytes, state changes."""
-        if out.outgoing:
-            self.last_send = self._now()
-            self._write(out.outgoing)
-        for exchange in out.done:
-            waiter = exchange.waiter
-            if waiter is None:
-                continue
-            if isinstance(waiter, asyncio.Future):
-                if not waiter.done():
-                    waiter.set_result(None)
-            else:
-                waiter.set()
-        if out.events:
-            for event in out.events:
-                self._publish(event)
-        if out.lost is not None:
-            self._log_fault("%s lost sync: %s", self.name, out.lost)
-            self._lost_at = self._now()
-            self._rx_since_loss = False
-        if self._watchers or self._session.state is not self._session_state:
-            self._sync_state()
-
-    def _publish(self, event: p.Event) -> None:
-        for callback in list(self._subscribers):
-            try:
-                callback(event)
-            except Exception:
-                logger.exception("%s: subscriber %r failed on %r", self.name, callback, event)
-
-    def _sync_state(self) -> None:
-        if self._watchers:
-            changed, self._changed = self._changed, anyio.Event()
-            changed.set()
-        session_state = self._session.state
-        if session_state is self._session_state:
-            return
-        self._session_state = session_state
-        if session_state is not SessionState.READY:
-            self._resync_needed.set()
-        state = _PUBLIC_STATE[session_state]
-        if state is self._state:
-            return
-        self._state = state
-        if state is LinkState.RESYNCING:
-            pass  # logged with its reason where it was lost
-        elif state is LinkState.CLOSED:
-            logger.info("%s closed: %s", self.name, self._session.close_error)
-        else:
-            logger.info("%s in sync again", self.name)
-        for callback in list(self._state_listeners):
-            try:
-                callback(state)
-            except Exception:
-                logger.exception("%s: state listener %r failed", self.name, callback)
-
-    def _close(self, error: BoardDisconnectedError) -> None:
-        with self._lock:
-            if self._session.state is SessionState.CLOSED:
-                return
-            self._process(self._session.close(error))
-        detach = getattr(self.stream, "detach", None)
-        if detach is not None:
-            detach()
-        if self._alarm is not None:
-            self._alarm.disarm()
-
-    # ---- regaining sync ----------------------------------------------------------------
-
-    async def _wait_changed(self, until: float) -> None:
-        """Until the session's state changes, data arrives, or ``until``."""
-        changed = self._changed
-        self._watchers += 1
-        try:
-            with anyio.move_on_after(max(0.0, until - self._now())):
-                await changed.wait()
-        finally:
-            self._watchers -= 1
-
-    async def _resyncer(self) -> None:
-        session = self._session
-        while True:
-            if session.state is SessionState.READY:
-                await self._resync_needed.wait()
-                self._resync_needed = anyio.Event()
-            if session.state is SessionState.CLOSED:
-                return
-            backoff = self.quiet_time
-            unanswered = 0
-            while session.state is SessionState.DRAINING:
-                await self._drain()
-                if session.state is not SessionState.DRAINING:
-                    break
-                with self._lock:
-                    probe = session.start_probe()
-                    self._sync_state()
-                    self.last_send = self._now()
-                    self._write(probe)
-                patience = self.timeout
-                if self.max_silence is not None:
-                    patience = min(patience, self.max_silence)
-                give_up = self._now() + patience
-                while session.state is SessionState.PROBING and self._now() < give_up:
-                    await self._wait_changed(give_up)
-                if session.state is SessionState.PROBING:
-                    with self._lock:
-                        session.probe_failed("no answer to the ID probe")
-                    unanswered += 1
-                    if unanswered & (unanswered - 1) == 0:  # 1, 2, 4, 8...: a silent board
-                        # probed every heartbeat (failsafe armed) must not flood the log
-                        self._log_fault(
-                            "%s: no answer to the ID probe (%d in a row)", self.name, unanswered
-                        )
-                    await anyio.sleep(backoff)
-                    backoff = min(backoff * 2, MAX_PROBE_BACKOFF, self.max_silence or math.inf)
-                elif session.state is SessionState.DRAINING:
-                    logger.info(
-                        "%s: probe failed (%s); draining again", self.name, session.last_loss
-                    )
-            if session.state is SessionState.READY:
-                with self._lock:
-                    data = session.admit()
-                    if data:
-                        self.last_send = self._now()
-                        self._write(data)
-
-    async def _drain(self) -> None:
-        """Until the board is ready for a frame and the line is drained (see above)."""
-        session = self._session
-        give_up = self._now() + MAX_DRAIN
-        quiet = self.quiet_time
-        while session.state is SessionState.DRAINING:
-            now = self._now()
-            sent_quiet = now - self.last_send >= quiet
-            line_quiet = now - max(self._last_rx, self._lost_at) >= quiet
-            aligned = self._rx_since_loss and session.aligned
-            if (sent_quiet and (line_quiet or aligned)) or now >= give_up:
-                return
-            if not sent_quiet:
-                until = self.last_send + quiet
-            else:
-                until = max(self._last_rx, self._lost_at) + quiet
-            await self._wait_changed(max(min(until, give_up), now + 0.001))

@@ -8,10 +8,12 @@ import anyio
 import anyio.abc
 from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
 
+from ._streams import ImmediateSender
+
 __all__ = ["MemoryByteStream", "memory_link"]
 
 
-class MemoryByteStream(anyio.abc.ByteStream):
+class MemoryByteStream(anyio.abc.ByteStream, ImmediateSender):
     """One end of a :func:`memory_link`; chunks arrive as they were sent."""
 
     def __init__(

@@ -28,6 +28,7 @@ import anyio.abc
 
 from .. import protocol as p
 from ..errors import BoardDisconnectedError, BoardSilentError
+from ._streams import LinkAttribute
 
 __all__ = ["wait_ready"]
 
@@ -68,7 +69,9 @@ async def _wait_ready(
     polls = replies = 0
     while board_id is None:
         if anyio.current_time() >= deadline:
-            raise BoardSilentError(name, bytes(heard), baudrate=getattr(stream, "baudrate", None))
+            raise BoardSilentError(
+                name, bytes(heard), baudrate=stream.extra(LinkAttribute.baudrate, None)
+            )
         if in_crc:
             await stream.send(back_to_xor)
         else:

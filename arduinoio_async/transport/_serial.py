@@ -17,7 +17,7 @@ import asyncio
 import contextlib
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import anyio
@@ -27,6 +27,14 @@ import serial
 
 from ..errors import BoardDisconnectedError, PortBusyError
 from ..protocol import DEFAULT_BAUD
+from ._latency import tune_link
+from ._streams import (
+    CollectedWrites,
+    ImmediateSender,
+    LinkAttribute,
+    PushStream,
+    ThreadSafeSender,
+)
 
 try:  # pyserial's POSIX back end lets termios.error (not an OSError) out of open()
     from termios import error as _TermiosError
@@ -43,7 +51,19 @@ _OPEN_ERRORS = (serial.SerialException, OSError, ValueError, _TermiosError)
 __all__ = ["SerialByteStream", "open_serial_stream"]
 
 
-class SerialByteStream(anyio.abc.ByteStream):
+def _line_attributes(
+    stream: SerialByteStream | _ThreadedSerialStream,
+) -> dict[Any, Callable[[], Any]]:
+    """The port's name and baud rate, as :class:`LinkAttribute` says."""
+    return {
+        LinkAttribute.port: lambda: stream.port,
+        LinkAttribute.baudrate: lambda: stream.baudrate,
+    }
+
+
+class SerialByteStream(
+    anyio.abc.ByteStream, PushStream, ImmediateSender, CollectedWrites, ThreadSafeSender
+):
     """A serial port with a file descriptor as an anyio ``ByteStream``, on any backend.
 
     ``receive``/``send`` wait with anyio's portable ``wait_readable``/``wait_writable``
@@ -71,9 +91,6 @@ class SerialByteStream(anyio.abc.ByteStream):
     a request to its session until the request's bytes are written or queued.
     """
 
-    #: Present only where writing without suspending is possible (asyncio).
-    send_nowait: Callable[[bytes], None] | None
-
     def __init__(self, port: serial.SerialBase) -> None:
         self._serial = port
         self._fd: int = port.fd
@@ -95,7 +112,21 @@ class SerialByteStream(anyio.abc.ByteStream):
             self._loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()
         except RuntimeError:
             self._loop = None
-        self.send_nowait = self._send_nowait if self._loop is not None else None
+
+    @property
+    def extra_attributes(self) -> Mapping[Any, Callable[[], Any]]:
+        """The port's name and baud rate (:class:`LinkAttribute`)."""
+        return _line_attributes(self)
+
+    def can_send_nowait(self) -> bool:
+        """Writing without suspending needs asyncio's writability callbacks."""
+        return self._loop is not None
+
+    def send_nowait(self, item: bytes) -> None:
+        """Write ``item`` at once, or queue it behind a writability callback (asyncio)."""
+        if self._loop is None:
+            raise RuntimeError("send_nowait needs an asyncio event loop (use send)")
+        self._send_nowait(item)
 
     # ---- push mode (asyncio) -------------------------------------------------------------
 
@@ -304,6 +335,11 @@ class SerialByteStream(anyio.abc.ByteStream):
 class _ThreadedSerialStream(anyio.abc.ByteStream):
     """Fallback for pyserial URLs without a file descriptor: reads in a worker thread."""
 
+    @property
+    def extra_attributes(self) -> Mapping[Any, Callable[[], Any]]:
+        """The port's name and baud rate (:class:`LinkAttribute`)."""
+        return _line_attributes(self)
+
     def __init__(self, port: serial.SerialBase) -> None:
         self._serial = port
         self._serial.timeout = 0.05
@@ -364,6 +400,9 @@ async def open_serial_stream(
     POSIX), so a second program -- ``arduinoio list`` while a robot runs -- cannot steal the
     first one's replies.  Raises :class:`PortBusyError` when another process holds the port
     and :class:`BoardDisconnectedError` when it cannot be opened for any other reason.
+    Behind a USB bridge with a latency timer (FTDI) the timer is lowered to 1 ms
+    (:func:`~arduinoio_async.transport._latency.tune_link`; a warning says how to allow it
+    when it cannot be).
     """
     serial_options.setdefault("exclusive", True)
     try:
@@ -377,4 +416,14 @@ async def open_serial_stream(
         raise BoardDisconnectedError(f"cannot open {url}: {exc}") from exc
     if not _has_fileno(port):
         return _ThreadedSerialStream(port)
+    # The bridge's fastest safe link (an FTDI's 1 ms latency timer); a pty has no bridge.
+    # A cancel that came while a worker thread held the open port is taken here, closing
+    # the port: returned, it would stay open and locked with nobody to close it.
+    try:
+        await anyio.to_thread.run_sync(tune_link, url, port.fd)
+        await anyio.lowlevel.checkpoint_if_cancelled()
+    except BaseException:
+        with contextlib.suppress(OSError, serial.SerialException):
+            port.close()
+        raise
     return SerialByteStream(port)

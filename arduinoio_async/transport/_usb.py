@@ -17,17 +17,21 @@ from typing import Final
 
 from serial.tools import list_ports
 
+from ._bridges import BRIDGES
+
 __all__ = ["TICK_HOLDING_BRIDGES", "tick_holding_bridge"]
 
 logger = logging.getLogger(__name__)
 
 #: (USB vendor ID, product ID) of the boards whose bridge runs arduino-usbserial on an
-#: ATmega8U2/16U2 and so holds replies for its tick: the Unos this firmware runs on.
+#: ATmega8U2/16U2 and so holds replies for its tick (the Unos and Megas this firmware runs
+#: on), with the bridge's name: the tick-holding entries of ``transport._bridges.BRIDGES``.
 TICK_HOLDING_BRIDGES: Final[dict[tuple[int, int], str]] = {
-    (0x2341, 0x0001): "Arduino Uno (ATmega8U2 bridge)",
-    (0x2341, 0x0043): "Arduino Uno R3 (ATmega16U2 bridge)",
-    (0x2341, 0x0243): "Arduino Uno R3 (ATmega16U2 bridge)",
-    (0x2A03, 0x0043): "Arduino Uno R3 (ATmega16U2 bridge, arduino.org IDs)",
+    (vid, pid): bridge.name
+    for bridge in BRIDGES
+    if bridge.tick_holding
+    for vid, pid in bridge.ids
+    if pid is not None
 }
 
 

@@ -9,7 +9,7 @@ Sequential samples are taken in rounds that interleave the clients and links, so
 moment of the shared machine hits every client alike.
 
     make bench-peers
-    = .venv/bin/python benchmarks/peers/peer_bench.py --json benchmarks/results/peers.json \
+    = .venv/bin/python -m benchmarks.peers.peer_bench --json benchmarks/results/peers.json \
           --doc docs/performance.md --readme README.md
 
 Firmata parts are skipped (with the reason printed) when npm or the peers' environment
@@ -35,15 +35,16 @@ import anyio
 import anyio.lowlevel
 
 from arduinoio_async import protocol as p
-from arduinoio_async.bench.runner import blocking_pause
+from arduinoio_async.bench.stats import summarize
 from arduinoio_async.board import Board
 from arduinoio_async.protocol.pins import A0, A1, A2, A3, D2, D3
 from arduinoio_async.sim import VirtualUno
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from firmata_clients import gap
-from peer_firmware import FIRMATA_BAUD, FirmataUnavailable, firmata_elf
-from peers_table import (
+from .._results import command_line, write_result
+from .._timing import blocking_pause
+from .firmata_clients import gap
+from .peer_firmware import FIRMATA_BAUD, FirmataUnavailable, firmata_elf
+from .peers_table import (
     NOT_DEFAULT,
     goal_table,
     goals,
@@ -57,7 +58,7 @@ REPO = HERE.parents[1]
 WORKER = HERE / "firmata_clients.py"
 PEER_PYTHON = REPO / ".venv-peers" / "bin" / "python"
 LINKS = ("none", "16u2")
-#: The project at its default configuration (issue 13's goals are about it) ...
+#: The project at its default configuration (the speed goals are about it) ...
 PROJECT_BAUD = p.DEFAULT_BAUD
 #: ... and other choices, marked NOT_DEFAULT in the client name: 2 Mbaud for (c), the
 #: low-latency mode off behind the 16U2 for (a) and (b).
@@ -89,18 +90,8 @@ def row(
 
 
 def latency_figures(samples: list[float]) -> dict[str, Any]:
-    ordered = sorted(samples)
-
-    def pct(q: float) -> float:
-        return round(ordered[min(len(ordered) - 1, int(q * len(ordered)))], 3)
-
-    return {
-        "n": len(samples),
-        "p50_ms": round(statistics.median(samples), 3),
-        "p90_ms": pct(0.90),
-        "p99_ms": pct(0.99),
-        "mean_ms": round(statistics.fmean(samples), 3),
-    }
+    """n, p50, p90, p99 and mean in ms (:mod:`arduinoio_async.bench.stats`)."""
+    return summarize(samples).rounded(3, "_ms")
 
 
 # ------------------------------------------------------------------ Firmata side
@@ -542,7 +533,7 @@ async def main(args: argparse.Namespace) -> int:
     started = time.time()
     await bench.run(args.tests)
     result = {
-        "command": "make bench-peers",
+        "command": command_line(),
         "sizes": vars(sizes),
         "seconds": round(time.time() - started, 1),
         "machine": {
@@ -558,9 +549,9 @@ async def main(args: argparse.Namespace) -> int:
     print(table)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(bench.rows, indent=1) + "\n")
+        write_result(args.json, {"command": result["command"], "rows": bench.rows})
         meta = args.json.with_name(args.json.stem + "-run.json")
-        meta.write_text(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=1))
+        write_result(meta, {k: v for k, v in result.items() if k != "rows"})
     if args.doc:
         args.doc.write_text(replace_between(args.doc.read_text(), "table", table))
     if args.readme:

@@ -4,7 +4,7 @@ Both go between HTML comment markers, so a new run replaces them in place:
 ``<!-- peers:table:begin -->`` ... ``<!-- peers:table:end -->`` in docs/performance.md and
 ``<!-- peers:summary:begin -->`` ... ``<!-- peers:summary:end -->`` in the README.
 
-    .venv/bin/python benchmarks/peers/peers_table.py benchmarks/results/peers.json [BAUD]
+    .venv/bin/python -m benchmarks.peers.peers_table benchmarks/results/peers.json [BAUD]
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 #: Marks a project row measured in a configuration other than the library's default (the
-#: user's choice); issue 13's goals are judged on the default configuration only.
+#: user's choice); the speed goals are judged on the default configuration only.
 NOT_DEFAULT = "not the default"
-#: Issue 13: the project beats the best Firmata client and the raw floor by this factor.
+#: The speed goals: the project beats the best Firmata client and the raw floor by this factor.
 GOAL_FACTOR = {"a": 1.5, "b": 1.5, "c": 4.0, "d": 1.5, "e": 4.0}
 
 TESTS = {
@@ -78,7 +78,7 @@ def _figure(r: dict[str, Any]) -> float:
 def goals(rows: list[dict[str, Any]], default_baud: int) -> list[dict[str, Any]]:
     """Per test and link: the best Firmata row (the raw floor is one of them) against the
     project's best row at its default configuration, as a factor (>1: the project is
-    better), with issue 13's goal."""
+    better), with its speed goal."""
     out = []
     for test in TESTS:
         for link in ("16u2", "none"):
@@ -123,7 +123,7 @@ def goal_table(rows: list[dict[str, Any]], default_baud: int) -> str:
     if not judged:
         return ""
     out = [
-        f"**Issue 13's goals** (the project at its default {default_baud:,} baud, best way; "
+        f"**The speed goals** (the project at its default {default_baud:,} baud, best way; "
         "p50 for (a), (b), (e), rate for (c), (d))\n",
         "| test | link | best Firmata | project, default configuration | factor | goal |",
         "|---|---|---|---|---|---|",
@@ -196,7 +196,7 @@ def replace_between(text: str, name: str, content: str) -> str:
 
 
 if __name__ == "__main__":
-    data = json.loads(Path(sys.argv[1]).read_text())
+    data = json.loads(Path(sys.argv[1]).read_text())["rows"]
     baud = int(sys.argv[2]) if len(sys.argv) > 2 else 1_000_000
     print(render_markdown(data))
     print(goal_table(data, baud))

@@ -20,12 +20,16 @@
 #include "circuit.h"
 #include "pacing.h"
 
-const char *const fixture_names[] = {"open", "loopback", "r2r"};
-int drive_level[NPINS];
-int analog_mv[8];
-int adc_sent[9];
-double temperature_c = 25.0;
-i2c_eeprom_t i2c_ee;
+#include "i2c_eeprom.h"
+
+#define NEDGE 32
+
+static const char *const fixture_names[] = {"open", "loopback", "r2r"};
+static int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
+static int analog_mv[8];
+static int adc_sent[9];
+static double temperature_c = 25.0;
+static i2c_eeprom_t i2c_ee;
 static double r2r_res[6][4];    /* per ladder: Ra (B0-N0), Rg (N0-GND), Rs (N0-OUT), Rb (B1-OUT) */
 static double r2r_mv[6];
 static int in_circuit, circuit_again;
@@ -38,15 +42,37 @@ static avr_irq_t *pin_irq[NPINS];
 static avr_irq_t *adc_irq_base;
 static avr_irq_t *port_irq_base[3];   /* per port: base of its IOPORT IRQs */
 
-struct pulsegen gen[2];
-struct capture cap[NPINS];
+
+extern const char *const fixture_names[];
+extern int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
+extern int analog_mv[8];
+extern int adc_sent[9];
+extern double temperature_c;
+extern i2c_eeprom_t i2c_ee;
+
+/* pulse generator (D2, D3) */
+struct pulsegen { int active, level; unsigned long remaining, done; uint64_t high_c, low_c, next_t; };
+static struct pulsegen gen[2];
+
+/* pulse capture */
+struct capture {
+	uint64_t rise_t, prev_rise_t; int level, have_rise;
+	double high_us[NEDGE], period_us[NEDGE];
+	double rise_us[NEDGE];   /* simulated time of the rise that started high_us[i] */
+	uint64_t edge_t; int have_edge;   /* last level change */
+	unsigned nh, np, hi_next, pe_next;
+	unsigned long rises, falls;
+	unsigned long highs, periods; /* high times / periods recorded since the last clear */
+};
+static struct capture cap[NPINS];
+
 
 static int pin_port(int p) { return p < 8 ? 2 : (p < 14 ? 0 : 1); }
 static int pin_bit(int p) { return p < 8 ? p : (p < 14 ? p - 8 : p - 14); }
 
 int loop_partner(int p)
 {
-	if (opt_fixture != FIX_LOOPBACK || p < 2 || p > 13)
+	if (opt->fixture != FIX_LOOPBACK || p < 2 || p > 13)
 		return -1;
 	return (p % 2 == 0) ? p + 1 : p - 1;
 }
@@ -139,7 +165,7 @@ static int input_level(int p)
 	}
 	if (port_bit(p))
 		return 1; /* internal pull-up */
-	if (opt_fixture == FIX_R2R && p >= 14)
+	if (opt->fixture == FIX_R2R && p >= 14)
 		return r2r_mv[p - 14] > 2500.0;
 	return 0;
 }
@@ -168,7 +194,7 @@ void update_analog(void)
 {
 	for (int ch = 0; ch < 8; ch++) {
 		int mv = analog_mv[ch];
-		if (opt_fixture == FIX_R2R && ch < 6) {
+		if (opt->fixture == FIX_R2R && ch < 6) {
 			r2r_mv[ch] = r2r_output(ch);
 			mv = (int)lround(r2r_mv[ch]);
 		}
@@ -190,7 +216,7 @@ void apply_circuit(void)
 	int rounds = 0;
 	do {
 		circuit_again = 0;
-		if (opt_fixture == FIX_R2R)
+		if (opt->fixture == FIX_R2R)
 			update_analog();
 		for (int pi = 0; pi < 3; pi++) {
 			uint8_t mask = 0, value = 0;
@@ -309,14 +335,12 @@ static void read_shadows(void)
 
 void setup_r2r(void)
 {
-	uint64_t saved = rng_state;
-	rng_state = opt_seed * 0x9E3779B97F4A7C15ULL + 0x1234567ULL;
-	if (!rng_state) rng_state = 1;
+	uint64_t saved = rng_swap(opt->seed * 0x9E3779B97F4A7C15ULL + 0x1234567ULL);
 	const double nominal[4] = {20000.0, 20000.0, 10000.0, 20000.0};
 	for (int k = 0; k < 6; k++)
 		for (int i = 0; i < 4; i++)
-			r2r_res[k][i] = nominal[i] * (1.0 + (2.0 * rng_unit() - 1.0) * opt_r2r_tol / 100.0);
-	rng_state = saved;
+			r2r_res[k][i] = nominal[i] * (1.0 + (2.0 * rng_unit() - 1.0) * opt->r2r_tol / 100.0);
+	rng_swap(saved);
 }
 
 void circuit_attach(void)
@@ -423,4 +447,72 @@ int run_pulses(uint64_t now)
 		}
 	}
 	return progress;
+}
+
+/* ------------------------------------------------------------------ control channel */
+const char *fixture_name(void) { return fixture_names[opt->fixture]; }
+
+void circuit_set_analog(int ch, int mv)
+{
+	analog_mv[ch] = mv;
+	update_analog();
+}
+
+void circuit_set_temperature(double celsius)
+{
+	temperature_c = celsius;
+	update_analog();
+}
+
+void circuit_drive(int p, int level)
+{
+	drive_level[p] = level;
+	apply_circuit();
+}
+
+void circuit_set_driven(int p, int level) { drive_level[p] = level; }
+
+int circuit_adc_mv(int ch) { return adc_sent[ch]; }
+unsigned long pulses_done(int p) { return gen[p - 2].done; }
+const uint8_t *circuit_i2c_eeprom(void) { return i2c_ee.ee; }
+
+static void sb_ring(struct sbuf *r, const double *values, unsigned next, unsigned count)
+{
+	for (unsigned i = 0; i < count; i++) {
+		unsigned idx = (next + NEDGE - count + i) % NEDGE;
+		sb_add(r, "%s%.3f", i ? ", " : "", values[idx]);
+	}
+}
+
+void circuit_pulse_stats(int p, struct sbuf *r)
+{
+	struct capture *c = &cap[p];
+	sb_add(r, "{\"ok\": true, \"pin\": %d, \"count\": %lu, \"falls\": %lu, \"level\": %d, "
+		  "\"highs\": %lu, \"periods\": %lu, \"high_us\": [",
+	       p, c->rises, c->falls, c->level, c->highs, c->periods);
+	sb_ring(r, c->high_us, c->hi_next, c->nh);
+	sb_add(r, "], \"rise_us\": [");
+	sb_ring(r, c->rise_us, c->hi_next, c->nh);
+	if (c->have_edge)
+		sb_add(r, "], \"last_edge_us\": %.3f", (double)c->edge_t / CYC_PER_US);
+	else
+		sb_add(r, "], \"last_edge_us\": null");
+	sb_add(r, ", \"period_us\": [");
+	sb_ring(r, c->period_us, c->pe_next, c->np);
+	sb_add(r, "]}");
+}
+
+void circuit_clear_pulse_stats(int p)
+{
+	struct capture *c = &cap[p];
+	int lvl = c->level;
+	memset(c, 0, sizeof(*c));
+	c->level = lvl;
+}
+
+void circuit_status(struct sbuf *r)
+{
+	sb_add(r, ", \"pulses_active\": %s, \"pulses_done\": {\"2\": %lu, \"3\": %lu}, "
+		  "\"temperature_c\": %g",
+	       pulses_running() ? "true" : "false", gen[0].done, gen[1].done, temperature_c);
 }

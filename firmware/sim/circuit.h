@@ -4,32 +4,7 @@
 
 #include <stdint.h>
 
-#include "i2c_eeprom.h"
-
-#define NEDGE 32
-
-extern const char *const fixture_names[];
-extern int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
-extern int analog_mv[8];
-extern int adc_sent[9];
-extern double temperature_c;
-extern i2c_eeprom_t i2c_ee;
-
-/* pulse generator (D2, D3) */
-struct pulsegen { int active, level; unsigned long remaining, done; uint64_t high_c, low_c, next_t; };
-extern struct pulsegen gen[2];
-
-/* pulse capture */
-struct capture {
-	uint64_t rise_t, prev_rise_t; int level, have_rise;
-	double high_us[NEDGE], period_us[NEDGE];
-	double rise_us[NEDGE];   /* simulated time of the rise that started high_us[i] */
-	uint64_t edge_t; int have_edge;   /* last level change */
-	unsigned nh, np, hi_next, pe_next;
-	unsigned long rises, falls;
-	unsigned long highs, periods; /* high times / periods recorded since the last clear */
-};
-extern struct capture cap[NPINS];
+#include "json.h"
 
 int loop_partner(int p);
 int is_out(int p);
@@ -48,5 +23,19 @@ void start_pulses(int p, unsigned long count, uint64_t high_c, uint64_t low_c);
 void stop_pulses(void);
 void schedule_pulses(void);
 int run_pulses(uint64_t now);
+
+/* the control channel: stimuli and reports on the circuit's own state */
+const char *fixture_name(void);
+void circuit_set_analog(int ch, int mv);    /* channel 0..7: A0..A5, 6-7 unused */
+void circuit_set_temperature(double celsius);
+void circuit_drive(int p, int level);        /* -1 released, 0/1 driven from outside */
+/* the same, several pins at one instant: the caller calls apply_circuit() after the last */
+void circuit_set_driven(int p, int level);
+int circuit_adc_mv(int ch);                  /* the last mV the ADC was given */
+unsigned long pulses_done(int p);            /* pulses D2/D3 finished so far */
+const uint8_t *circuit_i2c_eeprom(void);     /* the I2C EEPROM's 256 bytes */
+void circuit_pulse_stats(int p, struct sbuf *r); /* the "pulse_stats" reply */
+void circuit_clear_pulse_stats(int p);
+void circuit_status(struct sbuf *r);         /* its part of "status": ", key: value..." */
 
 #endif

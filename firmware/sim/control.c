@@ -22,6 +22,7 @@
 #include "sim_core.h"
 #include "sim_io.h"
 
+#include "bridges.h"
 #include "circuit.h"
 #include "control.h"
 #include "json.h"
@@ -30,7 +31,14 @@
 #include "quadrature.h"
 #include "wire.h"
 
-char ctl_path[600];
+static char ctl_path[600];
+
+const char *control_path(void) { return ctl_path; }
+
+void control_set_path(const char *path)
+{
+	snprintf(ctl_path, sizeof(ctl_path), "%s", path); /* too long: setup_control says so */
+}
 static char ctl_dir[512];
 static int listen_fd = -1;
 static struct client { int fd; char buf[4096]; size_t len; } clients[MAX_CLIENTS];
@@ -53,48 +61,20 @@ static int get_pin(struct jobj *o, const char *k)
 	return -1;
 }
 
-static const char *state_name(void)
-{
-	if (!plugged) return "off";
-	if (holding_reset) return "reset";
-	if (halted) return "halted";
-	if (avr->state == cpu_Sleeping) return "sleeping";
-	if (avr->state == cpu_Running) return "running";
-	return "stopped";
-}
-
 /* ------------------------------------------------------------------ handlers */
+/* Each module reports its own part (pacing, pty, the harness core, wire, bridge
+ * models, circuit). */
 static void cmd_status(struct jobj *o, struct sbuf *r)
 {
-	uint64_t t = now_ns();
-	int64_t lag = plugged && !opt_fast ? (int64_t)wall_cycles(t) - (int64_t)avr->cycle : 0;
-	sb_add(r, "{\"ok\": true, \"cycle\": %llu, \"sim_us\": %.3f, \"wall_us\": %.3f, "
-		  "\"lag_us\": %.3f, \"max_lag_us\": %.3f, \"rebases\": %lu, \"port\": ",
-	       (unsigned long long)avr->cycle, (double)avr->cycle / CYC_PER_US,
-	       (double)(t - start_ns) / 1000.0, (double)lag / CYC_PER_US,
-	       (double)max_lag_cycles / CYC_PER_US, rebase_count);
-	sb_json_str(r, plugged ? pty_name : "");
-	sb_add(r, ", \"plugged\": %s, \"host_open\": %s, \"state\": \"%s\", \"id\": ",
-	       plugged ? "true" : "false", slave_open ? "true" : "false", state_name());
-	if (opt_id >= 0) sb_add(r, "%d", opt_id); else sb_add(r, "null");
-	sb_add(r, ", \"baud\": %u, \"fixture\": \"%s\", \"usb_bridge\": \"%s\", \"fast\": %s, "
-		  "\"reset_on_open\": %s, \"resets\": %lu, \"opens\": %lu, "
-		  "\"bytes_to_host\": %lu, \"bytes_from_host\": %lu, \"bytes_discarded\": %lu, \"pty_writes\": %lu, "
-		  "\"faults\": {\"drop\": %g, \"insert\": %g, \"flip\": %g, \"dropped\": %lu, "
-		  "\"inserted\": %lu, \"flipped\": %lu}, \"pulses_active\": %s, "
-		  "\"pulses_done\": {\"2\": %lu, \"3\": %lu}, \"temperature_c\": %g, \"pc\": %u, "
-		  "\"last_host_byte_us\": %.3f, \"lost\": {\"to_board\": %lu, \"to_host\": %lu}, "
-		  "\"host_rx_stalls\": %lu, \"host_rx_queued\": %u, \"bridge_full_releases\": %lu, "
-		  "\"runahead_jumps\": %lu, \"runahead_jump_us\": %.3f, \"baud_mismatch_bytes\": %lu}",
-	       opt_baud, fixture_names[opt_fixture], opt_16u2 ? "16u2" : "none",
-	       opt_fast ? "true" : "false", opt_reset_on_open ? "true" : "false",
-	       reset_count, open_count, bytes_to_host, bytes_from_host, bytes_discarded, pty_writes,
-	       fault_drop, fault_insert, fault_flip, faults_dropped, faults_inserted,
-	       faults_flipped, pulses_running() ? "true" : "false",
-	       gen[0].done, gen[1].done, temperature_c, (unsigned)avr->pc,
-	       (double)last_host_byte_t / CYC_PER_US, lost_to_board, lost_to_host,
-	       host_rx_stalls, host_rx_queued(), bridge_full_releases, runahead_jumps,
-	       (double)runahead_jump_cycles / CYC_PER_US, baud_mismatch_bytes);
+	sb_add(r, "{\"ok\": true");
+	pacing_status(r);
+	pty_status(r);
+	harness_status(r);
+	wire_status(r);
+	bridge_status(r);
+	circuit_status(r);
+	quadrature_status(r);
+	sb_add(r, "}");
 }
 
 static void cmd_set_analog(struct jobj *o, struct sbuf *r)
@@ -104,10 +84,9 @@ static void cmd_set_analog(struct jobj *o, struct sbuf *r)
 		sb_add(r, "{\"ok\": false, \"error\": \"set_analog needs channel 0..7 and mv 0..5500\"}");
 		return;
 	}
-	analog_mv[(int)ch] = (int)lround(mv);
-	update_analog();
+	circuit_set_analog((int)ch, (int)lround(mv));
 	sb_add(r, "{\"ok\": true, \"r2r_override\": %s}",
-	       (opt_fixture == FIX_R2R && ch < 6) ? "true" : "false");
+	       (opt->fixture == FIX_R2R && ch < 6) ? "true" : "false");
 }
 
 static void cmd_set_temperature(struct jobj *o, struct sbuf *r)
@@ -117,8 +96,7 @@ static void cmd_set_temperature(struct jobj *o, struct sbuf *r)
 		sb_add(r, "{\"ok\": false, \"error\": \"set_temperature needs celsius -60..150\"}");
 		return;
 	}
-	temperature_c = x;
-	update_analog();
+	circuit_set_temperature(x);
 	sb_add(r, "{\"ok\": true, \"mv\": %.1f}", 314.0 + (x - 25.0));
 }
 
@@ -134,8 +112,7 @@ static void cmd_drive(struct jobj *o, struct sbuf *r)
 		sb_add(r, "{\"ok\": false, \"error\": \"pin is jumpered in the loopback fixture\"}");
 		return;
 	}
-	drive_level[p] = lv->type == J_NULL ? -1 : (lv->num != 0);
-	apply_circuit();
+	circuit_drive(p, lv->type == J_NULL ? -1 : (lv->num != 0));
 	sb_add(r, "{\"ok\": true, \"output\": %s}", is_out(p) ? "true" : "false");
 }
 
@@ -147,7 +124,7 @@ static void cmd_pin(struct jobj *o, struct sbuf *r)
 	       p, is_out(p), port_bit(p), pin_level(p));
 	if (p >= 14) {
 		int ch = p - 14;
-		sb_add(r, ", \"mv\": %d", adc_sent[ch]);
+		sb_add(r, ", \"mv\": %d", circuit_adc_mv(ch));
 	}
 	sb_add(r, "}");
 }
@@ -161,62 +138,40 @@ static void cmd_pulses(struct jobj *o, struct sbuf *r)
 		sb_add(r, "{\"ok\": false, \"error\": \"pulses needs pin 2|3, count>=1, high_us>=1, low_us>=1\"}");
 		return;
 	}
-	if (!plugged || is_out(p) || loop_partner(p) >= 0) {
+	if (!pty_plugged() || is_out(p) || loop_partner(p) >= 0) {
 		sb_add(r, "{\"ok\": false, \"error\": \"pin is not a free input (output, jumpered or unplugged)\"}");
 		return;
 	}
 	start_pulses(p, (unsigned long)cnt, (uint64_t)llround(hi * CYC_PER_US),
 		     (uint64_t)llround(lo * CYC_PER_US));
-	sb_add(r, "{\"ok\": true, \"done_before\": %lu}", gen[p - 2].done);
-}
-
-static void sb_ring(struct sbuf *r, const double *values, unsigned next, unsigned count)
-{
-	for (unsigned i = 0; i < count; i++) {
-		unsigned idx = (next + NEDGE - count + i) % NEDGE;
-		sb_add(r, "%s%.3f", i ? ", " : "", values[idx]);
-	}
+	sb_add(r, "{\"ok\": true, \"done_before\": %lu}", pulses_done(p));
 }
 
 static void cmd_pulse_stats(struct jobj *o, struct sbuf *r)
 {
 	int p = get_pin(o, "pin");
 	if (p < 0) { sb_add(r, "{\"ok\": false, \"error\": \"bad pin\"}"); return; }
-	struct capture *c = &cap[p];
-	sb_add(r, "{\"ok\": true, \"pin\": %d, \"count\": %lu, \"falls\": %lu, \"level\": %d, "
-		  "\"highs\": %lu, \"periods\": %lu, \"high_us\": [",
-	       p, c->rises, c->falls, c->level, c->highs, c->periods);
-	sb_ring(r, c->high_us, c->hi_next, c->nh);
-	sb_add(r, "], \"rise_us\": [");
-	sb_ring(r, c->rise_us, c->hi_next, c->nh);
-	if (c->have_edge)
-		sb_add(r, "], \"last_edge_us\": %.3f", (double)c->edge_t / CYC_PER_US);
-	else
-		sb_add(r, "], \"last_edge_us\": null");
-	sb_add(r, ", \"period_us\": [");
-	sb_ring(r, c->period_us, c->pe_next, c->np);
-	sb_add(r, "]}");
+	circuit_pulse_stats(p, r);
 }
 
 static void cmd_clear_pulse_stats(struct jobj *o, struct sbuf *r)
 {
 	int p = get_pin(o, "pin");
 	if (p < 0) { sb_add(r, "{\"ok\": false, \"error\": \"bad pin\"}"); return; }
-	struct capture *c = &cap[p];
-	int lvl = c->level;
-	memset(c, 0, sizeof(*c));
-	c->level = lvl;
+	circuit_clear_pulse_stats(p);
 	sb_add(r, "{\"ok\": true}");
 }
 
 static void cmd_set_faults(struct jobj *o, struct sbuf *r)
 {
-	double v;
-	if (get_num(o, "drop", &v)) fault_drop = v;
-	if (get_num(o, "insert", &v)) fault_insert = v;
-	if (get_num(o, "flip", &v)) fault_flip = v;
-	if (get_num(o, "seed", &v)) { rng_state = (uint64_t)v * 0x9E3779B97F4A7C15ULL + 1; }
-	sb_add(r, "{\"ok\": true, \"drop\": %g, \"insert\": %g, \"flip\": %g}", fault_drop, fault_insert, fault_flip);
+	double v, drop, insert, flip;
+	wire_faults(&drop, &insert, &flip);
+	if (get_num(o, "drop", &v)) drop = v;
+	if (get_num(o, "insert", &v)) insert = v;
+	if (get_num(o, "flip", &v)) flip = v;
+	wire_set_faults(drop, insert, flip);
+	if (get_num(o, "seed", &v)) rng_swap((uint64_t)v * 0x9E3779B97F4A7C15ULL + 1);
+	sb_add(r, "{\"ok\": true, \"drop\": %g, \"insert\": %g, \"flip\": %g}", drop, insert, flip);
 }
 
 static void cmd_unplug(struct jobj *o, struct sbuf *r)
@@ -229,29 +184,38 @@ static void cmd_replug(struct jobj *o, struct sbuf *r)
 {
 	if (do_replug() < 0) { sb_add(r, "{\"ok\": false, \"error\": \"cannot create pty\"}"); return; }
 	sb_add(r, "{\"ok\": true, \"port\": ");
-	sb_json_str(r, pty_name);
+	sb_json_str(r, pty_port());
 	sb_add(r, "}");
 }
 
 static void cmd_reset(struct jobj *o, struct sbuf *r)
 {
-	if (!plugged) { sb_add(r, "{\"ok\": false, \"error\": \"unplugged\"}"); return; }
-	holding_reset = 0;
+	if (!pty_plugged()) { sb_add(r, "{\"ok\": false, \"error\": \"unplugged\"}"); return; }
+	pty_release_reset();
 	power_on_reset();
 	sb_add(r, "{\"ok\": true}");
 }
 
 static void cmd_firmware_cycles(struct jobj *o, struct sbuf *r)
 {
-	sb_add(r, "{\"ok\": true, \"samples\": [");
-	for (unsigned i = 0; i < fw_nsamples; i++) {
-		unsigned idx = (fw_next + NSAMPLES - fw_nsamples + i) % NSAMPLES;
-		sb_add(r, "%s%llu", i ? ", " : "", (unsigned long long)fw_samples[idx]);
+	wire_firmware_cycles(r, jget(o, "clear") != NULL);
+}
+
+/* {"cmd": "set_latency_timer", "ms": N}: what the host's driver would send an
+ * FTDI chip when its latency_timer is written (bridges.c) */
+static void cmd_set_latency_timer(struct jobj *o, struct sbuf *r)
+{
+	double ms;
+	if (opt->usb_bridge != BRIDGE_FTDI) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs --usb-bridge ftdi\"}");
+		return;
 	}
-	sb_add(r, "], \"last\": ");
-	if (fw_nsamples) sb_add(r, "%llu", (unsigned long long)fw_last); else sb_add(r, "null");
-	sb_add(r, ", \"cycles_per_us\": %llu}", CYC_PER_US);
-	if (jget(o, "clear")) fw_nsamples = 0;
+	if (!get_num(o, "ms", &ms) || ms < 1 || ms > 255 || ms != floor(ms)) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_latency_timer needs ms 1..255\"}");
+		return;
+	}
+	bridge_set_latency_ms((long)ms);
+	sb_add(r, "{\"ok\": true, \"latency_ms\": %u}", (unsigned)ms);
 }
 
 /* bytes of the I2C EEPROM (size 256) or of the AVR's own EEPROM (1024) */
@@ -266,7 +230,7 @@ static void reply_eeprom(struct jobj *o, struct sbuf *r, int size)
 	}
 	uint8_t buf[1024];
 	if (size == 256) {
-		memcpy(buf, i2c_ee.ee + (int)off, (size_t)len);
+		memcpy(buf, circuit_i2c_eeprom() + (int)off, (size_t)len);
 	} else {
 		avr_eeprom_desc_t d = {.ee = buf, .offset = (uint16_t)off, .size = (uint32_t)len};
 		/* simavr's eeprom ioctl returns -1 even on success: ignore the result */
@@ -325,6 +289,7 @@ static const struct command commands[] = {
 	{"quadrature", 0, cmd_quadrature},
 	{"quadrature_status", 1, cmd_quadrature_status},
 	{"quadrature_stop", 0, cmd_quadrature_stop},
+	{"set_latency_timer", 0, cmd_set_latency_timer},
 };
 
 static const struct command *find_command(const char *name)

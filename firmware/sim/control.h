@@ -6,7 +6,8 @@
 
 #define MAX_CLIENTS 16
 
-extern char ctl_path[600];
+const char *control_path(void);         /* the control socket's path */
+void control_set_path(const char *path); /* --control, before setup_control */
 
 int setup_control(void);
 void close_control(void);

@@ -26,6 +26,7 @@
 #include "sim_hex.h"
 #include "sim_io.h"
 
+#include "bridges.h"
 #include "circuit.h"
 #include "control.h"
 #include "pacing.h"
@@ -36,29 +37,20 @@
 #define ANNOUNCE_MAX_CYCLES (250000ULL * 16) /* announce anyway if RXEN0 stays off 250 ms */
 
 /* ------------------------------------------------------------------ options */
-const char *opt_elf;
-const char *opt_bootloader;
-int opt_id = -1;
-unsigned opt_baud = 115200;
-enum fixture opt_fixture = FIX_OPEN;
-double opt_r2r_tol = 1.0;
-int opt_fast;
-int opt_reset_on_open;
-unsigned opt_boot_delay_ms = 500;
-int opt_16u2;
-int opt_exit_with_parent;
-pid_t orig_ppid;
-uint64_t opt_seed = 1;
+static struct harness_options options = {
+	.id = -1, .baud = 115200, .fixture = FIX_OPEN, .r2r_tol = 1.0, .boot_delay_ms = 500, .seed = 1,
+};
+const struct harness_options *const opt = &options; /* read-only outside this file */
+static double opt_fault_drop, opt_fault_insert, opt_fault_flip; /* given to wire.c */
 
 /* ------------------------------------------------------------------ state */
 avr_t *avr;
-volatile sig_atomic_t quit_flag;
 static int json_fd = -1;
 int halted;
 volatile int reset_seen;
 static void (*orig_reset)(avr_t *);
-unsigned long reset_count;
-int announced;
+static unsigned long reset_count;
+static int announced; /* ready line printed (after the firmware's RXEN0) */
 
 void logf_(const char *fmt, ...)
 {
@@ -70,7 +62,15 @@ void logf_(const char *fmt, ...)
 	va_end(ap);
 }
 
-uint64_t rng_state;
+static uint64_t rng_state;
+
+uint64_t rng_swap(uint64_t state)
+{
+	uint64_t old = rng_state;
+	rng_state = state ? state : 1;
+	return old;
+}
+
 uint64_t rng_next(void)
 {
 	uint64_t x = rng_state;
@@ -156,11 +156,17 @@ void after_reset(void)
 
 void reset_and_run(uint8_t flags)
 {
+	reset_held(flags);
+	rebase();
+}
+
+/* A reset that runs the firmware from its start (the time base is the caller's). */
+void reset_held(uint8_t flags)
+{
 	reset_avr(flags);
 	avr->state = cpu_Running;
 	reset_count++;
 	after_reset();
-	rebase();
 }
 
 void power_on_reset(void)
@@ -202,8 +208,29 @@ static int load_bootloader(const char *path)
 	return 0;
 }
 
+/* ------------------------------------------------------------------ status */
+static const char *state_name(void)
+{
+	if (!pty_plugged()) return "off";
+	if (pty_holding_reset()) return "reset";
+	if (halted) return "halted";
+	if (avr->state == cpu_Sleeping) return "sleeping";
+	if (avr->state == cpu_Running) return "running";
+	return "stopped";
+}
+
+void harness_status(struct sbuf *r)
+{
+	sb_add(r, ", \"state\": \"%s\", \"id\": ", state_name());
+	if (options.id >= 0) sb_add(r, "%d", options.id); else sb_add(r, "null");
+	sb_add(r, ", \"baud\": %u, \"fixture\": \"%s\", \"usb_bridge\": \"%s\", \"fast\": %s, "
+		  "\"reset_on_open\": %s, \"resets\": %lu, \"pc\": %u",
+	       options.baud, fixture_name(), bridge_name(options.usb_bridge), options.fast ? "true" : "false",
+	       options.reset_on_open ? "true" : "false", reset_count, (unsigned)avr->pc);
+}
+
 /* ------------------------------------------------------------------ setup */
-static void on_signal(int sig) { quit_flag = 1; }
+static void on_signal(int sig) { pacing_quit(); }
 
 /* The ready line goes out once the firmware has switched its UART receiver on
  * (RXEN0), not at power-up: a host that writes a request the moment it learns
@@ -213,18 +240,20 @@ static void on_signal(int sig) { quit_flag = 1; }
  * simulated time, or when it halts. */
 void announce_when_listening(void)
 {
-	if (plugged && !halted && !(avr->data[UCSR0B_ADDR] & RXEN0_BIT) &&
+	if (announced)
+		return;
+	if (pty_plugged() && !halted && !(avr->data[UCSR0B_ADDR] & RXEN0_BIT) &&
 	    avr->cycle < ANNOUNCE_MAX_CYCLES)
 		return;
 	announced = 1;
 	char line[1024], idtxt[16];
-	if (opt_id >= 0)
-		snprintf(idtxt, sizeof(idtxt), "%d", opt_id);
+	if (options.id >= 0)
+		snprintf(idtxt, sizeof(idtxt), "%d", options.id);
 	else
 		snprintf(idtxt, sizeof(idtxt), "null");
 	int n = snprintf(line, sizeof(line),
 			 "{\"port\": \"%s\", \"control\": \"%s\", \"pid\": %d, \"id\": %s, \"baud\": %u}\n",
-			 pty_name, ctl_path, (int)getpid(), idtxt, opt_baud);
+			 pty_port(), control_path(), (int)getpid(), idtxt, options.baud);
 	if (write(json_fd, line, (size_t)n) != n) { /* parent gone: keep running until signalled */ }
 }
 
@@ -233,7 +262,7 @@ static void usage(void)
 	fprintf(stderr,
 		"usage: virtual-uno --elf PATH|--bootloader HEX [--elf PATH] [--id N] [--baud 115200|1000000] [--fixture open|loopback|r2r]\n"
 		"       [--r2r-tolerance PCT] [--fast] [--reset-on-open] [--boot-delay-ms MS]\n"
-		"       [--usb-bridge none|16u2] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
+		"       [--usb-bridge none|16u2|ftdi|ch340] [--ftdi-latency-ms MS] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
 		"       [--seed N] [--control SOCKET_PATH] [--exit-with-parent]\n");
 }
 
@@ -243,37 +272,36 @@ static int parse_args(int argc, char **argv)
 		const char *a = argv[i];
 		const char *v = i + 1 < argc ? argv[i + 1] : NULL;
 #define NEEDV() do { if (!v) { logf_("%s needs a value", a); return -1; } i++; } while (0)
-		if (!strcmp(a, "--elf")) { NEEDV(); opt_elf = v; }
-		else if (!strcmp(a, "--bootloader")) { NEEDV(); opt_bootloader = v; opt_reset_on_open = 1; }
-		else if (!strcmp(a, "--id")) { NEEDV(); long n = strtol(v, NULL, 0); if (n < 0 || n > 0xFFFF) { logf_("--id must be 0..65535"); return -1; } opt_id = (int)n; }
-		else if (!strcmp(a, "--baud")) { NEEDV(); opt_baud = (unsigned)strtoul(v, NULL, 0); if (opt_baud < 300 || opt_baud > 2000000) { logf_("bad --baud"); return -1; } }
+		if (!strcmp(a, "--elf")) { NEEDV(); options.elf = v; }
+		else if (!strcmp(a, "--bootloader")) { NEEDV(); options.bootloader = v; options.reset_on_open = 1; }
+		else if (!strcmp(a, "--id")) { NEEDV(); long n = strtol(v, NULL, 0); if (n < 0 || n > 0xFFFF) { logf_("--id must be 0..65535"); return -1; } options.id = (int)n; }
+		else if (!strcmp(a, "--baud")) { NEEDV(); options.baud = (unsigned)strtoul(v, NULL, 0); if (options.baud < 300 || options.baud > 2000000) { logf_("bad --baud"); return -1; } }
 		else if (!strcmp(a, "--fixture")) {
 			NEEDV();
-			if (!strcmp(v, "open")) opt_fixture = FIX_OPEN;
-			else if (!strcmp(v, "loopback")) opt_fixture = FIX_LOOPBACK;
-			else if (!strcmp(v, "r2r")) opt_fixture = FIX_R2R;
+			if (!strcmp(v, "open")) options.fixture = FIX_OPEN;
+			else if (!strcmp(v, "loopback")) options.fixture = FIX_LOOPBACK;
+			else if (!strcmp(v, "r2r")) options.fixture = FIX_R2R;
 			else { logf_("bad --fixture %s", v); return -1; }
 		}
-		else if (!strcmp(a, "--r2r-tolerance")) { NEEDV(); opt_r2r_tol = atof(v); }
-		else if (!strcmp(a, "--fast")) opt_fast = 1;
-		else if (!strcmp(a, "--reset-on-open")) opt_reset_on_open = 1;
-		else if (!strcmp(a, "--exit-with-parent")) opt_exit_with_parent = 1;
-		else if (!strcmp(a, "--boot-delay-ms")) { NEEDV(); opt_boot_delay_ms = (unsigned)strtoul(v, NULL, 0); }
+		else if (!strcmp(a, "--r2r-tolerance")) { NEEDV(); options.r2r_tol = atof(v); }
+		else if (!strcmp(a, "--fast")) options.fast = 1;
+		else if (!strcmp(a, "--reset-on-open")) options.reset_on_open = 1;
+		else if (!strcmp(a, "--exit-with-parent")) options.exit_with_parent = 1;
+		else if (!strcmp(a, "--boot-delay-ms")) { NEEDV(); options.boot_delay_ms = (unsigned)strtoul(v, NULL, 0); }
 		else if (!strcmp(a, "--usb-bridge")) {
 			NEEDV();
-			if (!strcmp(v, "none")) opt_16u2 = 0;
-			else if (!strcmp(v, "16u2")) opt_16u2 = 1;
-			else { logf_("bad --usb-bridge %s", v); return -1; }
+			if (bridge_parse(v, &options.usb_bridge) < 0) { logf_("bad --usb-bridge %s", v); return -1; }
 		}
-		else if (!strcmp(a, "--fault-drop")) { NEEDV(); fault_drop = atof(v); }
-		else if (!strcmp(a, "--fault-insert")) { NEEDV(); fault_insert = atof(v); }
-		else if (!strcmp(a, "--fault-flip")) { NEEDV(); fault_flip = atof(v); }
-		else if (!strcmp(a, "--seed")) { NEEDV(); opt_seed = strtoull(v, NULL, 0); }
-		else if (!strcmp(a, "--control")) { NEEDV(); snprintf(ctl_path, sizeof(ctl_path), "%s", v); }
+		else if (!strcmp(a, "--ftdi-latency-ms")) { NEEDV(); if (bridge_set_latency_ms(strtol(v, NULL, 0)) < 0) { logf_("--ftdi-latency-ms must be 1..255"); return -1; } }
+		else if (!strcmp(a, "--fault-drop")) { NEEDV(); opt_fault_drop = atof(v); }
+		else if (!strcmp(a, "--fault-insert")) { NEEDV(); opt_fault_insert = atof(v); }
+		else if (!strcmp(a, "--fault-flip")) { NEEDV(); opt_fault_flip = atof(v); }
+		else if (!strcmp(a, "--seed")) { NEEDV(); options.seed = strtoull(v, NULL, 0); }
+		else if (!strcmp(a, "--control")) { NEEDV(); control_set_path(v); }
 		else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { usage(); exit(0); }
 		else { logf_("unknown argument %s", a); usage(); return -1; }
 	}
-	if (!opt_elf && !opt_bootloader) { logf_("--elf or --bootloader is required"); usage(); return -1; }
+	if (!options.elf && !options.bootloader) { logf_("--elf or --bootloader is required"); usage(); return -1; }
 	return 0;
 }
 
@@ -285,11 +313,11 @@ int main(int argc, char **argv)
 	setvbuf(stdout, NULL, _IONBF, 0);
 
 	if (parse_args(argc, argv) < 0) return 2;
-	orig_ppid = getppid();
-	rng_state = opt_seed * 0x9E3779B97F4A7C15ULL + 1;
-	if (!rng_state) rng_state = 1;
+	options.parent_pid = getppid();
+	rng_swap(options.seed * 0x9E3779B97F4A7C15ULL + 1);
+	wire_set_faults(opt_fault_drop, opt_fault_insert, opt_fault_flip);
 	setup_r2r();
-	byte_cycles = (uint64_t)llround(10.0 * (double)F_CPU / (double)opt_baud);
+	wire_set_byte_time(options.baud);
 
 	struct sigaction sa = {.sa_handler = on_signal};
 	sigaction(SIGINT, &sa, NULL);
@@ -300,17 +328,17 @@ int main(int argc, char **argv)
 	avr_global_logger_set(logger);
 	elf_firmware_t fw;
 	memset(&fw, 0, sizeof(fw));
-	if (opt_elf && (access(opt_elf, R_OK) != 0 || elf_read_firmware(opt_elf, &fw) != 0)) {
-		logf_("cannot read firmware ELF %s", opt_elf);
+	if (options.elf && (access(options.elf, R_OK) != 0 || elf_read_firmware(options.elf, &fw) != 0)) {
+		logf_("cannot read firmware ELF %s", options.elf);
 		return 2;
 	}
 	avr = avr_make_mcu_by_name("atmega328p");
 	if (!avr) { logf_("simavr does not know atmega328p"); return 2; }
 	avr_init(avr);
 	avr->log = LOG_WARNING;
-	if (opt_elf)
+	if (options.elf)
 		avr_load_firmware(avr, &fw);
-	if (opt_bootloader && load_bootloader(opt_bootloader) < 0)
+	if (options.bootloader && load_bootloader(options.bootloader) < 0)
 		return 2;
 	avr->frequency = (uint32_t)F_CPU;
 	avr->vcc = 5000;
@@ -323,8 +351,8 @@ int main(int argc, char **argv)
 	uint32_t flags = 0; /* no stdio echo, no usleep(1) on UCSR0A polling */
 	avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
 
-	if (opt_id >= 0) {
-		uint8_t idb[2] = {(uint8_t)(opt_id >> 8), (uint8_t)opt_id};
+	if (options.id >= 0) {
+		uint8_t idb[2] = {(uint8_t)(options.id >> 8), (uint8_t)options.id};
 		avr_eeprom_desc_t d = {.ee = idb, .offset = 0, .size = 2};
 		avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d);
 	}
@@ -334,7 +362,7 @@ int main(int argc, char **argv)
 
 	if (setup_control() < 0) return 2;
 	if (open_pty() < 0) return 2;
-	start_ns = now_ns();
+	pacing_start();
 	after_reset();
 	rebase();
 
@@ -343,6 +371,6 @@ int main(int argc, char **argv)
 	trace_close();
 
 	close_control();
-	if (master_fd >= 0) close(master_fd);
+	if (pty_fd() >= 0) close(pty_fd());
 	return 0;
 }

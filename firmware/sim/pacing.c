@@ -54,16 +54,19 @@
 #define LAG_REBASE_CYCLES (50000ULL * 16) /* > 50 ms behind: give up catching up, rebase */
 
 static uint64_t wall_base_ns, cycle_base;
-uint64_t start_ns;
-int64_t max_lag_cycles;
-unsigned long rebase_count;
+static uint64_t start_ns;
+static int64_t max_lag_cycles;
+static unsigned long rebase_count;
 static int io_ready;
 static uint64_t last_io_ns;
 static uint64_t quiet_since_ns; /* wall time the link was last busy or a host stimulus came */
 static uint64_t last_parent_check_ns;
-unsigned long runahead_jumps;
-uint64_t runahead_jump_cycles;
-uint64_t next_event = UINT64_MAX;
+static unsigned long runahead_jumps;
+static uint64_t runahead_jump_cycles;
+static uint64_t next_event = UINT64_MAX;
+static volatile sig_atomic_t quit_flag; /* SIGINT/SIGTERM, or the parent died */
+
+void pacing_quit(void) { quit_flag = 1; } /* async-signal-safe */
 
 uint64_t now_ns(void)
 {
@@ -92,12 +95,14 @@ static uint64_t wall_ns_of(uint64_t c)
  * simulation's run-ahead had stopped (10-310 us into a frame after 2 ms
  * slices), not at a random one: 0.81 ms to the next frame on average instead
  * of 0.5. */
-int64_t bridge_clock_offset;
+static int64_t bridge_clock_offset;
+
+int64_t bridge_clock_phase(void) { return bridge_clock_offset; }
 
 void rebase(void)
 {
 	uint64_t now = now_ns();
-	if (avr && !opt_fast && wall_base_ns)
+	if (avr && !opt->fast && wall_base_ns)
 		bridge_clock_offset += (int64_t)avr->cycle - (int64_t)wall_cycles(now);
 	wall_base_ns = now;
 	cycle_base = avr ? avr->cycle : 0;
@@ -117,8 +122,7 @@ static int link_quiet(int (*wire)(void))
 	/* and the receiver on: while the firmware boots, a host byte must meet the
 	 * receiver-off window in wall time, as on a real board (no run-ahead) */
 	return avr && (avr->data[UCSR0B_ADDR] & RXEN0_BIT) && wire() && !pulses_running() &&
-	       !quadrature_running() &&
-	       !holding_reset;
+	       !quadrature_running() && !pty_holding_reset();
 }
 
 static int link_idle(void)
@@ -154,7 +158,7 @@ static uint64_t lead_now(uint64_t t, uint64_t *resume);
  * 30 us: a host byte arriving meanwhile is stamped at most that late. */
 static uint64_t busy_lead(uint64_t *resume)
 {
-	int answering = avr->cycle - last_host_byte_t < ANSWER_WINDOW_CYCLES;
+	int answering = avr->cycle - wire_last_host_byte() < ANSWER_WINDOW_CYCLES;
 	*resume = answering ? ANSWER_RESUME_CYCLES : LEAD_RESUME_CYCLES;
 	return answering ? ANSWER_LEAD_CYCLES : LEAD_MAX_CYCLES;
 }
@@ -184,7 +188,7 @@ static uint64_t lead_now(uint64_t t, uint64_t *resume)
  * the host is unaffected. */
 void catch_up_wall(void)
 {
-	if (!avr || opt_fast)
+	if (!avr || opt->fast)
 		return;
 	uint64_t t = now_ns();
 	quiet_since_ns = t; /* the idle run-ahead starts from 0 again */
@@ -208,7 +212,7 @@ void catch_up_wall(void)
 uint64_t stimulus_cycle(void)
 {
 	catch_up_wall();
-	if (!avr || opt_fast)
+	if (!avr || opt->fast)
 		return avr ? avr->cycle : 0;
 	uint64_t wc = wall_cycles(now_ns());
 	return wc > avr->cycle ? wc : avr->cycle;
@@ -275,7 +279,7 @@ static int wait_fds(uint64_t timeout_ns)
 	uint64_t deadline = 0;
 	int punctual;
 	uint64_t out = output_wake_cycle(&punctual);
-	if (out != UINT64_MAX && !opt_fast) {
+	if (out != UINT64_MAX && !opt->fast) {
 		uint64_t due = wall_ns_of(out);
 		if (due <= t + timeout_ns) { /* output due within this wait */
 			timeout_ns = due > t ? due - t : 0;
@@ -302,7 +306,7 @@ static uint64_t sleep_for(uint64_t how_long)
 	uint64_t target = avr->cycle + 1 + how_long;
 	if (next_event < target)
 		target = next_event > avr->cycle ? next_event : avr->cycle + 1;
-	if (opt_fast) {
+	if (opt->fast) {
 		uint64_t t = now_ns();
 		if (t - last_io_ns > 200000ULL)
 			io_ready = 1;
@@ -374,7 +378,7 @@ static void service_io(void)
 	for (int i = 0; i < npfds; i++) {
 		if (!pfds[i].revents) continue;
 		int fd = pfds[i].fd;
-		if (fd == master_fd && master_fd >= 0)
+		if (fd == pty_fd() && fd >= 0)
 			service_pty(pfds[i].revents);
 		else
 			service_control(fd);
@@ -382,10 +386,10 @@ static void service_io(void)
 	}
 	npfds = 0;
 	uint64_t t = now_ns();
-	if (opt_exit_with_parent && t - last_parent_check_ns > 200000000ULL) {
+	if (opt->exit_with_parent && t - last_parent_check_ns > 200000000ULL) {
 		/* launcher died without stopping us (SIGKILL): do not linger */
 		last_parent_check_ns = t;
-		if (getppid() != orig_ppid)
+		if (getppid() != opt->parent_pid)
 			quit_flag = 1;
 	}
 	pty_housekeeping(t);
@@ -403,16 +407,15 @@ void run_paced(void)
 {
 	last_io_ns = now_ns();
 	while (!quit_flag) {
-		if (!announced)
-			announce_when_listening();
-		if (!plugged || holding_reset || halted) {
+		announce_when_listening();
+		if (!pty_plugged() || pty_holding_reset() || halted) {
 			uint64_t to = 20000000ULL;
-			if (holding_reset) {
+			if (pty_holding_reset()) {
 				uint64_t t = now_ns();
-				to = hold_until_ns > t ? hold_until_ns - t : 0;
+				to = pty_hold_until() > t ? pty_hold_until() - t : 0;
 			}
 			poll_io(to);
-			if (!plugged || holding_reset || halted)
+			if (!pty_plugged() || pty_holding_reset() || halted)
 				rebase(); /* simulated time does not run while off/held */
 			continue;
 		}
@@ -437,7 +440,7 @@ void run_paced(void)
 			t = now_ns();
 		}
 		output_service(wall_cycles(t));
-		if (opt_fast) {
+		if (opt->fast) {
 			if (t - last_io_ns > 200000ULL) poll_io(0);
 			continue;
 		}
@@ -459,4 +462,20 @@ void run_paced(void)
 			if (t - last_io_ns > 20000ULL) poll_io(0);
 		}
 	}
+}
+
+/* ------------------------------------------------------------------ status */
+void pacing_start(void) { start_ns = now_ns(); }
+
+void pacing_status(struct sbuf *r)
+{
+	uint64_t t = now_ns();
+	int64_t lag = pty_plugged() && !opt->fast ? (int64_t)wall_cycles(t) - (int64_t)avr->cycle : 0;
+	sb_add(r, ", \"cycle\": %llu, \"sim_us\": %.3f, \"wall_us\": %.3f, \"lag_us\": %.3f, "
+		  "\"max_lag_us\": %.3f, \"rebases\": %lu, \"runahead_jumps\": %lu, "
+		  "\"runahead_jump_us\": %.3f",
+	       (unsigned long long)avr->cycle, (double)avr->cycle / CYC_PER_US,
+	       (double)(t - start_ns) / 1000.0, (double)lag / CYC_PER_US,
+	       (double)max_lag_cycles / CYC_PER_US, rebase_count, runahead_jumps,
+	       (double)runahead_jump_cycles / CYC_PER_US);
 }

@@ -5,27 +5,25 @@
 
 #include <stdint.h>
 
-/* statistics for the control channel's status */
-extern uint64_t start_ns;
-extern int64_t max_lag_cycles;
-extern unsigned long rebase_count;
-extern unsigned long runahead_jumps; /* host stimulus while running ahead: time base moved */
-extern uint64_t runahead_jump_cycles;
+#include "json.h"
 
 uint64_t now_ns(void);
 uint64_t wall_cycles(uint64_t ns);
 void rebase(void);
-extern int64_t bridge_clock_offset; /* cycles: the bridge clocks' phase against the simulation's */
+int64_t bridge_clock_phase(void); /* cycles: the bridge clocks' phase against the simulation's */
 void catch_up_wall(void);
 uint64_t stimulus_cycle(void);
 
 /* harness events (not simavr cycle timers: avr_reset() cancels those) */
-extern uint64_t next_event;
 void schedule(uint64_t t);
 void recompute_next_event(void);
 void run_events(void);
 
 void my_run(avr_t *a); /* installed as avr->run */
-void run_paced(void);  /* the main loop, until quit_flag */
+void run_paced(void);  /* the main loop, until pacing_quit() */
+void pacing_quit(void); /* end the main loop (async-signal-safe) */
+
+void pacing_start(void);              /* the wall clock's zero (status: wall_us) */
+void pacing_status(struct sbuf *r);  /* its part of "status": ", key: value..." */
 
 #endif

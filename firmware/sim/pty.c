@@ -19,17 +19,17 @@
 #include "trace.h"
 #include "wire.h"
 
-int master_fd = -1;
-char pty_name[128];
-int plugged = 1;
-int slave_open;
+static int master_fd = -1;
+static char pty_name[128];
+static int plugged = 1;  /* cable in: AVR powered, pty exists */
+static int slave_open;  /* host holds the port open */
 static uint64_t last_hup_check_ns;
-int holding_reset;
-uint64_t hold_until_ns;
-unsigned long open_count;
-unsigned long host_rx_stalls;
+static int holding_reset;  /* DTR auto-reset: held in reset until hold_until_ns */
+static uint64_t hold_until_ns;
+static unsigned long open_count;
+static unsigned long host_rx_stalls;  /* times the harness stopped reading the pty (queue full) */
 static int host_rx_stalled;
-unsigned long baud_mismatch_bytes;
+static unsigned long baud_mismatch_bytes;
 static int baud_mismatch_logged;
 
 /* ------------------------------------------------------------------ baud rates */
@@ -132,13 +132,10 @@ static void on_slave_open(void)
 	slave_open = 1;
 	open_count++;
 	baud_mismatch_logged = 0;
-	if (opt_reset_on_open && plugged) {
-		reset_avr(MCUSR_EXTRF);
-		avr->state = cpu_Running;
-		reset_count++;
-		after_reset();
+	if (opt->reset_on_open && plugged) {
+		reset_held(MCUSR_EXTRF);
 		holding_reset = 1;
-		hold_until_ns = now_ns() + (uint64_t)opt_boot_delay_ms * 1000000ULL;
+		hold_until_ns = now_ns() + (uint64_t)opt->boot_delay_ms * 1000000ULL;
 	}
 }
 
@@ -168,7 +165,7 @@ static void read_master(void)
 		ssize_t n = read(master_fd, buf, want);
 		if (n > 0) {
 			if (holding_reset || !plugged) {
-				bytes_discarded += (unsigned long)n;
+				wire_discarded((unsigned long)n);
 				continue;
 			}
 			if (baud_mismatch((size_t)n))
@@ -260,4 +257,23 @@ int do_replug(void)
 	plugged = 1;
 	power_on_reset();
 	return 0;
+}
+
+/* ------------------------------------------------------------------ state, for the other modules */
+int pty_fd(void) { return master_fd; }
+const char *pty_port(void) { return pty_name; }
+int pty_plugged(void) { return plugged; }
+int pty_host_open(void) { return slave_open; }
+int pty_holding_reset(void) { return holding_reset; }
+uint64_t pty_hold_until(void) { return hold_until_ns; }
+void pty_release_reset(void) { holding_reset = 0; }
+
+void pty_status(struct sbuf *r)
+{
+	sb_add(r, ", \"port\": ");
+	sb_json_str(r, plugged ? pty_name : "");
+	sb_add(r, ", \"plugged\": %s, \"host_open\": %s, \"opens\": %lu, \"host_rx_stalls\": %lu, "
+		  "\"baud_mismatch_bytes\": %lu",
+	       plugged ? "true" : "false", slave_open ? "true" : "false", open_count,
+	       host_rx_stalls, baud_mismatch_bytes);
 }

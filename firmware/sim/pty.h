@@ -6,15 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-extern int master_fd;
-extern char pty_name[128];
-extern int plugged;             /* cable in: AVR powered, pty exists */
-extern int slave_open;          /* host holds the port open */
-extern int holding_reset;       /* DTR auto-reset: held in reset until hold_until_ns */
-extern uint64_t hold_until_ns;
-extern unsigned long open_count;
-extern unsigned long host_rx_stalls;  /* times the harness stopped reading the pty (queue full) */
-extern unsigned long baud_mismatch_bytes; /* lost because host and UART rates differ */
+#include "json.h"
 
 /* for wire.c: whether these n bytes are lost to a baud-rate mismatch (counts them) */
 int baud_mismatch(size_t n);
@@ -28,5 +20,14 @@ int pty_pollfds(struct pollfd *pfds, int n);
 int waiting_for_host_open(void);
 void service_pty(short revents);
 void pty_housekeeping(uint64_t t);
+
+int pty_fd(void);               /* the pty master, -1 while unplugged */
+const char *pty_port(void);     /* the slave's path */
+int pty_plugged(void);          /* cable in: AVR powered, pty exists */
+int pty_host_open(void);        /* the host holds the port open */
+int pty_holding_reset(void);    /* DTR auto-reset: held in reset until pty_hold_until() */
+uint64_t pty_hold_until(void);
+void pty_release_reset(void);
+void pty_status(struct sbuf *r); /* its part of "status": ", key: value..." */
 
 #endif

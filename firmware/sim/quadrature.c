@@ -11,10 +11,12 @@
  * edges a pulse of `glitch_us` on one pin that returns (no net motion).
  * The position (quarter steps) is the oracle: `quadrature_status`.
  *
- * The levels go out as driven levels (drive_level), so the rest of the
+ * The levels go out as driven levels (circuit_set_driven), so the rest of the
  * circuit treats them like `drive`; the edges run from the harness's event
  * list, exact to the instruction.  Each generator has its own PRNG (seeded by
  * the request), so a run repeats and the line-fault PRNG is not disturbed.
+ * The generators are this module's own state: the control commands below set
+ * them up and read them, quadrature_status() reports them in "status".
  */
 #include "harness.h"
 
@@ -53,12 +55,17 @@ static double unit(struct quadgen *g)
 }
 
 /* AB at a position: 00, 10, 11, 01 */
-static void put_levels(struct quadgen *g)
+static int level_at(const struct quadgen *g, int pin)
 {
 	static const int A[4] = {0, 1, 1, 0}, B[4] = {0, 0, 1, 1};
 	int p = (int)(((g->position % 4) + 4) % 4);
-	drive_level[g->a] = A[p];
-	drive_level[g->b] = B[p];
+	return pin == g->a ? A[p] : B[p];
+}
+
+static void put_levels(struct quadgen *g)
+{
+	circuit_set_driven(g->a, level_at(g, g->a));
+	circuit_set_driven(g->b, level_at(g, g->b));
 }
 
 int quadrature_running(void)
@@ -110,7 +117,7 @@ static void edge(struct quadgen *g)
 		g->since_glitch = 0;
 		/* a pulse on the pin that did not just change, back before the next edge */
 		int p = (g->position & 1) ? g->b : g->a;
-		drive_level[p] = !drive_level[p];
+		circuit_set_driven(p, !level_at(g, p));
 		g->glitch_pin = p;
 		g->glitch_end_t = avr->cycle + g->glitch_c;
 		g->glitches++;
@@ -190,7 +197,7 @@ void cmd_quadrature(struct jobj *o, struct sbuf *r)
 			  "glitch_us>0, dir 1|-1\"}");
 		return;
 	}
-	if (!plugged || is_out(a) || is_out(b) || loop_partner(a) >= 0 || loop_partner(b) >= 0) {
+	if (!pty_plugged() || is_out(a) || is_out(b) || loop_partner(a) >= 0 || loop_partner(b) >= 0) {
 		sb_add(r, "{\"ok\": false, \"error\": \"pins are not free inputs (output, jumpered or unplugged)\"}");
 		return;
 	}
@@ -251,6 +258,17 @@ void cmd_quadrature_status(struct jobj *o, struct sbuf *r)
 		first = 0;
 	}
 	sb_add(r, "]}");
+}
+
+void quadrature_status(struct sbuf *r)
+{
+	int running = 0;
+	long long edges = 0;
+	for (int i = 0; i < NQUAD; i++) {
+		running += q[i].active;
+		edges += (long long)q[i].edges;
+	}
+	sb_add(r, ", \"quadrature_active\": %d, \"quadrature_edges\": %lld", running, edges);
 }
 
 /* {"cmd": "quadrature_stop"}: every generator stops where it is (pins held) */

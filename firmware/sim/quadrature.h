@@ -15,5 +15,6 @@ int run_quadrature(uint64_t now);
 void cmd_quadrature(struct jobj *o, struct sbuf *r);
 void cmd_quadrature_status(struct jobj *o, struct sbuf *r);
 void cmd_quadrature_stop(struct jobj *o, struct sbuf *r);
+void quadrature_status(struct sbuf *r); /* its part of "status": ", key: value..." */
 
 #endif

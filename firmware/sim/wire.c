@@ -5,6 +5,7 @@
  */
 #include "harness.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,6 +15,7 @@
 #include "sim_io.h"
 #include "sim_irq.h"
 
+#include "bridges.h"
 #include "pacing.h"
 #include "pty.h"
 #include "trace.h"
@@ -26,7 +28,7 @@
 #define RING 8192
 
 
-double fault_drop, fault_insert, fault_flip;
+static double fault_drop, fault_insert, fault_flip;
 
 /* byte rings with timestamps */
 struct tbyte { uint8_t b; uint64_t t; };
@@ -53,23 +55,24 @@ static struct ring bridge_buf;  /* 16U2: bytes waiting for tick / 96 bytes (t un
 static struct ring usb_out;     /* 16U2: released bytes waiting for USB frame (t = frame) */
 static struct ring to_pty;      /* bytes that reached the host side (t = due: simulated arrival) */
 static int out_blocked;         /* the last write() was short: the pty is full */
-unsigned long pty_writes;
-uint64_t byte_cycles;
+static unsigned long pty_writes; /* write() calls to the pty master (batching statistics) */
+static uint64_t byte_cycles;    /* 10 bit times at --baud */
 static uint64_t next_inject_ok; /* earliest cycle for next injection (wire spacing) */
 static int uart_xoff;
 static uint64_t tick_at;        /* 16U2 next tick event, 0 = none */
-unsigned long bytes_to_host, bytes_from_host, bytes_discarded;
-unsigned long lost_to_board, lost_to_host;
-unsigned long bridge_full_releases;
-uint64_t last_host_byte_t;
-unsigned long faults_dropped, faults_inserted, faults_flipped;
+static unsigned long bytes_to_host, bytes_from_host, bytes_discarded;
+static unsigned long lost_to_board, lost_to_host; /* a harness queue was full: never expected */
+static unsigned long bridge_full_releases; /* 16U2 releases because > 96 bytes waited */
+static uint64_t last_host_byte_t;   /* cycle the last host byte entered the UART */
+static unsigned long faults_dropped, faults_inserted, faults_flipped;
 
-/* firmware time measurement */
+/* firmware time measurement: the last NSAMPLES request -> first reply byte times */
+#define NSAMPLES 256
 static int fw_pending;
 static uint64_t fw_start;
-uint64_t fw_samples[NSAMPLES];
-unsigned fw_nsamples, fw_next;
-uint64_t fw_last;
+static uint64_t fw_samples[NSAMPLES];
+static unsigned fw_nsamples, fw_next;
+static uint64_t fw_last;
 
 /* Room left in the host->board queue.  When it is full the harness stops
  * reading the pty (pty_pollfds no longer asks for POLLIN): the kernel's pty
@@ -95,15 +98,16 @@ int wire_idle(void)
  * (to_pty): the simulation has nothing more to compute for them. */
 int wire_only_delivering(void)
 {
-	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&bridge_buf) && ring_empty(&usb_out);
+	return ring_empty(&host_rx) && ring_empty(&wire_tx) && ring_empty(&bridge_buf) && ring_empty(&usb_out)
+	       && bridge_model_empty();
 }
 
 /* The first tick after t (strictly) of a bridge clock with this period: the
  * USB frames and the 16U2's Timer0 keep wall time across time base moves
  * (pacing.c: bridge_clock_offset). */
-static uint64_t bridge_boundary(uint64_t t, uint64_t period)
+uint64_t bridge_boundary(uint64_t t, uint64_t period)
 {
-	int64_t phase = ((int64_t)t - bridge_clock_offset) % (int64_t)period;
+	int64_t phase = ((int64_t)t - bridge_clock_phase()) % (int64_t)period;
 	if (phase < 0)
 		phase += (int64_t)period;
 	return t - (uint64_t)phase + period;
@@ -126,7 +130,7 @@ static uint64_t bridge_boundary(uint64_t t, uint64_t period)
  *    (a reply of up to 9 bytes still goes in one write).
  * pacing.c waits for output_wake_cycle() and spins the last few
  * microseconds to a reply's end (a wait in ppoll() oversleeps by ~20 us here). */
-static void to_host(uint8_t b, uint64_t due)
+void wire_to_host(uint8_t b, uint64_t due)
 {
 	if (!ring_push(&to_pty, b, due))
 		lost_to_host++; /* host not reading and 8 KiB already waiting */
@@ -153,10 +157,10 @@ static unsigned due_count(uint64_t wc)
 static int burst_ends_at(unsigned i)
 {
 	uint64_t t = to_pty_due(i);
-	uint64_t gap = opt_16u2 ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
+	uint64_t gap = usb_bridge_on() ? 0 : 2 * byte_cycles; /* the firmware may pause between bytes */
 	if (i + 1 < ring_len(&to_pty))
 		return to_pty_due(i + 1) > t + gap;
-	if (opt_16u2)
+	if (usb_bridge_on())
 		return 1;
 	if (!ring_empty(&wire_tx))
 		return ring_peek(&wire_tx)->t > t + gap;
@@ -168,7 +172,7 @@ static void write_out(unsigned n)
 {
 	if (!n)
 		return;
-	if (master_fd < 0 || !slave_open) {
+	if (pty_fd() < 0 || !pty_host_open()) {
 		bytes_discarded += n;
 		while (n--)
 			ring_pop(&to_pty);
@@ -184,7 +188,7 @@ static void write_out(unsigned n)
 	uint8_t buf[RING];
 	for (unsigned i = 0; i < n; i++)
 		buf[i] = to_pty.d[(to_pty.tail + i) & (RING - 1)].b;
-	ssize_t w = write(master_fd, buf, n);
+	ssize_t w = write(pty_fd(), buf, n);
 	pty_writes++;
 	trace_event('W', (uint64_t)w);
 	out_blocked = w < (ssize_t)n; /* pty full (host not reading): retry on POLLOUT */
@@ -199,7 +203,7 @@ void output_service(uint64_t wc)
 {
 	if (ring_empty(&to_pty))
 		return;
-	if (opt_fast)
+	if (opt->fast)
 		wc = UINT64_MAX; /* unpaced: no wall clock to wait for */
 	unsigned due = due_count(wc);
 	if (!due)
@@ -243,7 +247,7 @@ uint64_t output_wake_cycle(int *punctual)
  * the end of every reply would wait for the next wait to end. */
 uint64_t output_decided_at(void)
 {
-	if (ring_empty(&to_pty) || opt_16u2 || !ring_empty(&wire_tx))
+	if (ring_empty(&to_pty) || usb_bridge_on() || !ring_empty(&wire_tx))
 		return 0;
 	uint64_t t = to_pty.d[(to_pty.head - 1) & (RING - 1)].t + 2 * byte_cycles;
 	return avr->cycle < t && (avr->data[UCSR0B_ADDR] & UDRIE0_BIT) ? t : 0;
@@ -284,9 +288,11 @@ static void byte_off_wire(uint8_t b, uint64_t now)
 		faults_inserted++;
 	}
 	for (int i = 0; i < n; i++) {
-		if (!opt_16u2) {
+		if (bridge_model_take(bytes[i], now)) {
+			/* an FTDI or CH340 model (bridges.c) holds it */
+		} else if (opt->usb_bridge != BRIDGE_16U2) {
 			trace_event('T', bytes[i]);
-			to_host(bytes[i], now);
+			wire_to_host(bytes[i], now);
 		} else {
 			if (!ring_push(&bridge_buf, bytes[i], now))
 				lost_to_host++;
@@ -315,6 +321,7 @@ void wire_schedule_events(void)
 		schedule(tick_at);
 	if (!ring_empty(&usb_out))
 		schedule(ring_peek(&usb_out)->t);
+	bridge_model_schedule();
 }
 
 /* One pass over the wire's due events; returns whether any was. */
@@ -349,11 +356,11 @@ int wire_run_events(uint64_t now)
 		progress = 1;
 	}
 	while (!ring_empty(&usb_out) && ring_peek(&usb_out)->t <= now) {
-		to_host(ring_peek(&usb_out)->b, ring_peek(&usb_out)->t);
+		wire_to_host(ring_peek(&usb_out)->b, ring_peek(&usb_out)->t);
 		ring_pop(&usb_out);
 		progress = 1;
 	}
-	return progress;
+	return progress | bridge_model_run(now);
 }
 
 /* After the events: bytes that just reached the host side may already be due
@@ -452,7 +459,7 @@ void wire_after_reset(void)
 void host_bytes_in(const uint8_t *buf, size_t n)
 {
 	uint64_t t = stimulus_cycle(); /* the wall's now, or the simulation's on a busy link */
-	if (opt_16u2)
+	if (usb_bridge_on())
 		t = bridge_boundary(t, USB_FRAME_CYCLES);
 	for (size_t i = 0; i < n; i++)
 		if (!ring_push(&host_rx, buf[i], t))
@@ -484,4 +491,55 @@ void wire_unplug(void)
 	ring_clear(&bridge_buf);
 	ring_clear(&usb_out);
 	tick_at = 0;
+	bridge_model_clear();
+}
+
+/* ------------------------------------------------------------------ state, for the other modules */
+uint64_t wire_last_host_byte(void) { return last_host_byte_t; }
+void wire_lost_to_host(void) { lost_to_host++; }
+void wire_discarded(unsigned long n) { bytes_discarded += n; }
+
+void wire_set_byte_time(unsigned baud)
+{
+	byte_cycles = (uint64_t)llround(10.0 * (double)F_CPU / (double)baud);
+}
+
+void wire_faults(double *drop, double *insert, double *flip)
+{
+	*drop = fault_drop;
+	*insert = fault_insert;
+	*flip = fault_flip;
+}
+
+void wire_set_faults(double drop, double insert, double flip)
+{
+	fault_drop = drop;
+	fault_insert = insert;
+	fault_flip = flip;
+}
+
+void wire_firmware_cycles(struct sbuf *r, int clear)
+{
+	sb_add(r, "{\"ok\": true, \"samples\": [");
+	for (unsigned i = 0; i < fw_nsamples; i++) {
+		unsigned idx = (fw_next + NSAMPLES - fw_nsamples + i) % NSAMPLES;
+		sb_add(r, "%s%llu", i ? ", " : "", (unsigned long long)fw_samples[idx]);
+	}
+	sb_add(r, "], \"last\": ");
+	if (fw_nsamples) sb_add(r, "%llu", (unsigned long long)fw_last); else sb_add(r, "null");
+	sb_add(r, ", \"cycles_per_us\": %llu}", CYC_PER_US);
+	if (clear) fw_nsamples = 0;
+}
+
+void wire_status(struct sbuf *r)
+{
+	sb_add(r, ", \"bytes_to_host\": %lu, \"bytes_from_host\": %lu, \"bytes_discarded\": %lu, "
+		  "\"pty_writes\": %lu, \"faults\": {\"drop\": %g, \"insert\": %g, \"flip\": %g, "
+		  "\"dropped\": %lu, \"inserted\": %lu, \"flipped\": %lu}, \"last_host_byte_us\": %.3f, "
+		  "\"lost\": {\"to_board\": %lu, \"to_host\": %lu}, \"host_rx_queued\": %u, "
+		  "\"bridge_full_releases\": %lu",
+	       bytes_to_host, bytes_from_host, bytes_discarded, pty_writes, fault_drop, fault_insert,
+	       fault_flip, faults_dropped, faults_inserted, faults_flipped,
+	       (double)last_host_byte_t / CYC_PER_US, lost_to_board, lost_to_host, host_rx_queued(),
+	       bridge_full_releases);
 }

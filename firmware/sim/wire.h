@@ -6,29 +6,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define NSAMPLES 256
-
-extern uint64_t byte_cycles;    /* 10 bit times at --baud */
-
-/* line faults (per board->host byte) */
-extern double fault_drop, fault_insert, fault_flip;
-extern unsigned long faults_dropped, faults_inserted, faults_flipped;
-
-/* statistics for the control channel's status */
-extern unsigned long pty_writes; /* write() calls to the pty master (batching statistics) */
-extern unsigned long bytes_to_host, bytes_from_host, bytes_discarded;
-extern unsigned long lost_to_board, lost_to_host; /* a harness queue was full: never expected */
-extern unsigned long bridge_full_releases; /* 16U2 releases because > 96 bytes waited */
-extern uint64_t last_host_byte_t;   /* cycle the last host byte entered the UART */
-unsigned host_rx_queued(void);
-
-/* firmware time measurement: the last NSAMPLES request -> first reply byte times */
-extern uint64_t fw_samples[NSAMPLES];
-extern unsigned fw_nsamples, fw_next;
-extern uint64_t fw_last;
+#include "json.h"
 
 void wire_attach(void);      /* UART hooks, once at start */
 void wire_after_reset(void);
+
+/* for bridges.c: the first tick after t of a bridge clock; a byte reaches the host side */
+uint64_t bridge_boundary(uint64_t t, uint64_t period);
+void wire_to_host(uint8_t b, uint64_t due);
 
 /* for pty.c */
 size_t host_rx_room(void);
@@ -47,5 +32,16 @@ void flush_out(void);                /* everything, due or not (unplug) */
 uint64_t output_decided_at(void);    /* cycle that tells whether the newest byte ends a burst */
 void output_service(uint64_t wc);    /* write what is due by wall cycle wc */
 uint64_t output_wake_cycle(int *punctual); /* when output_service next writes, UINT64_MAX: never */
+
+/* for the control channel and the other modules: the wire's state is its own */
+unsigned host_rx_queued(void);
+uint64_t wire_last_host_byte(void); /* cycle the last host byte entered the UART */
+void wire_lost_to_host(void);       /* a bridge model's queue was full: counted in lost.to_host */
+void wire_discarded(unsigned long n);   /* host bytes thrown away (no board to take them) */
+void wire_set_byte_time(unsigned baud); /* 10 bit times at baud */
+void wire_faults(double *drop, double *insert, double *flip);
+void wire_set_faults(double drop, double insert, double flip); /* per board->host byte */
+void wire_firmware_cycles(struct sbuf *r, int clear);          /* the "firmware_cycles" reply */
+void wire_status(struct sbuf *r); /* its part of "status": ", key: value..." */
 
 #endif

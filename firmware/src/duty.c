@@ -1,5 +1,5 @@
 /*
- * duty.c - duty-cycle PWM (CT 0x05, DUTY_CONFIG / DUTY_SET), issue 26.
+ * duty.c - duty-cycle PWM (CT 0x05, DUTY_CONFIG / DUTY_SET), an extension.
  *
  * A pin's duty comes from its timer's output compare unit; the pins of one
  * timer share its frequency.  Timer allocation (docs/motors.md, "Timers and

@@ -1,4 +1,4 @@
-/* encoder.h - ENCODER class: quadrature encoders on any two digital pins (issue 27).
+/* encoder.h - ENCODER class: quadrature encoders on any two digital pins.
  *
  * The interrupt path is here, inline (as counter.h's), so hal_avr.c's vectors
  * compile it in without a call: a call makes an AVR interrupt save every

@@ -10,8 +10,8 @@
  * Each frame also goes through a parser of its own, byte by byte, which must keep its
  * contract (parser.h): a request it delivers has known tags and holds every data byte of
  * its frame, rq.len = fixed part + declared variable part <= AIO_REQUEST_DATA_MAX (the
- * TRANSACTION over-read of issue 28 began with a parser that delivered a request cut to
- * 35 of its 41 data bytes).
+ * TRANSACTION over-read this target found began with a parser that delivered a request
+ * cut to 35 of its 41 data bytes).
  */
 #include <stddef.h>
 #include <stdint.h>

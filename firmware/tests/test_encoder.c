@@ -3,92 +3,16 @@
  * quadrature decoding in x1/x2/x4, invalid transitions, preset, reports, the
  * stream's ENCODERS values and the pin roles.  The oracle is the position the
  * test itself drove (quarter steps), never the firmware's own state.
- * Built with AddressSanitizer and UBSan by `make -C firmware test`.
+ * Run by tests/test_main.c (see host_check.h).
  */
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
-#include "aio_protocol.h"
-#include "app.h"
-#include "fake_hal.h"
-#include "hal.h"
-
-static int failures, checks;
-
-#define B(...) ((const uint8_t[]){__VA_ARGS__}), sizeof((const uint8_t[]){__VA_ARGS__})
-#define CHECK(...) check(__FILE__, __LINE__, __VA_ARGS__)
-#define EXPECT(cond)                                                \
-    do {                                                            \
-        checks++;                                                   \
-        if (!(cond)) {                                              \
-            failures++;                                             \
-            printf("%s:%d: FAIL: %s\n", __FILE__, __LINE__, #cond); \
-        }                                                           \
-    } while (0)
-
-static uint8_t out[FAKE_TX_MAX];
-static uint32_t outn;
-
-static void run(void)
-{
-    int guard = 0;
-    while (app_step())
-        if (++guard > 1000000) {
-            printf("app_step never goes idle\n");
-            exit(1);
-        }
-}
-
-static void take(void)
-{
-    memcpy(out, fake_tx, fake_tx_len);
-    outn = fake_tx_len;
-    fake_tx_len = 0;
-}
-
-static uint8_t xor_of(const uint8_t *p, size_t n)
-{
-    uint8_t x = 0;
-    while (n--)
-        x ^= *p++;
-    return x;
-}
-
-static void send_frame(const uint8_t *req, size_t rn)
-{
-    uint8_t buf[64];
-    memcpy(buf, req, rn);
-    buf[rn] = xor_of(req, rn);
-    fake_rx_push(buf, (uint32_t)rn + 1u);
-}
-
-static void check(const char *file, int line, const uint8_t *req, size_t rn, const uint8_t *exp, size_t en)
-{
-    uint8_t want[64];
-    size_t i;
-    send_frame(req, rn);
-    run();
-    take();
-    memcpy(want, exp, en);
-    want[en] = xor_of(exp, en);
-    checks++;
-    if (outn != en + 1 || memcmp(out, want, en + 1)) {
-        failures++;
-        printf("%s:%d: FAIL\n  got:", file, line);
-        for (i = 0; i < outn; i++)
-            printf(" %02x", out[i]);
-        printf("\n");
-    }
-}
+#include "host_check.h"
 
 /* A fresh board whose pins 2-13 the circuit holds low (an encoder's pull-ups
  * would otherwise lift the free ones: the test's positions start at 0). */
-static void board(void)
+static void encoder_board(void)
 {
     uint8_t pin;
-    fake_reset();
-    app_init();
+    board();
     for (pin = 2; pin < 14; pin++)
         fake_drive(pin, 0);
 }
@@ -169,9 +93,9 @@ static int32_t read_slot(uint8_t s, uint16_t *invalid, uint32_t *edge_us)
 
 static long floor_div(long x, long d) { return x >= 0 ? x / d : -((-x + d - 1) / d); }
 
-static void test_config_errors(void)
+static void encoder_config_errors(void)
 {
-    board();
+    encoder_board();
     CHECK(B(0x0A, 1, 4, 4, 5, 4), B(0x8A, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* slot 4 of 0-3 */
     CHECK(B(0x0A, 1, 0, 1, 5, 4), B(0x8A, 1, AIO_ERR_PIN_NOT_CAPABLE));    /* D1: the UART */
     CHECK(B(0x0A, 1, 0, 4, 14, 4), B(0x8A, 1, AIO_ERR_PIN_NOT_CAPABLE));
@@ -205,14 +129,14 @@ static void test_config_errors(void)
 }
 
 /* Exact x4 counts over random turns on INT0/INT1 (D2/D3) and pin-change pins. */
-static void test_counts(void)
+static void encoder_counts(void)
 {
     turned_t qs[3] = {{2, 3, 0}, {4, 12, 0}, {13, 7, 0}};
     uint16_t invalid;
     uint32_t edge;
     int i, k;
 
-    board();
+    encoder_board();
     CHECK(B(0x0A, 1, 0, 2, 3, 4), B(0x0A, 1, 0, 2, 3, 4));
     CHECK(B(0x0A, 1, 1, 4, 12, 4), B(0x0A, 1, 1, 4, 12, 4));
     CHECK(B(0x0A, 1, 3, 13, 7, 4), B(0x0A, 1, 3, 13, 7, 4));
@@ -246,11 +170,11 @@ static void test_counts(void)
 }
 
 /* x1 and x2 count whole cycles and edges of A: floor((pos + 3) / 4), floor((pos + 1) / 2). */
-static void test_modes(void)
+static void encoder_modes(void)
 {
     turned_t q1 = {5, 6, 0}, q2 = {8, 9, 0};
     int i;
-    board();
+    encoder_board();
     CHECK(B(0x0A, 1, 0, 5, 6, 1), B(0x0A, 1, 0, 5, 6, 1));
     CHECK(B(0x0A, 1, 1, 8, 9, 2), B(0x0A, 1, 1, 8, 9, 2));
     srand(11);
@@ -268,11 +192,11 @@ static void test_modes(void)
 }
 
 /* A skipped state is counted and moves the count two steps the last way. */
-static void test_invalid(void)
+static void encoder_invalid(void)
 {
     turned_t q = {4, 5, 0}, q1 = {6, 7, 0};
     uint16_t invalid;
-    board();
+    encoder_board();
     CHECK(B(0x0A, 1, 0, 4, 5, 4), B(0x0A, 1, 0, 4, 5, 4));
     CHECK(B(0x0A, 1, 1, 6, 7, 1), B(0x0A, 1, 1, 6, 7, 1));
     turn(&q, 5);
@@ -293,12 +217,12 @@ static void test_invalid(void)
     EXPECT(invalid == 1);
 }
 
-static void test_preset_and_watch(void)
+static void encoder_preset_and_watch(void)
 {
     turned_t q = {10, 11, 0};
     uint32_t i;
     int reports = 0;
-    board();
+    encoder_board();
     CHECK(B(0x0A, 1, 2, 10, 11, 4), B(0x0A, 1, 2, 10, 11, 4));
     fake_fine_now = 2u * 1000u;
     turn(&q, -6);
@@ -330,11 +254,11 @@ static void test_preset_and_watch(void)
     EXPECT(outn == 0);
 }
 
-static void test_stream(void)
+static void encoder_stream(void)
 {
     turned_t q = {2, 3, 0}, q3 = {8, 9, 0};
     uint32_t guard;
-    board();
+    encoder_board();
     CHECK(B(0x0A, 1, 0, 2, 3, 4), B(0x0A, 1, 0, 2, 3, 4));
     CHECK(B(0x0A, 1, 3, 8, 9, 4), B(0x0A, 1, 3, 8, 9, 4));
     turn(&q, 1234);
@@ -353,14 +277,12 @@ static void test_stream(void)
     CHECK(B(7, 2), B(7, 2, 0, 1));
 }
 
-int main(void)
+void test_encoder(void)
 {
-    test_config_errors();
-    test_counts();
-    test_modes();
-    test_invalid();
-    test_preset_and_watch();
-    test_stream();
-    printf("encoder: %d checks, %d failures\n", checks, failures);
-    return failures != 0;
+    encoder_config_errors();
+    encoder_counts();
+    encoder_modes();
+    encoder_invalid();
+    encoder_preset_and_watch();
+    encoder_stream();
 }

@@ -3,7 +3,7 @@
 The conventions (also for whoever adds a block to a page):
 
 * A **complete program** (it calls ``anyio.run``) and a **blocking script** (no
-  ``await``/``async`` anywhere: ``arduinoio_async.sync``) run as they are, so they must
+  ``await``/``async`` anywhere: ``arduinoio_async.blocking``) run as they are, so they must
   import every name they use.
 * A **test module** (it defines ``test_...`` functions) runs under pytest, with
   ``asyncio_mode=auto`` as testing.md tells its readers; it must import what it uses too.

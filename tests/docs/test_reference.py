@@ -29,9 +29,9 @@ def test_the_reference_lists_the_everyday_methods() -> None:
     names = {anchor for item in OBJECTS for anchor in item.anchors}
     for everyday in (
         "arduinoio_async.board.Board.digital_output",
-        "arduinoio_async.handles.AnalogInput.read_volts",
-        "arduinoio_async.sync.BlockingBoard.gpio",
-        "arduinoio_async.handles.Gpio.watch",
+        "arduinoio_async.board.handles.AnalogInput.read_volts",
+        "arduinoio_async.blocking.BlockingBoard.gpio",
+        "arduinoio_async.board.handles.Gpio.watch",
     ):
         assert everyday in names
 

@@ -13,7 +13,7 @@ import pytest
 from arduinoio_async import A0, A1, A4
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.changes import AnalogChanges, AnalogMove
+from arduinoio_async.board.changes import AnalogChanges, AnalogMove
 from arduinoio_async.errors import BoardError, PinRoleError, ValueRangeError
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 

@@ -10,7 +10,7 @@ import pytest
 
 from arduinoio_async import D2, D3
 from arduinoio_async.board import Board
-from arduinoio_async.changes import Change, ChangeStream
+from arduinoio_async.board.changes import Change, ChangeStream
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
 pytestmark = pytest.mark.sim

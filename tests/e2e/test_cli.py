@@ -262,7 +262,8 @@ async def test_tables_are_plain_when_piped_and_json_on_request(
     code, out = await run("list", "--ports", uno.port)
     assert code == 0
     header, row = out.splitlines()[:2]
-    assert header.split() == ["port", "board", "ID", "firmware", "protocol", "baud", "status"]
+    columns = ["port", "board", "ID", "firmware", "protocol", "baud", "status"]
+    assert header.split() == [*columns, "USB", "bridge"]
     assert row.split()[:2] == [uno.port, "0x0001"]
     assert not set("│┃━─") & set(out)
     code, out = await run("info", "--port", uno.port, "--json")

@@ -1,4 +1,4 @@
-"""The ``arduinoio`` bench commands as a user meets them, against virtual Unos (issue 25)."""
+"""The ``arduinoio`` bench commands as a user meets them, against virtual Unos."""
 
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
-"""Quadrature encoders on the virtual Uno (issue 27 item 1).
+"""Quadrature encoders on the virtual Uno.
 
 Every oracle is the harness's quadrature generator (firmware/sim/quadrature.c): its
 position in quarter steps, the double steps it injected, the simulated time of its edges;
 never the library's own answer.  The long soak (10**6 edges at the highest rate) is
-``benchmarks/sensors_encoders.py``; these runs take seconds.
+``python -m benchmarks.sensors_encoders``; these runs take seconds.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import anyio.to_thread
 import pytest
 from rich.console import Console
 
-from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D12, sync
+from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D12, blocking
 from arduinoio_async.board import Board
 from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import PinRoleError
@@ -44,7 +44,7 @@ async def start_low(uno: VirtualUno, *pins: str) -> None:
 async def test_counts_exact_with_reversals(virtual_uno_factory: VirtualUnoFactory) -> None:
     """Two encoders (INT0/INT1 and pin-change pins) count every edge of 20,000 each with
     random reversals and jitter, at 10,000 edges/s each: board count == generator position
-    (the ceiling is the benchmark's: benchmarks/sensors_encoders.py)."""
+    (the ceiling is the benchmark's: python -m benchmarks.sensors_encoders)."""
     uno = await virtual_uno_factory(baud=1_000_000)
     await start_low(uno, "D2", "D3", "D4", "D12")
     async with Board.open(uno.port, baudrate=uno.baud) as board:
@@ -173,7 +173,7 @@ async def test_cli_and_blocking_api(virtual_uno_factory: VirtualUnoFactory) -> N
     assert "encoder D6/D7 x4: count 0" in out and out.count("invalid 0") == 2
 
     def script() -> tuple[int, int]:
-        with sync.open_board(uno.port, baudrate=uno.baud) as board:
+        with blocking.open_board(uno.port, baudrate=uno.baud) as board:
             enc = board.encoder(D6, D7, mode="x2")  # the CLI released both pins
             anyio.from_thread.run(lambda: uno.quadrature("D6", "D7", edges=501, rate=5_000))
             position = anyio.from_thread.run(uno.wait_quadrature)[0].position

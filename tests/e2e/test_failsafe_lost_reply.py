@@ -1,4 +1,4 @@
-"""One lost reply must not trip the failsafe of a healthy host (issue 28, item 1).
+"""One lost reply must not trip the failsafe of a healthy host.
 
 The keepalive's status poll used to wait out its whole timeout (0.5 s) when its reply was
 lost, and the host sent nothing meanwhile: a 100 ms failsafe fired although the host was

@@ -1,4 +1,4 @@
-"""A board whose ID changed in place is not restored under its old ID (issue 28, item 5).
+"""A board whose ID changed in place is not restored under its old ID.
 
 A raw ``WriteId`` (not ``Board.write_id``) changes the board's EEPROM behind the library's
 back; after the next reset the manager used to adopt the board as the old ID, replay the

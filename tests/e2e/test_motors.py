@@ -1,4 +1,4 @@
-"""Duty-cycle PWM, motors and the full servo range on the virtual Uno (issue 26).
+"""Duty-cycle PWM, motors and the full servo range on the virtual Uno.
 
 Every oracle is the fixture's: the pin's edges timestamped with the simulated cycle
 counter (firmware/sim, pulse capture), never a register or the library's own answer.
@@ -18,8 +18,8 @@ from rich.console import Console
 from arduinoio_async import D3, D4, D5, D6, D7, D8, D9, D10
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.motors import DutyPwm
 from arduinoio_async.cli import main as cli_main
-from arduinoio_async.motors import DutyPwm
 from arduinoio_async.protocol.pins import DutyPwmPin
 from arduinoio_async.protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer, timer_setting
 from arduinoio_async.sim import PulseStats, VirtualUno

@@ -1,4 +1,4 @@
-"""Software PWM on D2-D7 at 1 us steps, edges by timer compare match (issue 13, item 7).
+"""Software PWM on D2-D7 at 1 us steps, edges by timer compare match.
 
 The fixture captures every pulse with the simulated cycle counter, so the widths are the
 board's own, not the host's view of them.

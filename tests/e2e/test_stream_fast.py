@@ -1,4 +1,4 @@
-"""Streams below 1 ms (issue 13, item 6): 250 us where the link carries it.
+"""Streams below 1 ms: 250 us where the link carries it.
 
 Below 1 ms the board converts with a faster ADC clock (docs/protocol.md); the simulated
 ADC is exact at any clock, so the values are checked against the fixture's voltages.
@@ -19,9 +19,9 @@ import serial
 from arduinoio_async import A0, A1, A2, A3, LinkCapacityError
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.streaming import Sample
 from arduinoio_async.protocol.pins import AnalogPin
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
-from arduinoio_async.streaming import Sample
 
 pytestmark = pytest.mark.sim
 

@@ -11,9 +11,9 @@ import pytest
 from arduinoio_async import A0, A1, A2, A3, D2, LinkCapacityError
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.streaming import Sample
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
-from arduinoio_async.streaming import Sample
 
 pytestmark = pytest.mark.sim
 

@@ -20,7 +20,7 @@ import pytest
 from arduinoio_async import A0, D2, D3, D4, D5, D6, D7, D8
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.changes import AnalogChanges, ChangeStream, CountReports
+from arduinoio_async.board.changes import AnalogChanges, ChangeStream, CountReports
 from arduinoio_async.errors import WatchLostError
 from arduinoio_async.manager import BoardManager
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory

@@ -222,7 +222,7 @@ async def test_the_page_counts_every_edge_from_change_events_with_the_stream_off
 async def test_the_duty_slider_sets_the_duty_the_fixture_measures(
     virtual_uno_factory: VirtualUnoFactory, browser: Any
 ) -> None:
-    """Issue 26: a duty-cycle PWM pin's slider (0.1 % steps) on D3, Timer2's 10 kHz."""
+    """A duty-cycle PWM pin's slider (0.1 % steps) on D3, Timer2's 10 kHz."""
     uno = await virtual_uno_factory(board_id=0x2B)
     async with (
         Board.open(uno.port) as board,

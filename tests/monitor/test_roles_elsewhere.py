@@ -1,5 +1,5 @@
-"""What the monitor shows of pins it did not set up, and of outputs' edges (issue 25,
-item 20); and a loopback address other than 127.0.0.1 serves its own page."""
+"""What the monitor shows of pins it did not set up, and of outputs' edges; and a loopback
+address other than 127.0.0.1 serves its own page."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Quadrature encoders on a board served on the network (issue 27): the requests and the
+"""Quadrature encoders on a board served on the network: the requests and the
 reports pass through the server, and one client cannot take another client's encoder pins."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""What one client may cost a served board (issue 28 item 8; see ``network/_limits.py``).
+"""What one client may cost a served board (see ``network/_limits.py``).
 
 A ``BoardServer`` in this process serves a FakeBoard on a Zenoh session that listens
 nowhere; the tests query it on the same session with raw gets, so each query's payload
@@ -165,8 +165,8 @@ async def test_per_client_records_stay_bounded_and_a_live_client_keeps_its_tag()
                 replies.get(session, "flood", p.SetSession(number & 0xFF).encode(), attachment)
                 replies.get(session, "flood", p.ReadStatus().encode(), attachment)
             await anyio.to_thread.run_sync(replies.wait, 1 + 2 * count)
-            assert len(served.tags) <= CLIENT_RECORDS
-            assert len(served.last_heard) <= CLIENT_RECORDS
+            assert len(served.policy.tags) <= CLIENT_RECORDS
+            assert len(served.policy.last_heard) <= CLIENT_RECORDS
             assert len(served._clients) <= KNOWN_FRAMES
             # The live client's tag outlived the flood: its status shows its own session.
             replies.get(session, "legit status", p.ReadStatus().encode(), b"legit")

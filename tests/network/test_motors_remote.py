@@ -1,4 +1,4 @@
-"""Duty PWM and a motor on a board served on the network (issue 26): the new requests pass
+"""Duty PWM and a motor on a board served on the network: the new requests pass
 through the server untouched, and the fixture measures what the served board's pins do."""
 
 from __future__ import annotations

@@ -17,12 +17,12 @@ import pytest
 from arduinoio_async import A0, A1, D4, D5, D6, D7, D9
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.streaming import Sample
 from arduinoio_async.errors import BoardError, BoardNotFoundError, PinRoleError, UsageError
 from arduinoio_async.manager import ManagerEvent
 from arduinoio_async.network import NetworkBoardManager, RemoteBoards, open_remote_board
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
-from arduinoio_async.streaming import Sample
 
 from .conftest import ServeFactory
 

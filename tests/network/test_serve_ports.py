@@ -1,6 +1,6 @@
-"""What ``arduinoio serve``'s manager does with ports and boards it cannot use (issue 25,
-items 18-19): a port another process holds is tried again once free, and each reason a
-port is skipped is logged once."""
+"""What ``arduinoio serve``'s manager does with ports and boards it cannot use: a port
+another process holds is tried again once free, and each reason a port is skipped is
+logged once."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Several clients of one served board: joining while another streams, pins held by one
-client, the failsafe owner across a server restart (issue 25, items 15-17)."""
+client, the failsafe owner across a server restart."""
 
 from __future__ import annotations
 
@@ -8,12 +8,15 @@ from pathlib import Path
 
 import anyio
 import pytest
+import zenoh
 from anyio.streams.text import TextReceiveStream
 
 from arduinoio_async import A0, D6, D7
 from arduinoio_async import protocol as p
 from arduinoio_async.errors import BoardError
-from arduinoio_async.network import RemoteBoards, open_remote_board
+from arduinoio_async.network import RemoteBoards, open_remote_board, zenoh_config
+from arduinoio_async.network._keys import decode_fault, request_key
+from arduinoio_async.network._limits import MAX_ATTACHMENT, MAX_PAYLOAD
 from arduinoio_async.sim import VirtualUno
 
 from .conftest import ServeFactory
@@ -210,3 +213,80 @@ async def test_a_client_gets_no_samples_of_another_clients_stream(
         assert samples.gaps == 0
         assert await other.read_id() == 7  # anything published meanwhile has arrived
         assert other.link.stats.events - before == 0
+
+
+async def test_a_holder_a_streamer_and_a_hostile_peer_at_once(serve_unos: ServeFactory) -> None:
+    """The server's three defences together: one client holds a pin, another streams at
+    1 ms, and a third peer floods the board's key with oversized, garbage and overlong
+    attachment queries.  The hostile queries are refused, the holder's writes reach the
+    pin (the fixture's ground truth), the pin stays the holder's, and the stream loses no
+    sample."""
+    async with (
+        serve_unos([7], fixture="loopback") as served,
+        RemoteBoards(connect=[served.endpoint]) as holder_side,
+        RemoteBoards(connect=[served.endpoint]) as streamer_side,
+    ):
+        uno = served.unos[7]
+        holder, streamer = await holder_side.get(7), await streamer_side.get(7)
+        led = await holder.digital_output(D6, initial=False)
+        hostile = await anyio.to_thread.run_sync(
+            zenoh.open, zenoh_config(connect=[served.endpoint])
+        )
+        refused: list[tuple[str, str]] = []
+
+        def attack() -> None:
+            bad_queries = [
+                ("oversized", b"\x01" * (MAX_PAYLOAD + 1), None),
+                ("not a request", b"\x7f\x13\x37\x00", None),
+                ("overlong attachment", p.ReadId().encode(), b"x" * (MAX_ATTACHMENT + 1)),
+            ]
+            for _ in range(30):
+                for kind, payload, attachment in bad_queries:
+                    for reply in hostile.get(
+                        request_key(7), payload=payload, attachment=attachment, timeout=10.0
+                    ):
+                        outcome = "answered"
+                        if reply.err is not None:
+                            outcome = decode_fault(reply.err.payload.to_bytes()).error
+                        refused.append((kind, outcome))
+
+        try:
+            async with (
+                streamer.stream(analog=[A0], period_ms=1) as samples,
+                anyio.create_task_group() as tg,
+            ):
+                received = 0
+
+                async def consume() -> None:
+                    nonlocal received
+                    async for _ in samples:
+                        received += 1
+
+                tg.start_soon(consume)
+                attacker = anyio.Event()
+
+                async def run_attack() -> None:
+                    await anyio.to_thread.run_sync(attack)
+                    attacker.set()
+
+                tg.start_soon(run_attack)
+                level = False
+                writes = 0
+                while not attacker.is_set() or writes < 20:
+                    level = not level
+                    await led.write(level)
+                    assert (await uno.pin("D6")).level == int(level)
+                    writes += 1
+                with pytest.raises(BoardError) as busy:  # still the holder's pin
+                    await streamer.digital_input(D6)
+                assert busy.value.code is p.ErrorCode.PIN_BUSY
+                tg.cancel_scope.cancel()
+        finally:
+            await anyio.to_thread.run_sync(hostile.close)
+        assert sorted(set(refused)) == [
+            ("not a request", "ProtocolError"),
+            ("overlong attachment", "ProtocolError"),
+            ("oversized", "ProtocolError"),
+        ]
+        assert len(refused) == 90
+        assert received > 0 and samples.gaps == 0 and samples.dropped == 0

@@ -53,6 +53,7 @@ def test_the_virtual_uno_fixture_says_what_to_install(with_pytest: Installed) ->
         (["monitor"], "monitor"),
         (["monitor", "--remote", "--id", "1"], "monitor"),
         (["serve"], "network"),
+        (["ros2", "--config", "robot.yaml"], "ros2"),
         (["info", "--remote", "--id", "1"], "network"),
         (["status", "--remote", "--id", "1"], "network"),
     ],

@@ -38,7 +38,7 @@ def test_public_names_import_from_the_installed_wheel(installed: Installed) -> N
     )
     out = checked(installed.run(installed.exe("python"), "-c", script)).stdout.splitlines()
     assert out[0].startswith(str(installed.venv)), out  # not the clone
-    version = (REPO / "arduinoio_async" / "__init__.py").read_text()
+    version = (REPO / "arduinoio_async" / "_version.py").read_text()
     assert f'__version__ = "{out[1]}"' in version
     help_text = checked(installed.run(installed.exe("arduinoio"), "flash", "--help")).stdout
     assert "--dry-run" in help_text and "--baud" in help_text
@@ -111,6 +111,13 @@ def test_arduinoio_sim_from_the_wheel_answers_read_id(installed: Installed) -> N
     try:
         assert info["id"] == 3
         assert _read_id(installed, str(info["port"])) == "3"
+        # the motor commands work from the wheel without the dev extras
+        port = str(info["port"])
+        exe = installed.exe("arduinoio")
+        pwm = checked(installed.run(exe, "pwm", "--port", port, "D5", "0.4", "--freq", "980"))
+        assert pwm.stdout.strip() == "D5: 40.0 % at 976 Hz (Timer0, 256 steps)"
+        motor = checked(installed.run(exe, "motor", "--port", port, "D9", "D8", "--speed", "-0.5"))
+        assert motor.stdout.strip() == "motor D9 D8: running -0.50"
         cached = list(
             (Path(installed.env["ARDUINOIO_CACHE_DIR"])).glob("virtual-uno-*/virtual-uno")
         )

@@ -6,14 +6,17 @@ from __future__ import annotations
 
 import inspect
 import re
+from pathlib import Path
 from typing import Any
 
 import pytest
 
 from arduinoio_async import protocol as p
-from arduinoio_async._resources import project_path
 from arduinoio_async.protocol import cheader, commands
 from arduinoio_async.protocol._layout import Frame
+
+#: The clone's root (the firmware sources and the spec are read from it).
+REPO = Path(__file__).resolve().parents[2]
 
 MESSAGES: list[type[Frame]] = [
     *p.REQUEST_TYPES.values(),
@@ -33,7 +36,7 @@ def test_each_message_lives_in_the_module_named_for_its_firmware_handler(
     cls: type[Frame],
 ) -> None:
     module = cls.__module__.rpartition(".")[2]
-    source = project_path(f"firmware/src/{module}.c")
+    source = REPO / f"firmware/src/{module}.c"
     assert source.is_file(), f"{cls.__name__} is in {module}.py, which mirrors no firmware module"
     assert _macro(cls) in source.read_text(), f"{source.name} does not handle {cls.__name__}"
 
@@ -62,7 +65,7 @@ def test_echoed_fields_are_declared_once_for_request_and_reply(
 
 
 def _retry_columns() -> list[set[str]]:
-    text = project_path("docs/protocol.md").read_text()
+    text = (REPO / "docs/protocol.md").read_text()
     header = "| retried (reads only) | retried (sets a state) | never retried"
     row = text.partition(header)[2].splitlines()[2]
     return [

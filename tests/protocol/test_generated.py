@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from arduinoio_async.protocol import cheader, docgen
+
+#: The clone's root: the generators' paths are relative to it.
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_committed_c_header_matches_the_command_table() -> None:
-    committed = cheader.HEADER_PATH.read_text()
+    committed = (REPO / cheader.HEADER_PATH).read_text()
     assert committed == cheader.render(), (
         "firmware/include/aio_protocol.h drifted from the Python command table: run "
         "`python -m arduinoio_async.protocol.cheader`"
@@ -14,7 +19,7 @@ def test_committed_c_header_matches_the_command_table() -> None:
 
 
 def test_protocol_doc_layouts_match_the_command_table() -> None:
-    committed = docgen.DOC_PATH.read_text()
+    committed = (REPO / docgen.DOC_PATH).read_text()
     assert committed == docgen.splice(committed), (
         "docs/protocol.md's generated block drifted: "
         "run `python -m arduinoio_async.protocol.docgen`"

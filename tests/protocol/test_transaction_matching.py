@@ -1,4 +1,4 @@
-"""A TRANSACTION reply is matched as strictly as a single reply (issue 28, item 3).
+"""A TRANSACTION reply is matched as strictly as a single reply.
 
 The sans-IO session decides which request a reply answers.  For a transaction that means
 every item's echo, the board's ID in a ReadId item, and the transaction's own tag: a

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import random
 import statistics
-import sys
 import threading
 import time
 from pathlib import Path
@@ -49,12 +48,10 @@ from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardTimeoutError
 from arduinoio_async.sim import VirtualUno, find_firmware_elf
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+from benchmarks.harness_pacing import bursts
 
 from ..e2e.pulses import fresh_pulses
 from .conftest import start_test_board
-
-sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
-from harness_pacing import bursts
 
 pytestmark = pytest.mark.sim
 

@@ -246,7 +246,8 @@ async def test_no_thread_slips_between_the_loops_send_and_its_write(
             thread.join()
         write(data)
 
-    stream.send_nowait = write_after_a_thread_tried  # what the transport writes with
+    # What the transport writes with: it reads the method once, when it is built.
+    stream.send_nowait = write_after_a_thread_tried  # type: ignore[method-assign,assignment]
     async with Transport(stream, timeout=1.0) as link, anyio.create_task_group() as tg:
 
         async def answer() -> None:

@@ -343,7 +343,7 @@ def test_every_call_gets_its_own_answer_or_a_documented_error(
     anyio.run(scenario, backend=backend)
 
 
-# ---- the link core (issue 11) ------------------------------------------------------------
+# ---- the link core: order, matching, timeouts --------------------------------------------
 
 
 async def test_wire_order_is_call_order_across_many_tasks() -> None:

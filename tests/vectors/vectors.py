@@ -133,7 +133,7 @@ def load_all() -> list[VectorFile]:
 
 
 def render_c_header(files: list[VectorFile]) -> str:
-    """The vectors as C data for ``firmware/tests/test_main.c`` (replies: -1 = any byte)."""
+    """The vectors as C data for ``firmware/tests/test_vectors.c`` (replies: -1 = any byte)."""
     out = [
         "/* Generated from tests/vectors (python -m tests.vectors.vectors): do not edit. */",
         "#ifndef AIO_TEST_VECTORS_H",

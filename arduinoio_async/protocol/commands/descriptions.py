@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ...errors import set_request_words
 from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
@@ -159,3 +160,6 @@ def describe(request: object) -> str:
     """``request`` in words; a request without an entry (a test's own) by its repr."""
     words = DESCRIPTIONS.get(type(request))  # type: ignore[arg-type]
     return words(request) if words is not None else repr(request)
+
+
+set_request_words(describe)  # the error messages say requests with these words

@@ -1,7 +1,7 @@
 """PWM commands (class tag 0x05), handled by ``firmware/src/pwm.c``.
 
 Servo outputs: hardware PWM on D9/D10, software PWM on D2-D7.  Both commands carry and
-echo the same pin and pulse width.  Duty-cycle PWM (extension, issue 26): a timer's output
+echo the same pin and pulse width.  Duty-cycle PWM (extension): a timer's output
 compare pins at a frequency the timer offers (``protocol.timers``).
 """
 

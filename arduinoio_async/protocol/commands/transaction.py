@@ -17,12 +17,13 @@ checksum, or one that answers another transaction, is line noise, not a wrong va
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+from collections.abc import Iterator, Sequence
 from functools import lru_cache
 from typing import Annotated, Any
 
 from .._constants import ERROR_FLAG, MAX_BLOB, ClassTag, ErrorCode
-from .._layout import U8, Blob, checksum
+from .._layout import U8, Blob, Frame, Layout, checksum
 from .._messages import (
     REPLY_TYPES,
     REQUEST_TYPES,
@@ -41,6 +42,7 @@ __all__ = [
     "TransactionReply",
     "item_requests",
     "pack_items",
+    "readable_items",
     "result_size",
     "split_results",
     "unpack_results",
@@ -125,28 +127,77 @@ def pack_items(requests: Sequence[Request[Any]]) -> bytes:
     return items
 
 
-@lru_cache(maxsize=512)
-def item_requests(items: bytes) -> tuple[Request[Any], ...]:
-    """The requests packed in ``items`` (the inverse of :func:`pack_items`); ValueError
-    when they are not whole, known request frames."""
-    out: list[Request[Any]] = []
+def _frame_size(data: bytes, pos: int, layout: Layout) -> int:
+    """Bytes the frame of ``layout`` at ``pos`` of ``data`` takes without its checksum
+    (items and results hold frames so)."""
+    size = layout.base_size - 1
+    if layout.length_offset >= 0 and pos + layout.length_offset < len(data):
+        size += data[pos + layout.length_offset]
+    return size
+
+
+def _frame_at(data: bytes, pos: int, layout: Layout) -> Frame | None:
+    """The frame of ``layout`` at ``pos`` of ``data``; None when ``data`` ends inside
+    it, ValueError when a field holds a value its type does not allow."""
+    size = _frame_size(data, pos, layout)
+    raw = data[pos : pos + size]
+    if len(raw) != size:
+        return None
+    return layout.decode(raw + bytes((checksum(raw),)))
+
+
+def _error_at(data: bytes, pos: int) -> ErrorReply | None:
+    """The error result at ``pos`` (its first byte has the error flag); None when
+    ``data`` ends inside it."""
+    raw = data[pos : pos + ErrorReply.SIZE - 1]
+    if len(raw) != ErrorReply.SIZE - 1:
+        return None
+    return ErrorReply(raw[0] & ~ERROR_FLAG, raw[1], ErrorCode(raw[2]))
+
+
+def _read_items(items: bytes) -> Iterator[Request[Any] | None]:
+    """Each request packed in ``items`` in turn (None for one whose fields hold values
+    their types do not allow); ValueError where the items stop being whole, known request
+    frames."""
     pos = 0
     while pos < len(items):
         cls = REQUEST_TYPES.get((items[pos], items[pos + 1])) if pos + 1 < len(items) else None
         if cls is None:
             raise ValueError(f"no request at byte {pos} of the items")
-        layout = cls.LAYOUT
-        size = layout.base_size - 1
-        if layout.length_offset >= 0 and pos + layout.length_offset < len(items):
-            size += items[pos + layout.length_offset]
-        raw = items[pos : pos + size]
-        if len(raw) != size:
-            raise ValueError(f"the items end inside a {cls.__name__}")
-        request = layout.decode(raw + bytes((checksum(raw),)))
-        assert isinstance(request, Request)
+        try:
+            request = _frame_at(items, pos, cls.LAYOUT)
+        except ValueError:
+            request = None
+        else:
+            if request is None:
+                raise ValueError(f"the items end inside a {cls.__name__}")
+            assert isinstance(request, Request)
+        yield request
+        pos += _frame_size(items, pos, cls.LAYOUT)
+
+
+@lru_cache(maxsize=512)
+def item_requests(items: bytes) -> tuple[Request[Any], ...]:
+    """The requests packed in ``items`` (the inverse of :func:`pack_items`); ValueError
+    when they are not whole, known request frames."""
+    out: list[Request[Any]] = []
+    for request in _read_items(items):
+        if request is None:
+            raise ValueError("an item holds a value its type does not allow")
         out.append(request)
-        pos += size
     return tuple(out)
+
+
+def readable_items(items: bytes) -> list[Request[Any]]:
+    """The requests of ``items`` that decode, up to where the items stop being whole
+    frames: what a transaction may do, for a server that keeps account of it (the board
+    refuses an item list that is not whole, and an item it cannot run, by itself)."""
+    out: list[Request[Any]] = []
+    with contextlib.suppress(ValueError):  # the items stop being whole frames here
+        for request in _read_items(items):
+            if request is not None:
+                out.append(request)
+    return out
 
 
 def split_results(results: bytes) -> tuple[Reply | ErrorReply, ...] | None:
@@ -156,28 +207,21 @@ def split_results(results: bytes) -> tuple[Reply | ErrorReply, ...] | None:
     pos = 0
     try:
         while pos < len(results):
-            first = results[pos]
-            if first & ERROR_FLAG:
-                raw = results[pos : pos + ErrorReply.SIZE - 1]
-                if len(raw) != ErrorReply.SIZE - 1:
+            if results[pos] & ERROR_FLAG:
+                error = _error_at(results, pos)
+                if error is None:
                     return None
-                out.append(ErrorReply(raw[0] & ~ERROR_FLAG, raw[1], ErrorCode(raw[2])))
-                pos += len(raw)
+                out.append(error)
+                pos += ErrorReply.SIZE - 1
                 continue
-            cls = REPLY_TYPES.get((first, results[pos + 1])) if pos + 1 < len(results) else None
-            if cls is None:
+            key = (results[pos], results[pos + 1]) if pos + 1 < len(results) else None
+            cls = REPLY_TYPES.get(key) if key is not None else None
+            reply = None if cls is None else _frame_at(results, pos, cls.LAYOUT)
+            if cls is None or reply is None:
                 return None
-            layout = cls.LAYOUT
-            size = layout.base_size - 1
-            if layout.length_offset >= 0 and pos + layout.length_offset < len(results):
-                size += results[pos + layout.length_offset]
-            raw = results[pos : pos + size]
-            if len(raw) != size:
-                return None
-            reply = layout.decode(raw + bytes((checksum(raw),)))
             assert isinstance(reply, Reply)
             out.append(reply)
-            pos += size
+            pos += _frame_size(results, pos, cls.LAYOUT)
     except ValueError:
         return None
     return tuple(out)
@@ -191,30 +235,23 @@ def unpack_results(
     out: list[Reply | ErrorReply] = []
     pos = 0
     for request in requests:
-        first = results[pos] if pos < len(results) else None
-        if first is not None and first & ERROR_FLAG:
-            raw = results[pos : pos + ErrorReply.SIZE - 1]
-            if len(raw) != ErrorReply.SIZE - 1:
+        if pos < len(results) and results[pos] & ERROR_FLAG:
+            error = _error_at(results, pos)
+            if error is None:
                 raise ValueError("transaction results end inside an error reply")
-            error = ErrorReply(raw[0] & ~ERROR_FLAG, raw[1], ErrorCode(raw[2]))
             if not error.answers(request):
                 raise ValueError(f"item error {error} does not answer {request}")
             out.append(error)
-            pos += len(raw)
+            pos += ErrorReply.SIZE - 1
             continue
-        layout = request.REPLY.LAYOUT
-        size = layout.base_size - 1
-        if layout.length_offset >= 0 and pos + layout.length_offset < len(results):
-            size += results[pos + layout.length_offset]
-        raw = results[pos : pos + size]
-        if len(raw) != size:
+        reply = _frame_at(results, pos, request.REPLY.LAYOUT)
+        if reply is None:
             raise ValueError(f"transaction results end inside the reply to {request}")
-        reply = layout.decode(raw + bytes((checksum(raw),)))
         assert isinstance(reply, Reply)
         if not request.matches(reply):
             raise ValueError(f"item reply {reply} does not answer {request}")
         out.append(reply)
-        pos += size
+        pos += _frame_size(results, pos, request.REPLY.LAYOUT)
     if pos != len(results):
         raise ValueError(f"{len(results) - pos} bytes left over after the last item's result")
     return tuple(out)

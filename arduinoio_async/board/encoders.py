@@ -1,4 +1,4 @@
-"""Quadrature encoders (issue 27): the :class:`Encoder` handle, its states and reports.
+"""Quadrature encoders: the :class:`Encoder` handle, its states and reports.
 
 ``enc = await board.encoder(a=D2, b=D3, mode="x4")`` decodes an encoder on the board: every
 edge of A and B is counted in an interrupt (INT0/INT1 on D2/D3, pin-change interrupts on
@@ -20,16 +20,16 @@ from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from . import protocol as p
-from ._event_queue import EventQueue
+from .. import protocol as p
+from .._event_queue import EventQueue
+from ..errors import ValueRangeError
+from ..protocol.pins import DigitalPin
 from .changes import DEFAULT_CHANGE_BUFFER
-from .errors import ValueRangeError
 from .handles import PinHandle
-from .protocol.pins import DigitalPin
 
 if TYPE_CHECKING:
-    from .board import Board
-    from .transport import Transport
+    from ..transport import Transport
+    from ._core import BoardCore
 
 __all__ = ["MODES", "Encoder", "EncoderReports", "EncoderState", "ModeName", "encoder_mode"]
 
@@ -84,7 +84,7 @@ class EncoderPin(PinHandle):
 
     ROLE = "quadrature encoder"
 
-    def __init__(self, board: Board, pin: DigitalPin, encoder: Encoder) -> None:
+    def __init__(self, board: BoardCore, pin: DigitalPin, encoder: Encoder) -> None:
         super().__init__(board, pin)
         self.encoder = encoder
 
@@ -103,7 +103,7 @@ class Encoder(PinHandle):
     ROLE = "quadrature encoder"
 
     def __init__(
-        self, board: Board, pin: DigitalPin, pin_b: DigitalPin, slot: int, mode: p.EncoderMode
+        self, board: BoardCore, pin: DigitalPin, pin_b: DigitalPin, slot: int, mode: p.EncoderMode
     ) -> None:
         super().__init__(board, pin)
         self.pin_b = pin_b
@@ -190,7 +190,7 @@ class EncoderReports(EventQueue[EncoderState]):
 
 @asynccontextmanager
 async def watch_encoder(
-    board: Board, slot: int, every: int, buffer: int = DEFAULT_CHANGE_BUFFER
+    board: BoardCore, slot: int, every: int, buffer: int = DEFAULT_CHANGE_BUFFER
 ) -> AsyncIterator[EncoderReports]:
     """Reports of encoder ``slot`` every ``every`` counts for the block."""
     if not 1 <= every <= 0xFFFF:

@@ -1,4 +1,4 @@
-"""The blocking facade (``arduinoio_async.sync``) against a virtual Uno, from plain threads.
+"""The blocking facade (``arduinoio_async.blocking``) against a virtual Uno, from plain threads.
 
 These tests are deliberately synchronous: they are what a script or a notebook does.  The
 virtual Uno is started through a portal of the test's own.
@@ -29,8 +29,8 @@ from arduinoio_async import (
     PinCapabilityError,
 )
 from arduinoio_async import protocol as p
+from arduinoio_async.blocking import connect, open_board
 from arduinoio_async.sim import SimulatorNotAvailable, VirtualUno
-from arduinoio_async.sync import connect, open_board
 
 from .pulses import control_now
 
@@ -103,7 +103,7 @@ def test_an_idle_script_still_feeds_an_armed_failsafe() -> None:
 UNCLOSED_SCRIPT = """
 import sys
 from arduinoio_async import A0
-from arduinoio_async.sync import connect
+from arduinoio_async.blocking import connect
 
 board = connect(sys.argv[1])
 print(board.analog(A0).read_volts(), flush=True)
@@ -135,7 +135,7 @@ def test_a_script_that_never_closes_its_board_still_exits(ending: str) -> None:
 
 
 def test_a_script_drives_a_motor_and_a_wide_servo() -> None:
-    """The blocking pwm/motor/servo limits (issue 26), checked on the fixture's pins."""
+    """The blocking pwm/motor/servo limits, checked on the fixture's pins."""
     with virtual_uno(board_id=0x0032) as uno, open_board(uno.port) as board:
         motor = board.motor(D5, D7, D8, frequency_hz=62500)
         motor.set_speed(-0.5)

@@ -1,18 +1,16 @@
-"""The blocking twin of :class:`~arduinoio_async.encoders.Encoder` (issue 27).
-
-Kept out of ``sync.py`` (already at its size limit); ``BlockingBoard.encoder`` returns it.
-"""
+"""The blocking twin of :class:`~arduinoio_async.board.encoders.Encoder`;
+``BlockingBoard.encoder`` returns it."""
 
 from __future__ import annotations
 
-from .encoders import Encoder, EncoderState
-from .sync import _BlockingPin
+from ..board.encoders import Encoder, EncoderState
+from ._handles import _BlockingPin
 
 __all__ = ["BlockingEncoder"]
 
 
 class BlockingEncoder(_BlockingPin):
-    """Blocking :class:`~arduinoio_async.encoders.Encoder`: a quadrature encoder's count,
+    """Blocking :class:`~arduinoio_async.board.encoders.Encoder`: a quadrature encoder's count,
     invalid transitions and velocity (``state.velocity_since(earlier)``)."""
 
     handle: Encoder

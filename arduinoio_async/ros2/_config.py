@@ -1,0 +1,349 @@
+"""The bridge's YAML configuration, checked before any board is touched.
+
+A mistake is one :class:`ConfigError` whose text names the file, the place in it and
+what is allowed (``robot.yaml: boards[0].inputs[1].pin: unknown pin 'D14' (D2-D13,
+A0-A5)``), never a traceback from deep inside the bridge.  The format is documented in
+``docs/ros2.md``; ``examples/ros2_two_boards.yaml`` is the paper's two-board robot.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..errors import UsageError
+from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
+from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ._wire import fully_qualified
+
+__all__ = ["BoardConfig", "BridgeConfig", "ConfigError", "InputConfig", "OutputConfig", "load"]
+
+#: Input kinds -> the pins they need.
+INPUT_KINDS = {
+    "bool": "digital",
+    "volts": "analog",
+    "battery": "analog",
+    "counter": "counter",
+    "imu": "i2c",
+}
+#: Output kinds -> the pins they need.
+OUTPUT_KINDS = {"bool": "digital", "servo": "servo", "motor": "duty"}
+_PIN_TEXT = {
+    "digital": "D2-D13",
+    "analog": "A0-A5",
+    "servo": "D9, D10",
+    "counter": "D2, D3",
+    "duty": "D3, D5, D6, D9, D10",
+    "i2c": "A4",
+}
+
+
+class ConfigError(UsageError):
+    """The configuration file is wrong; the text says where and how."""
+
+
+@dataclass(frozen=True)
+class InputConfig:
+    """One entry of a board's ``inputs``: what it reads and where it publishes."""
+
+    pin: DigitalPin | AnalogPin
+    kind: str
+    topic: str  # fully qualified
+    pull_up: bool = False
+    period: float = 0.1  # analog: seconds between readings
+    scale: float = 1.0  # analog: volts at the pin -> published volts (a divider)
+    address: int = 0x68  # imu: the MPU-6050's I2C address
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    """One entry of a board's ``outputs``: what it drives, from which topic, how safely."""
+
+    pin: DigitalPin
+    kind: str
+    topic: str  # fully qualified
+    #: Seconds without a fresh command before the output goes to ``safe`` (None: never).
+    timeout: float | None = None
+    #: The safe state: a level for ``bool``, radians for ``servo`` (None: no pulses), a
+    #: speed -1..1 for ``motor``.
+    safe: bool | float | None = None
+    #: A motor's direction input(s) (IN1, and IN2 for drivers that can brake).
+    direction: DigitalPin | None = None
+    direction2: DigitalPin | None = None
+
+
+@dataclass(frozen=True)
+class BoardConfig:
+    """One board of the file: its node name, board ID, pins and options."""
+
+    name: str  # the node name
+    board_id: int
+    frame_id: str
+    inputs: tuple[InputConfig, ...] = ()
+    outputs: tuple[OutputConfig, ...] = ()
+    diagnostics_period: float = 1.0
+    #: Sample the analog inputs with the board's timer every ``stream_ms`` (stamped by the
+    #: board clock) instead of reading each one every ``period`` (None).
+    stream_ms: float | None = None
+    #: Arm the board's link failsafe with the outputs' safe states: a dead bridge process
+    #: or a pulled cable puts them safe after this many ms (None: not armed).
+    link_failsafe_ms: int | None = None
+
+
+@dataclass(frozen=True)
+class BridgeConfig:
+    """The whole file: the ROS domain, the namespace of the nodes, the boards."""
+
+    domain_id: int = 0
+    namespace: str = "/"
+    boards: tuple[BoardConfig, ...] = field(default_factory=tuple)
+
+
+def load(path: Path) -> BridgeConfig:
+    """Read and check the configuration file ``path``."""
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    return parse(data, str(path))
+
+
+def parse(data: object, source: str = "config") -> BridgeConfig:
+    """Check ``data`` (the YAML document) and build the configuration."""
+    top = _mapping(data, source, {"domain_id", "namespace", "boards"})
+    domain_id = top.get("domain_id", int(os.environ.get("ROS_DOMAIN_ID", "0") or 0))
+    if not isinstance(domain_id, int) or isinstance(domain_id, bool) or not 0 <= domain_id <= 232:
+        raise ConfigError(f"{source}: domain_id: {domain_id!r} is not a whole number 0-232")
+    namespace = top.get("namespace", "/")
+    if not isinstance(namespace, str) or not namespace.startswith("/"):
+        raise ConfigError(f"{source}: namespace: {namespace!r} must start with '/'")
+    boards_data = top.get("boards")
+    if not isinstance(boards_data, list) or not boards_data:
+        raise ConfigError(f"{source}: boards: a list of at least one board is needed")
+    topics: dict[str, str] = {}
+    names: set[str] = set()
+    ids: set[int] = set()
+    boards = []
+    for index, item in enumerate(boards_data):
+        where = f"{source}: boards[{index}]"
+        board = _board(item, where, namespace, topics)
+        if board.name in names:
+            raise ConfigError(f"{where}.name: duplicate node name {board.name!r}")
+        if board.board_id in ids:
+            raise ConfigError(f"{where}.id: duplicate board ID 0x{board.board_id:04X}")
+        names.add(board.name)
+        ids.add(board.board_id)
+        boards.append(board)
+    return BridgeConfig(domain_id, namespace, tuple(boards))
+
+
+def _mapping(data: object, where: str, allowed: set[str]) -> Mapping[str, Any]:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping (key: value), got {type(data).__name__}")
+    unknown = sorted(str(key) for key in data if key not in allowed)
+    if unknown:
+        raise ConfigError(
+            f"{where}: unknown key {unknown[0]!r} (allowed: {', '.join(sorted(allowed))})"
+        )
+    return data
+
+
+def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> BoardConfig:
+    allowed = {
+        "name", "id", "frame_id", "inputs", "outputs", "diagnostics_period", "stream_ms",
+        "link_failsafe_ms",
+    }  # fmt: skip
+    item = _mapping(data, where, allowed)
+    name = item.get("name")
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ConfigError(f"{where}.name: {name!r} is not a ROS node name (letters, digits, _)")
+    board_id = item.get("id")
+    if not isinstance(board_id, int) or isinstance(board_id, bool) or not 0 <= board_id <= 0xFFFF:
+        raise ConfigError(f"{where}.id: {board_id!r} is not a board ID 0x0000-0xFFFF")
+    node_ns = fully_qualified(namespace, name)
+    pins: set[int] = set()
+    inputs = tuple(
+        _input(entry, f"{where}.inputs[{i}]", node_ns, topics, pins)
+        for i, entry in enumerate(_list(item, "inputs", where))
+    )
+    outputs = tuple(
+        _output(entry, f"{where}.outputs[{i}]", node_ns, topics, pins)
+        for i, entry in enumerate(_list(item, "outputs", where))
+    )
+    period = _positive(item.get("diagnostics_period", 1.0), f"{where}.diagnostics_period")
+    frame_id = item.get("frame_id", name)
+    if not isinstance(frame_id, str):
+        raise ConfigError(f"{where}.frame_id: {frame_id!r} is not a string")
+    stream_ms = item.get("stream_ms")
+    if stream_ms is not None and (
+        isinstance(stream_ms, bool) or not isinstance(stream_ms, int | float) or stream_ms < 0.25
+    ):
+        raise ConfigError(f"{where}.stream_ms: {stream_ms!r} is not a period of 0.25 ms or more")
+    link_ms = item.get("link_failsafe_ms")
+    low, high = FAILSAFE_MIN_TIMEOUT_MS, FAILSAFE_MAX_TIMEOUT_MS
+    if link_ms is not None and (
+        isinstance(link_ms, bool) or not isinstance(link_ms, int) or not low <= link_ms <= high
+    ):
+        raise ConfigError(
+            f"{where}.link_failsafe_ms: {link_ms!r} is not a whole number of ms, {low}-{high}"
+        )
+    return BoardConfig(
+        name,
+        board_id,
+        frame_id,
+        inputs,
+        outputs,
+        period,
+        None if stream_ms is None else float(stream_ms),
+        link_ms,
+    )
+
+
+def _list(item: Mapping[str, Any], key: str, where: str) -> list[Any]:
+    value = item.get(key, [])
+    if not isinstance(value, list):
+        raise ConfigError(f"{where}.{key}: expected a list")
+    return value
+
+
+def _positive(value: object, where: str) -> float:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise ConfigError(f"{where}: {value!r} is not a positive number of seconds")
+    return float(value)
+
+
+def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | AnalogPin:
+    if not isinstance(value, str) or (
+        value not in DigitalPin.__members__ and value not in AnalogPin.__members__
+    ):
+        raise ConfigError(f"{where}.pin: unknown pin {value!r} (D2-D13, A0-A5)")
+    pin: DigitalPin | AnalogPin = (
+        DigitalPin[value] if value in DigitalPin.__members__ else AnalogPin[value]
+    )
+    ok = {
+        "digital": isinstance(pin, DigitalPin),
+        "analog": isinstance(pin, AnalogPin),
+        "servo": pin in capable_pins(Function.SERVO_PWM),
+        "counter": pin in capable_pins(Function.COUNTER),
+        "duty": pin in capable_pins(Function.DUTY_PWM),
+        "i2c": pin is AnalogPin.A4,
+    }[need]
+    if not ok:
+        raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({_PIN_TEXT[need]} can)")
+    return pin
+
+
+def _claim(pin: DigitalPin | AnalogPin, pins: set[int], where: str) -> None:
+    key = int(pin) + (100 if isinstance(pin, AnalogPin) else 0)
+    if key in pins:
+        raise ConfigError(f"{where}.pin: {pin.name} is used twice on this board")
+    pins.add(key)
+
+
+def _topic(value: object, node_ns: str, topics: dict[str, str], where: str) -> str:
+    if not isinstance(value, str) or not value:
+        raise ConfigError(f"{where}.topic: a topic name is needed")
+    try:
+        topic = fully_qualified(node_ns, value)
+    except UsageError as exc:
+        raise ConfigError(f"{where}.topic: {exc}") from None
+    if topic in topics:
+        raise ConfigError(f"{where}.topic: duplicate topic {topic} (also {topics[topic]})")
+    topics[topic] = where
+    return topic
+
+
+def _kind(value: object, kinds: Mapping[str, str], where: str) -> str:
+    if value not in kinds:
+        raise ConfigError(f"{where}.type: {value!r} is not one of {', '.join(sorted(kinds))}")
+    return str(value)
+
+
+def _input(
+    data: object, where: str, node_ns: str, topics: dict[str, str], pins: set[int]
+) -> InputConfig:
+    allowed = {"pin", "type", "topic", "pull_up", "period", "scale", "address"}
+    item = _mapping(data, where, allowed)
+    kind = _kind(item.get("type"), INPUT_KINDS, where)
+    # An IMU sits on the I2C bridge: SDA A4 and SCL A5, both taken.
+    pin = _pin(
+        item.get("pin", "A4") if kind == "imu" else item.get("pin"), kind, INPUT_KINDS[kind], where
+    )
+    _claim(pin, pins, where)
+    if kind == "imu":
+        _claim(AnalogPin.A5, pins, where)
+    address = item.get("address", 0x68)
+    if kind != "imu" and "address" in item:
+        raise ConfigError(f"{where}.address: only an imu has an I2C address")
+    if address not in (0x68, 0x69):
+        raise ConfigError(f"{where}.address: {address!r} is not an MPU-6050 address (0x68, 0x69)")
+    pull_up = item.get("pull_up", False)
+    if not isinstance(pull_up, bool):
+        raise ConfigError(f"{where}.pull_up: {pull_up!r} is not true or false")
+    period = _positive(item.get("period", 0.1), f"{where}.period")
+    scale = item.get("scale", 1.0)
+    if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale):
+        raise ConfigError(f"{where}.scale: {scale!r} is not a number")
+    topic = _topic(item.get("topic"), node_ns, topics, where)
+    return InputConfig(pin, kind, topic, pull_up, period, float(scale), address)
+
+
+def _output(
+    data: object, where: str, node_ns: str, topics: dict[str, str], pins: set[int]
+) -> OutputConfig:
+    allowed = {"pin", "type", "topic", "timeout", "safe", "direction", "direction2"}
+    item = _mapping(data, where, allowed)
+    kind = _kind(item.get("type"), OUTPUT_KINDS, where)
+    pin = _pin(item.get("pin"), kind, OUTPUT_KINDS[kind], where)
+    _claim(pin, pins, where)
+    assert isinstance(pin, DigitalPin)  # every output kind needs a digital pin
+    directions: list[DigitalPin | None] = []
+    for key in ("direction", "direction2"):
+        if key not in item:
+            directions.append(None)
+            continue
+        if kind != "motor":
+            raise ConfigError(f"{where}.{key}: only a motor has direction pins")
+        direction = _pin(item[key], kind, "digital", f"{where}.{key}")
+        _claim(direction, pins, f"{where}.{key}")
+        assert isinstance(direction, DigitalPin)
+        directions.append(direction)
+    if kind == "motor" and directions[0] is None:
+        raise ConfigError(f"{where}.direction: a motor needs its direction pin (IN1)")
+    timeout = item.get("timeout")
+    if timeout is not None:
+        timeout = _positive(timeout, f"{where}.timeout")
+    safe = item.get("safe")
+    if kind == "bool" and not isinstance(safe, bool | None):
+        raise ConfigError(f"{where}.safe: {safe!r} is not true or false")
+    if (
+        kind == "servo"
+        and safe is not None
+        and (isinstance(safe, bool) or not isinstance(safe, int | float) or abs(safe) > math.pi / 2)
+    ):
+        raise ConfigError(f"{where}.safe: {safe!r} is not an angle in radians, -pi/2..pi/2")
+    if (
+        kind == "motor"
+        and safe is not None
+        and (isinstance(safe, bool) or not isinstance(safe, int | float) or abs(safe) > 1)
+    ):
+        raise ConfigError(f"{where}.safe: {safe!r} is not a speed -1..1")
+    if timeout is not None and safe is None and kind != "servo":
+        safe = False if kind == "bool" else 0.0
+    topic = _topic(item.get("topic"), node_ns, topics, where)
+    return OutputConfig(pin, kind, topic, timeout, safe, directions[0], directions[1])

@@ -1,0 +1,1 @@
+"""The peer benchmark: this project side by side with Firmata (``make bench-peers``)."""

@@ -1,0 +1,111 @@
+"""An independent ROS 2 peer in its own process: zenoh-ros2-sdk (PyPI, by ROBOTIS).
+
+It speaks rmw_zenoh without a ROS install, and nobody on this project wrote it, so a
+message it decodes proves the bridge's key expressions, RIHS01 hashes, CDR and tokens
+as that implementation reads them (it computes the type hash from the message text
+itself: a different hash would route nothing).  Driven by JSON lines on stdin, it answers
+with JSON lines on stdout:
+
+    {"op": "sub", "topic": "/robot/uno/d3", "type": "std_msgs/msg/Bool"}
+        -> {"op": "subscribed"}; later {"topic": ..., "data": ..., "received_ns": ...}
+    {"op": "pub", "topic": ..., "type": ..., "data": true}  -> {"op": "published"}
+    {"op": "topics"}  -> {"op": "topics", "topics": [[name, [types]], ...]}
+    {"op": "info", "topic": ...}  -> {"op": "info", "publishers": [[ns, node], ...], ...}
+    {"op": "echo"}  -> {"op": "echoing"}; then every sample on bench/ping is put back on
+        bench/pong (the plain Zenoh round trip the ROS latency is compared with)
+
+``python sdk_peer.py PORT`` connects to the bridge's Zenoh endpoint on 127.0.0.1:PORT.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from typing import Any
+
+import zenoh_ros2_sdk as sdk  # type: ignore[import-untyped]  # no type information
+
+#: The message texts the SDK would otherwise fetch from GitHub (common_interfaces).
+DEFINITIONS = {
+    "std_msgs/msg/Bool": "bool data\n",
+    "std_msgs/msg/Float32": "float32 data\n",
+    "std_msgs/msg/Float64": "float64 data\n",
+    "std_msgs/msg/Int64": "int64 data\n",
+}
+
+_out = threading.Lock()
+
+
+def say(item: dict[str, Any]) -> None:
+    with _out:
+        sys.stdout.write(json.dumps(item) + "\n")
+        sys.stdout.flush()
+
+
+def main() -> None:
+    port = int(sys.argv[1])
+    keep: list[Any] = []
+    publishers: dict[str, Any] = {}
+    for line in sys.stdin:
+        order = json.loads(line)
+        op = order["op"]
+        if op == "sub":
+            topic = order["topic"]
+
+            def on_message(message: Any, topic: str = topic) -> None:
+                say({"topic": topic, "data": message.data, "received_ns": time.time_ns()})
+
+            keep.append(
+                sdk.ROS2Subscriber(
+                    topic=topic,
+                    msg_type=order["type"],
+                    callback=on_message,
+                    msg_definition=DEFINITIONS[order["type"]],
+                    node_name="sdk_listener",
+                    router_port=port,
+                )
+            )
+            say({"op": "subscribed"})
+        elif op == "pub":
+            topic = order["topic"]
+            if topic not in publishers:
+                publishers[topic] = sdk.ROS2Publisher(
+                    topic=topic,
+                    msg_type=order["type"],
+                    msg_definition=DEFINITIONS[order["type"]],
+                    node_name="sdk_talker",
+                    router_port=port,
+                )
+            publishers[topic].publish(data=order["data"])
+            say({"op": "published"})
+        elif op == "echo":  # plain Zenoh on the SDK's session: bench/ping -> bench/pong
+            session = sdk.ZenohSession.get_instance(router_port=port).session
+            pong = session.declare_publisher("bench/pong")
+
+            def echo(sample: Any, pong: Any = pong) -> None:
+                pong.put(sample.payload)
+
+            keep += [pong, session.declare_subscriber("bench/ping", echo)]
+            say({"op": "echoing"})
+        elif op == "topics":
+            found = sdk.get_topic_names_and_types(router_port=port, timeout=1.0)
+            say({"op": "topics", "topics": [[name, types] for name, types in found]})
+        elif op == "info":
+            info = sdk.get_topic_info(order["topic"], router_port=port, timeout=1.0, verbose=True)
+            say(
+                {
+                    "op": "info",
+                    "publishers": [[e.node_namespace, e.node_name] for e in info.publishers]
+                    if info
+                    else [],
+                    "subscribers": [[e.node_namespace, e.node_name] for e in info.subscribers]
+                    if info
+                    else [],
+                }
+            )
+
+
+if __name__ == "__main__":
+    main()

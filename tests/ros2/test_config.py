@@ -1,0 +1,124 @@
+"""The bridge's YAML configuration: a mistake is one ConfigError that says where and why."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from arduinoio_async import A0, D2, D3, D9
+from arduinoio_async.ros2 import ConfigError, load, parse
+
+EXAMPLE = Path(__file__).parents[2] / "examples" / "ros2_two_boards.yaml"
+
+
+def config(**board: Any) -> dict[str, Any]:
+    return {"namespace": "/robot", "boards": [{"name": "front", "id": 1, **board}]}
+
+
+def test_a_good_configuration() -> None:
+    cfg = parse(
+        config(
+            inputs=[
+                {"pin": "D3", "type": "bool", "topic": "d3", "pull_up": True},
+                {"pin": "A0", "type": "volts", "topic": "/battery_volts", "period": 0.5},
+            ],
+            outputs=[
+                {"pin": "D2", "type": "bool", "topic": "d2", "timeout": 0.2},
+                {"pin": "D9", "type": "servo", "topic": "pan", "safe": 0.0},
+            ],
+        )
+    )
+    board = cfg.boards[0]
+    assert (cfg.namespace, board.name, board.board_id, board.frame_id) == (
+        "/robot",
+        "front",
+        1,
+        "front",
+    )
+    assert [(i.pin, i.topic) for i in board.inputs] == [
+        (D3, "/robot/front/d3"),
+        (A0, "/battery_volts"),
+    ]
+    assert [(o.pin, o.topic, o.timeout, o.safe) for o in board.outputs] == [
+        (D2, "/robot/front/d2", 0.2, False),  # a timeout without a safe level: low
+        (D9, "/robot/front/pan", None, 0.0),
+    ]
+
+
+def test_the_example_configuration_loads() -> None:
+    cfg = load(EXAMPLE)
+    assert [b.name for b in cfg.boards] == ["front", "rear"]
+
+
+@pytest.mark.parametrize(
+    ("board", "message"),
+    [
+        ({"inputs": [{"pin": "D14", "type": "bool", "topic": "x"}]},
+         r"boards\[0\]\.inputs\[0\]\.pin: unknown pin 'D14' \(D2-D13, A0-A5\)"),
+        ({"inputs": [{"pin": "D3", "type": "volts", "topic": "x"}]},
+         r"inputs\[0\]\.pin: D3 cannot be a 'volts' \(A0-A5 can\)"),
+        ({"outputs": [{"pin": "D3", "type": "servo", "topic": "x"}]},
+         r"outputs\[0\]\.pin: D3 cannot be a 'servo' \(D9, D10 can\)"),
+        ({"outputs": [{"pin": "A0", "type": "bool", "topic": "x"}]},
+         r"A0 cannot be a 'bool' \(D2-D13 can\)"),
+        ({"inputs": [{"pin": "D3", "type": "bool", "topic": "x"}],
+          "outputs": [{"pin": "D2", "type": "bool", "topic": "x"}]},
+         r"outputs\[0\]\.topic: duplicate topic /robot/front/x \(also .*inputs\[0\]\)"),
+        ({"inputs": [{"pin": "D3", "type": "bool", "topic": "a"},
+                     {"pin": "D3", "type": "bool", "topic": "b"}]},
+         r"inputs\[1\]\.pin: D3 is used twice on this board"),
+        ({"inputs": [{"pin": "D3", "type": "switch", "topic": "a"}]},
+         r"inputs\[0\]\.type: 'switch' is not one of battery, bool, counter, imu, volts"),
+        ({"inputs": [{"pin": "D3", "type": "bool", "topic": "a", "pullup": True}]},
+         r"inputs\[0\]: unknown key 'pullup'"),
+        ({"outputs": [{"pin": "D2", "type": "bool", "topic": "a", "timeout": 0}]},
+         r"outputs\[0\]\.timeout: 0 is not a positive number of seconds"),
+        ({"outputs": [{"pin": "D9", "type": "servo", "topic": "a", "safe": 3}]},
+         r"outputs\[0\]\.safe: 3 is not an angle in radians"),
+        ({"id": 70000}, r"boards\[0\]\.id: 70000 is not a board ID"),
+        ({"outputs": [{"pin": "D9", "type": "motor", "topic": "m"}]},
+         r"outputs\[0\]\.direction: a motor needs its direction pin \(IN1\)"),
+        ({"outputs": [{"pin": "D4", "type": "motor", "topic": "m", "direction": "D7"}]},
+         r"outputs\[0\]\.pin: D4 cannot be a 'motor' \(D3, D5, D6, D9, D10 can\)"),
+        ({"outputs": [{"pin": "D2", "type": "bool", "topic": "m", "direction": "D7"}]},
+         r"outputs\[0\]\.direction: only a motor has direction pins"),
+        ({"outputs": [{"pin": "D9", "type": "motor", "topic": "m", "direction": "D9"}]},
+         r"outputs\[0\]\.direction\.pin: D9 is used twice"),
+        ({"inputs": [{"pin": "D4", "type": "counter", "topic": "c"}]},
+         r"inputs\[0\]\.pin: D4 cannot be a 'counter' \(D2, D3 can\)"),
+        ({"link_failsafe_ms": 5},
+         r"boards\[0\]\.link_failsafe_ms: 5 is not a whole number of ms, 20-10000"),
+        ({"inputs": [{"type": "imu", "topic": "imu", "address": 0x50}]},
+         r"inputs\[0\]\.address: 80 is not an MPU-6050 address \(0x68, 0x69\)"),
+        ({"inputs": [{"type": "imu", "topic": "imu"},
+                     {"pin": "A5", "type": "volts", "topic": "v"}]},
+         r"inputs\[1\]\.pin: A5 is used twice on this board"),
+        ({"stream_ms": 0.1}, r"boards\[0\]\.stream_ms: 0.1 is not a period of 0.25 ms or more"),
+    ],
+)  # fmt: skip
+def test_mistakes_are_named_with_their_place(board: dict[str, Any], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        parse(config(**board), "robot.yaml")
+
+
+def test_duplicate_nodes_and_board_ids() -> None:
+    two = {"boards": [{"name": "a", "id": 1}, {"name": "a", "id": 2}]}
+    with pytest.raises(ConfigError, match=r"boards\[1\]\.name: duplicate node name 'a'"):
+        parse(two)
+    two = {"boards": [{"name": "a", "id": 1}, {"name": "b", "id": 1}]}
+    with pytest.raises(ConfigError, match=r"boards\[1\]\.id: duplicate board ID 0x0001"):
+        parse(two)
+
+
+def test_a_file_that_is_not_yaml_or_not_there(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="cannot read"):
+        load(tmp_path / "missing.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("boards: [\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load(bad)
+    bad.write_text("- 1\n")
+    with pytest.raises(ConfigError, match="expected a mapping"):
+        load(bad)
