@@ -33,6 +33,9 @@ class QuadratureGenerator:
     #: Double steps (both pins at once: an invalid transition) and glitches injected.
     skips: int
     glitches: int
+    #: The latest the harness applied an edge after its due time (simulated us): the
+    #: generator's own fidelity (its edges run from the event list, normally exact).
+    max_late_us: float = 0.0
 
 
 class QuadratureMethods:

@@ -40,6 +40,7 @@ struct quadgen {
 	double period_c, jitter, reverse;
 	unsigned long skip_every, glitch_every, since_skip, since_glitch;
 	uint64_t glitch_c, next_t, glitch_end_t;
+	uint64_t max_late_c;           /* the latest an edge was applied after its due cycle */
 	int glitch_pin;                /* -1: none in progress */
 	uint64_t rng;
 };
@@ -142,6 +143,8 @@ int run_quadrature(uint64_t now)
 			progress = 1;
 		}
 		if (g->next_t <= now) {
+			if (now - g->next_t > g->max_late_c)
+				g->max_late_c = now - g->next_t;
 			if (g->glitch_pin >= 0)
 				g->glitch_pin = -1; /* an edge ends a glitch too */
 			edge(g);
@@ -220,6 +223,7 @@ void cmd_quadrature(struct jobj *o, struct sbuf *r)
 	if (!g->used || g->a != a || g->b != b) {
 		g->position = 0; /* a new pair starts at 0 with its pins low */
 		g->reversals = g->skips = g->glitches = g->edges = 0;
+		g->max_late_c = 0;
 	}
 	g->used = g->active = 1;
 	g->a = a;
@@ -252,9 +256,10 @@ void cmd_quadrature_status(struct jobj *o, struct sbuf *r)
 		if (!g->used)
 			continue;
 		sb_add(r, "%s{\"a\": %d, \"b\": %d, \"active\": %s, \"position\": %lld, \"edges\": %llu, "
-			  "\"left\": %llu, \"reversals\": %llu, \"skips\": %llu, \"glitches\": %llu}",
+			  "\"left\": %llu, \"reversals\": %llu, \"skips\": %llu, \"glitches\": %llu, "
+			  "\"max_late_us\": %.3f}",
 		       first ? "" : ", ", g->a, g->b, g->active ? "true" : "false", g->position, g->edges, g->left,
-		       g->reversals, g->skips, g->glitches);
+		       g->reversals, g->skips, g->glitches, (double)g->max_late_c / CYC_PER_US);
 		first = 0;
 	}
 	sb_add(r, "]}");
