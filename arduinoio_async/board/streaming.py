@@ -59,6 +59,9 @@ class Sample:
     fell: int | None = None
     #: Counts of D2 and D3, if the stream includes counters.
     counters: tuple[int, int] | None = None
+    #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
+    #: includes encoders.
+    encoders: tuple[int, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -88,13 +91,31 @@ class Sample:
         counters = None
         if frame.flags & p.StreamFlags.COUNTERS:
             counters = (take(4), take(4))
+        encoders = None
+        if frame.flags & p.StreamFlags.ENCODERS:
+            encoders = tuple(
+                ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
+            )
         return cls(
-            host_time, frame.timestamp_us, frame.sequence, analog, levels, rose, fell, counters
+            host_time,
+            frame.timestamp_us,
+            frame.sequence,
+            analog,
+            levels,
+            rose,
+            fell,
+            counters,
+            encoders,
         )
 
 
 def stream_request(
-    analog: Sequence[AnalogPin], levels: bool, edges: bool, counters: bool, period_ms: float
+    analog: Sequence[AnalogPin],
+    levels: bool,
+    edges: bool,
+    counters: bool,
+    period_ms: float,
+    encoders: bool = False,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request."""
     mask = 0
@@ -108,8 +129,18 @@ def stream_request(
         flags |= p.StreamFlags.EDGES
     if counters:
         flags |= p.StreamFlags.COUNTERS
+    if encoders:
+        flags |= p.StreamFlags.ENCODERS
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
+    size = p.sample_payload_size(mask, flags)
+    if size > p.STREAM_MAX_VALUES:
+        raise ValueRangeError(
+            "stream content",
+            f"{size} value bytes",
+            f"at most {p.STREAM_MAX_VALUES} a sample (encoders take "
+            f"{4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, levels 2)",
+        )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0
     if (

@@ -24,11 +24,11 @@ from typing import Any
 
 from .. import protocol as p
 
-__all__ = ["PinHolders", "role_of"]
+__all__ = ["PinHolders", "role_of", "roles_of"]
 
 #: Requests that give a pin a role or take it away.
 CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
-    {p.GpioConfig, p.PwmConfig, p.CounterConfig, p.PinRelease, p.Transaction}
+    {p.GpioConfig, p.PwmConfig, p.CounterConfig, p.EncoderConfig, p.PinRelease, p.Transaction}
 )
 
 
@@ -48,6 +48,17 @@ def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
     return None
 
 
+def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
+    """Every (pin, role) ``request`` sets up.  An encoder's set-up claims both its pins and
+    its slot (key ``-1 - slot``: a set-up of a slot in use reconfigures it on the board),
+    in a role naming both pins, so only the same encoder is shared."""
+    if isinstance(request, p.EncoderConfig):
+        role = f"quadrature encoder D{request.pin_a}/D{request.pin_b} (slot {request.slot})"
+        return [(request.pin_a, role), (request.pin_b, role), (-1 - request.slot, role)]
+    found = role_of(request)
+    return [] if found is None else [found]
+
+
 @dataclass
 class _Held:
     role: str
@@ -63,8 +74,7 @@ class PinHolders:
     def claim(self, client: str, request: p.Request[Any]) -> str | None:
         """Record what ``request`` of ``client`` claims; return why it is refused instead
         (the role another client holds the pin in), or None."""
-        roles = [role_of(item) for item in self._requests(request)]
-        wanted = [role for role in roles if role is not None]
+        wanted = [role for item in self._requests(request) for role in roles_of(item)]
         for pin, role in wanted:
             why = self._conflict(client, pin, role)
             if why is not None:
@@ -75,10 +85,7 @@ class PinHolders:
 
     def refused(self, client: str, request: p.Request[Any]) -> None:
         """The board refused ``request``: ``client`` holds nothing through it."""
-        for item in self._requests(request):
-            found = role_of(item)
-            if found is None:
-                continue
+        for found in (role for item in self._requests(request) for role in roles_of(item)):
             held = self.pins.get(found[0])
             if held is not None and held.role == found[1]:
                 held.clients.discard(client)
@@ -100,7 +107,8 @@ class PinHolders:
         held = self.pins.get(pin)
         if held is None or not held.clients - {client} or held.role == role:
             return None
-        return f"D{pin} is a {held.role} of another client"
+        name = f"D{pin}" if pin >= 0 else f"encoder slot {-1 - pin}"
+        return f"{name} is a {held.role} of another client"
 
     def _take(self, client: str, pin: int, role: str) -> None:
         held = self.pins.get(pin)

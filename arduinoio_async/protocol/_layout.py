@@ -29,6 +29,7 @@ from typing import Any, ClassVar, TypeVar
 from ..errors import FieldRangeError
 
 __all__ = [
+    "I32",
     "U8",
     "U16",
     "U32",
@@ -44,7 +45,7 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class Scalar:
-    """An unsigned big-endian integer of ``size`` bytes."""
+    """A big-endian integer of ``size`` bytes (unsigned unless its code is lower case)."""
 
     code: str
     size: int
@@ -54,6 +55,8 @@ class Scalar:
 U8 = Scalar("B", 1, "u8")
 U16 = Scalar("H", 2, "u16 (big-endian)")
 U32 = Scalar("I", 4, "u32 (big-endian)")
+#: Signed (two's complement): an encoder's count goes both ways.
+I32 = Scalar("i", 4, "i32 (big-endian)")
 
 
 @dataclass(frozen=True, slots=True)

@@ -39,13 +39,19 @@ class StreamModel:
     def check(self, request: p.StreamStart, baud: int, i2c_on: bool) -> p.ErrorCode | None:
         """The firmware's checks of a START request, in its order."""
         mask, flags, period = request.analog_mask, int(request.flags), request.period_us
-        all_flags = int(p.StreamFlags.LEVELS | p.StreamFlags.EDGES | p.StreamFlags.COUNTERS)
+        all_flags = int(
+            p.StreamFlags.LEVELS
+            | p.StreamFlags.EDGES
+            | p.StreamFlags.COUNTERS
+            | p.StreamFlags.ENCODERS
+        )
         if (
             mask & ~((1 << p.ANALOG_CHANNELS) - 1)
             or flags & ~all_flags
             or (mask == 0 and flags == 0)
             or not p.STREAM_MIN_PERIOD_US <= period <= p.STREAM_MAX_PERIOD_US
             or period % p.STREAM_PERIOD_STEP_US
+            or p.sample_payload_size(mask, request.flags) > p.STREAM_MAX_VALUES
         ):
             return E.VALUE_OUT_OF_RANGE
         if i2c_on and mask & 0x30:  # A4/A5 carry SDA/SCL while the bridge is on
@@ -62,6 +68,7 @@ class StreamModel:
         levels: int,
         counters: Mapping[int, int],
         board_us: int,
+        encoders: Sequence[int] = (),
     ) -> p.StreamSample:
         """The next sample frame, its values in the documented order (see StreamSample);
         taking it clears the stream's latched edges, as the firmware's sample does."""
@@ -75,6 +82,9 @@ class StreamModel:
             self.rose = self.fell = 0
         if request.flags & p.StreamFlags.COUNTERS:
             payload += struct.pack(">II", counters[2], counters[3])
+        if request.flags & p.StreamFlags.ENCODERS:
+            counts = tuple(encoders) + (0,) * (p.ENCODER_SLOTS - len(encoders))
+            payload += struct.pack(f">{p.ENCODER_SLOTS}i", *counts)
         return p.StreamSample(mask, request.flags, self.sequence, board_us & 0xFFFFFFFF, payload)
 
     def stop(self) -> int:

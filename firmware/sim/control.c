@@ -28,6 +28,7 @@
 #include "json.h"
 #include "pacing.h"
 #include "pty.h"
+#include "quadrature.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -72,6 +73,7 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 	wire_status(r);
 	bridge_status(r);
 	circuit_status(r);
+	quadrature_status(r);
 	sb_add(r, "}");
 }
 
@@ -284,6 +286,9 @@ static const struct command commands[] = {
 	{"eeprom", 1, cmd_eeprom},
 	{"ping", 1, cmd_ping},
 	{"peek", 1, cmd_peek},
+	{"quadrature", 0, cmd_quadrature},
+	{"quadrature_status", 1, cmd_quadrature_status},
+	{"quadrature_stop", 0, cmd_quadrature_stop},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
 };
 

@@ -20,6 +20,7 @@
 #include "analog.h"
 
 #include "counter.h"
+#include "encoder.h"
 #include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -69,6 +70,7 @@ void app_init(void)
     pwm_init();
     duty_init();
     counter_init();
+    encoder_init();
     stream_init();
     analog_init();
     failsafe_init();
@@ -141,6 +143,7 @@ uint8_t app_step(void)
     hal_rx_view_t rx;
 
     failsafe_poll();
+    encoder_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

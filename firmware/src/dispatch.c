@@ -5,6 +5,7 @@
 
 #include "analog.h"
 #include "counter.h"
+#include "encoder.h"
 #include "failsafe.h"
 #include "gpio.h"
 #include "i2c.h"
@@ -43,6 +44,7 @@ static aio_handler_t handler(uint8_t ct)
     case AIO_CT_COUNTER: return counter_handle;
     case AIO_CT_STREAM: return stream_handle;
     case AIO_CT_FAILSAFE: return failsafe_handle;
+    case AIO_CT_ENCODER: return encoder_handle;
     default: return 0;
     }
 }

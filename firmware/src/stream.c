@@ -24,6 +24,7 @@
 #include "analog.h"
 #include "counter.h"
 #include "duty.h"
+#include "encoder.h"
 #include "gpio.h"
 #include "hal.h"
 #include "parser.h"
@@ -72,6 +73,8 @@ static uint8_t value_bytes(uint8_t m, uint8_t f)
         n += 4;
     if (f & AIO_STREAM_COUNTERS)
         n += 8;
+    if (f & AIO_STREAM_ENCODERS)
+        n += 4u * AIO_ENCODER_SLOTS;
     return n;
 }
 
@@ -135,6 +138,9 @@ static void sample(void)
         p = aio_put32(p, counter_peek(0));
         p = aio_put32(p, counter_peek(1));
     }
+    if (flags & AIO_STREAM_ENCODERS)
+        for (r = 0; r < AIO_ENCODER_SLOTS; r++)
+            p = aio_put32(p, (uint32_t)encoder_peek((uint8_t)r));
     frame_len = (uint8_t)(p - frame + 1u);
     busy = 1;
     channel = 0;
@@ -233,7 +239,8 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     f = rq->data[1];
     period = aio_be16(rq->data + 2);
     if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
-        f & ~(AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS) || (m == 0 && f == 0) ||
+        f & ~(AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS | AIO_STREAM_ENCODERS) ||
+        (m == 0 && f == 0) || value_bytes(m, f) > AIO_STREAM_MAX_VALUES ||
         period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
         period % AIO_STREAM_PERIOD_STEP_US)
         return AIO_ERR_VALUE_OUT_OF_RANGE;

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Annotated
 
 from .._constants import (
+    ENCODER_SLOTS,
     MAX_BLOB,
     STREAM_FRAME_OVERHEAD,
     STREAM_LINK_SHARE_DEN,
@@ -74,7 +75,8 @@ class StreamSample(_Sampled, Event):
 
     Order: one u16 per analog channel in ``analog_mask`` (lowest channel first), then if
     LEVELS: u16 levels of D0-D15 (bit n = Dn), if EDGES: u16 rose, u16 fell (latched since
-    the previous sample), if COUNTERS: u32 count of D2, u32 count of D3.
+    the previous sample), if COUNTERS: u32 count of D2, u32 count of D3, if ENCODERS: one
+    i32 count per encoder slot (ENCODER_SLOTS, slot 0 first; a free slot reads 0).
     """
 
     sequence: Annotated[int, U16]
@@ -95,6 +97,8 @@ def sample_payload_size(analog_mask: int, flags: StreamFlags) -> int:
         size += 4
     if flags & StreamFlags.COUNTERS:
         size += 8
+    if flags & StreamFlags.ENCODERS:
+        size += 4 * ENCODER_SLOTS
     return size
 
 
