@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import anyio
 import pytest
 
-from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10
+from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.board.handles import DigitalOutput, output_setup
@@ -69,6 +69,7 @@ CALLS: dict[str, Callable[[Scene], Awaitable[object]]] = {
     "choose_low_latency": lambda s: s.board.choose_low_latency(False),
     "counter": lambda s: s.board.counter(D2),
     "digital_input": lambda s: s.board.digital_input(D5),
+    "encoder": lambda s: s.board.encoder(D11, D12),
     "digital_output": lambda s: s.board.digital_output(D6),
     "disarm_failsafe": lambda s: s.board.disarm_failsafe(),
     "from_link": lambda s: Board.from_link(s.board.link),

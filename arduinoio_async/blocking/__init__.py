@@ -49,10 +49,12 @@ from anyio.from_thread import start_blocking_portal
 
 from .. import protocol as p
 from ..board import Board
+from ..board.encoders import ModeName
 from ..board.streaming import SampleStream
 from ..errors import BoardDisconnectedError
 from ..opener import open_board as open_any_board
 from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin, SoftPwmPin
+from ._encoders import BlockingEncoder
 from ._handles import (
     BlockingAnalogInput,
     BlockingCounter,
@@ -192,6 +194,13 @@ class BlockingBoard(_Blocking):
         """An event counter on D2 or D3 counting ``edge`` edges, from zero."""
         handle = self._runner.call(lambda: self.handle.counter(pin, edge=edge))
         return BlockingCounter(self._runner, handle)
+
+    def encoder(
+        self, a: DigitalPin, b: DigitalPin, *, mode: ModeName | int = "x4", slot: int | None = None
+    ) -> BlockingEncoder:
+        """A quadrature encoder on any two digital pins (see ``Board.encoder``)."""
+        handle = self._runner.call(lambda: self.handle.encoder(a, b, mode=mode, slot=slot))
+        return BlockingEncoder(self._runner, handle)
 
     def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> BlockingI2CBus:
         """Turn on the I2C bridge on A4/A5 at ``speed`` (100 or 400 kHz)."""

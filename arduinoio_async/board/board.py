@@ -42,6 +42,7 @@ from ..transport import (
     open_serial_stream,
     tick_holding_bridge,
 )
+from ._encoder_methods import EncoderMethods
 from ._motor_methods import MotorMethods
 from ._stepper_methods import StepperMethods
 from .boot import (
@@ -71,7 +72,7 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(MotorMethods, StepperMethods):
+class Board(MotorMethods, StepperMethods, EncoderMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -281,7 +282,12 @@ class Board(MotorMethods, StepperMethods):
         """End whatever role ``pin`` has, on the board and here."""
         require_capable(pin, Function.DIGITAL_INPUT)
         await self.request(p.PinRelease(int(pin)))
-        self._roles.release(pin)
+        handle = self._roles.release(pin)
+        for other in getattr(handle, "other_pins", ()):  # an encoder's pin B goes with A
+            self._roles.release(other)
+        holder = getattr(handle, "encoder", None)  # ... and its pin A with B
+        if holder is not None:
+            self._roles.release(holder.pin)
         gpio = self._gpio.pop(pin, None)
         if gpio is not None:
             gpio.direction = None
@@ -409,6 +415,7 @@ class Board(MotorMethods, StepperMethods):
         period_ms: float = 10.0,
         buffer: int = DEFAULT_BUFFER,
         steppers: bool = False,
+        encoders: bool = False,
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
@@ -418,7 +425,7 @@ class Board(MotorMethods, StepperMethods):
         ``steppers=True`` carries every stepper slot's position (``Sample.steppers``); see
         :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         """
-        request = stream_request(analog, levels, edges, counters, period_ms, steppers)
+        request = stream_request(analog, levels, edges, counters, period_ms, steppers, encoders)
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
         async with run_stream(self, request, buffer) as samples:
             yield samples

@@ -115,7 +115,10 @@ class PinRoles(Mapping[DigitalPin, Claim]):
 
         The pins' set-ups in the order they were first claimed, then the I2C speed.
         """
-        requests: list[p.Request[Any]] = [setup for _handle, setup in self._claims.values()]
+        requests: list[p.Request[Any]] = []
+        for _handle, setup in self._claims.values():
+            if setup not in requests:  # one set-up for both pins of an encoder
+                requests.append(setup)
         if self._i2c is not None:
             requests.append(p.I2CConfig(self._i2c.speed))
         return requests

@@ -62,6 +62,9 @@ class Sample:
     #: Positions of the stepper slots 0-3 (0 for a slot without a stepper), if the stream
     #: includes steppers.
     steppers: tuple[int, ...] | None = None
+    #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
+    #: includes encoders.
+    encoders: tuple[int, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -94,6 +97,11 @@ class Sample:
         steppers = None
         if frame.flags & p.StreamFlags.STEPPERS:
             steppers = tuple((take(4) ^ 0x80000000) - 0x80000000 for _ in range(p.STEPPER_COUNT))
+        encoders = None
+        if frame.flags & p.StreamFlags.ENCODERS:
+            encoders = tuple(
+                ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
+            )
         return cls(
             host_time,
             frame.timestamp_us,
@@ -104,6 +112,7 @@ class Sample:
             fell,
             counters,
             steppers,
+            encoders,
         )
 
 
@@ -114,6 +123,7 @@ def stream_request(
     counters: bool,
     period_ms: float,
     steppers: bool = False,
+    encoders: bool = False,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request."""
     mask = 0
@@ -129,8 +139,19 @@ def stream_request(
         flags |= p.StreamFlags.COUNTERS
     if steppers:
         flags |= p.StreamFlags.STEPPERS
+    if encoders:
+        flags |= p.StreamFlags.ENCODERS
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
+    size = p.sample_payload_size(mask, flags)
+    if size > p.STREAM_MAX_VALUES:
+        raise ValueRangeError(
+            "stream content",
+            f"{size} value bytes",
+            f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
+            f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
+            "levels 2)",
+        )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0
     if (

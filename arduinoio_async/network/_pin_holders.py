@@ -32,6 +32,7 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
         p.GpioConfig,
         p.PwmConfig,
         p.CounterConfig,
+        p.EncoderConfig,
         p.PinRelease,
         p.Transaction,
         p.StepperConfig,
@@ -57,8 +58,10 @@ def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
 
 
 def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
-    """Every (pin, role) ``request`` sets up or releases: :func:`role_of`'s, and a
-    stepper's pins (its step and direction pins, a limit switch)."""
+    """Every (pin, role) ``request`` sets up or releases: :func:`role_of`'s, a stepper's
+    pins (its step and direction pins, a limit switch), and an encoder's: its set-up claims
+    both its pins and its slot (key ``-1 - slot``: a set-up of a slot in use reconfigures it
+    on the board), in a role naming both pins, so only the same encoder is shared."""
     if isinstance(request, p.StepperConfig):
         n = request.index
         return [
@@ -67,6 +70,9 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
         ]
     if isinstance(request, p.StepperLimit):
         return [(request.pin, f"stepper {request.index}'s limit switch")] if request.pin else []
+    if isinstance(request, p.EncoderConfig):
+        role = f"quadrature encoder D{request.pin_a}/D{request.pin_b} (slot {request.slot})"
+        return [(request.pin_a, role), (request.pin_b, role), (-1 - request.slot, role)]
     found = role_of(request)
     return [] if found is None else [found]
 
@@ -119,7 +125,8 @@ class PinHolders:
         held = self.pins.get(pin)
         if held is None or not held.clients - {client} or held.role == role:
             return None
-        return f"D{pin} is a {held.role} of another client"
+        name = f"D{pin}" if pin >= 0 else f"encoder slot {-1 - pin}"
+        return f"{name} is a {held.role} of another client"
 
     def _take(self, client: str, pin: int, role: str) -> None:
         held = self.pins.get(pin)

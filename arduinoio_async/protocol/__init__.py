@@ -11,6 +11,7 @@ from ._constants import (
     ANALOG_MAX,
     DEFAULT_BAUD,
     DUTY_FULL,
+    ENCODER_SLOTS,
     ERROR_FLAG,
     FAILSAFE_MAX_TIMEOUT_MS,
     FAILSAFE_MIN_TIMEOUT_MS,
@@ -39,6 +40,7 @@ from ._constants import (
     STREAM_LINK_SHARE_DEN,
     STREAM_LINK_SHARE_NUM,
     STREAM_MAX_PERIOD_US,
+    STREAM_MAX_VALUES,
     STREAM_MIN_PERIOD_US,
     STREAM_PERIOD_STEP_US,
     TEMP_MV_AT_25C,
@@ -48,6 +50,7 @@ from ._constants import (
     VCC_MV,
     ClassTag,
     Edge,
+    EncoderMode,
     ErrorCode,
     Feature,
     Framing,
@@ -62,10 +65,23 @@ from ._constants import (
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, failsafe, gpio, i2c, misc, pwm, stepper, stream, transaction
+from .commands import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pwm,
+    stepper,
+    stream,
+    transaction,
+)
 from .commands import descriptions as _descriptions  # noqa: F401 (says requests in errors)
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403
+from .commands.encoder import *  # noqa: F403
 from .commands.failsafe import *  # noqa: F403
 from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
@@ -86,6 +102,7 @@ __all__ = [
     "ANALOG_MAX",
     "DEFAULT_BAUD",
     "DUTY_FULL",
+    "ENCODER_SLOTS",
     "ERROR_FLAG",
     "EVENT_TYPES",
     "FAILSAFE_MAX_TIMEOUT_MS",
@@ -117,6 +134,7 @@ __all__ = [
     "STREAM_LINK_SHARE_DEN",
     "STREAM_LINK_SHARE_NUM",
     "STREAM_MAX_PERIOD_US",
+    "STREAM_MAX_VALUES",
     "STREAM_MIN_PERIOD_US",
     "STREAM_PERIOD_STEP_US",
     "TEMP_MV_AT_25C",
@@ -128,6 +146,7 @@ __all__ = [
     "Decoded",
     "Decoder",
     "Edge",
+    "EncoderMode",
     "ErrorCode",
     "ErrorReply",
     "Event",
@@ -157,6 +176,7 @@ __all__ += i2c.__all__
 __all__ += pwm.__all__
 __all__ += counter.__all__
 __all__ += stepper.__all__
+__all__ += encoder.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

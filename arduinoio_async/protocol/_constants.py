@@ -27,6 +27,7 @@ class ClassTag(IntEnum):
     STREAM = 0x07  # extension
     FAILSAFE = 0x08  # extension
     STEPPER = 0x09  # extension (issue 26)
+    ENCODER = 0x0A  # extension: quadrature encoders
     EVENT = 0x40  # extension: frames the board sends without a request
 
 
@@ -111,6 +112,22 @@ class StreamFlags(IntFlag):
     COUNTERS = 0x04
     #: The i32 position of each of the STEPPER_COUNT stepper slots (extension, issue 26).
     STEPPERS = 0x08
+    #: One i32 count per encoder slot (ENCODER_SLOTS of them, slot 0 first; a free
+    #: slot reads 0).
+    ENCODERS = 0x10
+
+
+class EncoderMode(IntEnum):
+    """Which of a quadrature encoder's four edges per cycle change its count (extension).
+
+    ``X4`` counts every edge of A and B, ``X2`` every edge of A, ``X1`` one edge per cycle
+    (A rising while B is low, going forward; the same edge undone going back).  The value
+    is the counts per cycle.
+    """
+
+    X1 = 1
+    X2 = 2
+    X4 = 4
 
 
 class SafeKind(IntEnum):
@@ -180,6 +197,9 @@ class Feature(IntFlag):
     CRC16 = 0x10000
     #: STEPPER class: step/dir steppers with limit switches (extension, issue 26).
     STEPPER = 0x20000
+    #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
+    #: in the stream and EncoderReport events (extension).
+    ENCODER = 0x40000
 
 
 class Framing(IntEnum):
@@ -258,8 +278,15 @@ STREAM_PERIOD_STEP_US: Final = 50
 #: A sample frame is 12 bytes plus its values; a stream may use at most 3/4 of the link's
 #: byte rate (10 bit times per byte), leaving room for command replies.
 STREAM_FRAME_OVERHEAD: Final = 12
+#: Value bytes a sample may carry: the board's largest frame (MAX_BLOB + 7 bytes) less the
+#: sample's 11 header bytes and a CRC-16 (with every analog channel, levels, edges and
+#: counters a sample has 26; encoders add 4 bytes a slot).
+STREAM_MAX_VALUES: Final = 26
 STREAM_LINK_SHARE_NUM: Final = 3
 STREAM_LINK_SHARE_DEN: Final = 4
+
+#: Quadrature encoders the board decodes at once (ENCODER CONFIG's slot is 0 to this - 1).
+ENCODER_SLOTS: Final = 4
 
 FAILSAFE_MIN_TIMEOUT_MS: Final = 20
 FAILSAFE_MAX_TIMEOUT_MS: Final = 10000

@@ -58,6 +58,7 @@ U16 = Scalar("H", 2, "u16 (big-endian)")
 U32 = Scalar("I", 4, "u32 (big-endian)")
 #: Signed (two's complement): stepper positions and speeds.
 I16 = Scalar("h", 2, "i16 (big-endian)")
+#: Signed (two's complement): an encoder's count goes both ways.
 I32 = Scalar("i", 4, "i32 (big-endian)")
 
 

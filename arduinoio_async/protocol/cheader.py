@@ -81,6 +81,7 @@ def render() -> str:
     out += _enum("AIO_EDGE", c.Edge)
     out += _enum("AIO_STREAM", c.StreamFlags)
     out += _enum("AIO_SAFE", c.SafeKind)
+    out += _enum("AIO_ENCODER", c.EncoderMode)
     out += _enum("AIO_STATUS", c.StatusFlags)
     out += _enum("AIO_STEPPER_DONE", c.StepperDoneReason)
     out += [f"#define AIO_FEATURE_{m.name} 0x{int(m):04X}u" for m in c.Feature if m.name]
@@ -102,8 +103,10 @@ def render() -> str:
         "STREAM_MAX_PERIOD_US",
         "STREAM_PERIOD_STEP_US",
         "STREAM_FRAME_OVERHEAD",
+        "STREAM_MAX_VALUES",
         "STREAM_LINK_SHARE_NUM",
         "STREAM_LINK_SHARE_DEN",
+        "ENCODER_SLOTS",
         "FAILSAFE_MIN_TIMEOUT_MS",
         "FAILSAFE_MAX_TIMEOUT_MS",
         "EEPROM_ID_ADDRESS",

@@ -126,6 +126,7 @@ class Function(Enum):
     I2C = "I2C"
     COUNTER = "event counter"
     DUTY_PWM = "duty-cycle PWM"
+    ENCODER = "quadrature encoder"
 
 
 _DIGITAL = tuple(DigitalPin)
@@ -140,6 +141,8 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.I2C: (A4, A5),
     Function.COUNTER: (D2, D3),
     Function.DUTY_PWM: (D3, D5, D6, D9, D10),
+    #: Pin-change interrupts on every digital pin (INT0/INT1 on D2/D3).
+    Function.ENCODER: _DIGITAL,
 }
 
 

@@ -10,6 +10,7 @@ faults, unplug/replug) through the harness's control socket.  See
 """
 
 from ._demo import example_arguments, example_board, port_or_virtual_uno
+from ._quadrature import QuadratureGenerator
 from .harness import (
     SimulatorError,
     SimulatorNotAvailable,
@@ -32,6 +33,7 @@ __all__ = [
     "FirmwareCycles",
     "Fixture",
     "PulseStats",
+    "QuadratureGenerator",
     "SimulatorError",
     "SimulatorNotAvailable",
     "UsbBridge",

@@ -26,6 +26,7 @@ import anyio.to_thread
 from anyio.streams.buffered import BufferedByteReceiveStream
 
 from ..protocol import DEFAULT_BAUD
+from ._quadrature import QuadratureMethods
 from .harness import (
     INSTALL_HINT,
     SimulatorError,
@@ -108,7 +109,7 @@ def _pin_arg(pin: PinName) -> PinName:
     return pin
 
 
-class VirtualUno:
+class VirtualUno(QuadratureMethods):
     """One simulated Uno: starts the harness process and wraps its control commands.
 
     Use as ``async with VirtualUno(board_id=1) as uno:`` and open ``uno.port`` with pyserial.

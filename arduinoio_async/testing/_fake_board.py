@@ -22,10 +22,10 @@ import anyio.abc
 from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
+from ._fake_encoder import EncoderModels
 from ._fake_stepper import FakeSteppers
 from ._fake_wire import FakeWire
 from ._faults import Faults
-from ._gpio import GpioModels
 from ._peripherals import (
     DIGITAL,
     DUTY,
@@ -46,7 +46,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(GpioModels, FakeWire):
+class FakeBoard(EncoderModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -136,6 +136,7 @@ class FakeBoard(GpioModels, FakeWire):
             p.CounterRead: self._counter_read,
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
+            **self._encoder_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -190,6 +191,8 @@ class FakeBoard(GpioModels, FakeWire):
                     self._report_count(pin, state)
             if state.watched and state.role == "input":
                 self._report_change(pin, level)
+            if state.role == "encoder":
+                self._encoder_edge(pin)
 
     def set_analog(self, channel: int, value: int) -> None:
         """Move an analog input: a watched channel that moved past its deadband reports
@@ -272,7 +275,7 @@ class FakeBoard(GpioModels, FakeWire):
         handler = self._handlers.get(type(request))
         if handler is None:
             return p.ErrorReply(layout.class_tag, layout.descriptor, E.UNKNOWN_DESCRIPTOR)
-        if self.failsafe.tripped and _changes_output(request):
+        if self.failsafe.refuses(request):
             return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
 
@@ -290,6 +293,7 @@ class FakeBoard(GpioModels, FakeWire):
         self._pins = {n: PinModel() for n in range(2, 14)}
         self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
+        self.encoders.clear()
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
             while True:  # events still in the transmit buffer never leave it
@@ -407,7 +411,9 @@ class FakeBoard(GpioModels, FakeWire):
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
         levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
-        return self.stream.sample(request, self.analog, levels, self.counters, board_us)
+        return self.stream.sample(
+            request, self.analog, levels, self.counters, board_us, self.encoder_counts()
+        )
 
     def _failsafe_arm(self, request: p.FailsafeArm) -> p.Frame:
         error = self.failsafe.arm(request)
@@ -487,13 +493,3 @@ def _split_items(items: bytes) -> list[bytes] | None:
         out.append(items[pos : pos + size])
         pos += size
     return out if out and need <= p.MAX_BLOB else None
-
-
-def _changes_output(request: p.Frame) -> bool:
-    """Requests the firmware refuses while its failsafe is tripped (``dispatch.c``)."""
-    tag = request.LAYOUT.class_tag
-    if tag == p.ClassTag.GPIO:
-        return not isinstance(request, p.GpioRead | p.GpioWatch)
-    if tag == p.ClassTag.STEPPER:
-        return isinstance(request, p.StepperMove | p.StepperRun)
-    return tag == p.ClassTag.PWM

@@ -46,14 +46,15 @@ class StreamModel:
             | p.StreamFlags.EDGES
             | p.StreamFlags.COUNTERS
             | p.StreamFlags.STEPPERS
+            | p.StreamFlags.ENCODERS
         )
         if (
             mask & ~((1 << p.ANALOG_CHANNELS) - 1)
             or flags & ~all_flags
             or (mask == 0 and flags == 0)
-            or p.sample_payload_size(mask, request.flags) > p.MAX_BLOB
             or not p.STREAM_MIN_PERIOD_US <= period <= p.STREAM_MAX_PERIOD_US
             or period % p.STREAM_PERIOD_STEP_US
+            or p.sample_payload_size(mask, request.flags) > p.STREAM_MAX_VALUES
         ):
             return E.VALUE_OUT_OF_RANGE
         if i2c_on and mask & 0x30:  # A4/A5 carry SDA/SCL while the bridge is on
@@ -70,6 +71,7 @@ class StreamModel:
         levels: int,
         counters: Mapping[int, int],
         board_us: int,
+        encoders: Sequence[int] = (),
     ) -> p.StreamSample:
         """The next sample frame, its values in the documented order (see StreamSample);
         taking it clears the stream's latched edges, as the firmware's sample does."""
@@ -85,6 +87,9 @@ class StreamModel:
             payload += struct.pack(">II", counters[2], counters[3])
         if request.flags & p.StreamFlags.STEPPERS:
             payload += struct.pack(f">{p.STEPPER_COUNT}i", *self.positions())
+        if request.flags & p.StreamFlags.ENCODERS:
+            counts = tuple(encoders) + (0,) * (p.ENCODER_SLOTS - len(encoders))
+            payload += struct.pack(f">{p.ENCODER_SLOTS}i", *counts)
         return p.StreamSample(mask, request.flags, self.sequence, board_us & 0xFFFFFFFF, payload)
 
     def stop(self) -> int:
@@ -108,6 +113,17 @@ class FailsafeModel:
     safe: dict[int, tuple[p.SafeKind, int]] = field(default_factory=dict)
     #: Set when arming changes the deadline, so the watchdog task re-reads it.
     changed: anyio.Event = field(default_factory=anyio.Event)
+
+    def refuses(self, request: p.Frame) -> bool:
+        """The firmware refuses requests that change an output while tripped (``dispatch.c``)."""
+        if not self.tripped:
+            return False
+        tag = request.LAYOUT.class_tag
+        if tag == p.ClassTag.GPIO:
+            return not isinstance(request, p.GpioRead | p.GpioWatch)
+        if tag == p.ClassTag.STEPPER:
+            return isinstance(request, p.StepperMove | p.StepperRun)
+        return tag == p.ClassTag.PWM
 
     def feed(self) -> None:
         if self.armed:

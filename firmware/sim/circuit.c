@@ -472,6 +472,8 @@ void circuit_drive(int p, int level)
 	apply_circuit();
 }
 
+void circuit_set_driven(int p, int level) { drive_level[p] = level; }
+
 int circuit_adc_mv(int ch) { return adc_sent[ch]; }
 unsigned long pulses_done(int p) { return gen[p - 2].done; }
 const uint8_t *circuit_i2c_eeprom(void) { return i2c_ee.ee; }

@@ -29,6 +29,8 @@ const char *fixture_name(void);
 void circuit_set_analog(int ch, int mv);    /* channel 0..7: A0..A5, 6-7 unused */
 void circuit_set_temperature(double celsius);
 void circuit_drive(int p, int level);        /* -1 released, 0/1 driven from outside */
+/* the same, several pins at one instant: the caller calls apply_circuit() after the last */
+void circuit_set_driven(int p, int level);
 int circuit_adc_mv(int ch);                  /* the last mV the ADC was given */
 unsigned long pulses_done(int p);            /* pulses D2/D3 finished so far */
 const uint8_t *circuit_i2c_eeprom(void);     /* the I2C EEPROM's 256 bytes */

@@ -30,6 +30,7 @@
 #include "pty.h"
 #include "stack.h"
 #include "steps.h"
+#include "quadrature.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -75,6 +76,7 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 	bridge_status(r);
 	circuit_status(r);
 	steps_status(r);
+	quadrature_status(r);
 	sb_add(r, "}");
 }
 
@@ -287,6 +289,9 @@ static const struct command commands[] = {
 	{"eeprom", 1, cmd_eeprom},
 	{"ping", 1, cmd_ping},
 	{"peek", 1, cmd_peek},
+	{"quadrature", 0, cmd_quadrature},
+	{"quadrature_status", 1, cmd_quadrature_status},
+	{"quadrature_stop", 0, cmd_quadrature_stop},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
 	{"step_log", 0, cmd_step_log},
 	{"steps", 1, cmd_steps},

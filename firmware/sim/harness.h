@@ -13,6 +13,7 @@
  *              and the cable (unplug/replug)
  *   circuit.c  fixtures, driven levels, analog and temperature inputs, R2R
  *              ladders, the I2C EEPROM, pulse generator and pulse capture
+ *   quadrature.c  quadrature signal generators (encoders) on pin pairs
  *   control.c  the JSON-lines control socket: a name -> handler table
  *   json.c     the small JSON reader and reply buffer control.c uses
  *   main.c     options, simavr set-up, resets and MCUSR, bootloader, ready line
@@ -21,7 +22,8 @@
  *
  * Each module owns its state (static) and exposes functions for what others
  * need of it, and reports its own part of the control channel's "status"
- * (pacing_status, pty_status, harness_status, wire_status, circuit_status).
+ * (pacing_status, pty_status, harness_status, wire_status, circuit_status,
+ * quadrature_status).
  * What stays shared is declared here: the options (read-only outside main.c,
  * which parses them), the simulated core (avr) and its run flags (halted,
  * reset_seen), which main.c's resets and pacing.c's loop change instruction by

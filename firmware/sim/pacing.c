@@ -34,6 +34,7 @@
 #include "control.h"
 #include "pacing.h"
 #include "pty.h"
+#include "quadrature.h"
 #include "trace.h"
 #include "wire.h"
 
@@ -121,7 +122,7 @@ static int link_quiet(int (*wire)(void))
 	/* and the receiver on: while the firmware boots, a host byte must meet the
 	 * receiver-off window in wall time, as on a real board (no run-ahead) */
 	return avr && (avr->data[UCSR0B_ADDR] & RXEN0_BIT) && wire() && !pulses_running() &&
-	       !pty_holding_reset();
+	       !quadrature_running() && !pty_holding_reset();
 }
 
 static int link_idle(void)
@@ -229,6 +230,7 @@ void recompute_next_event(void)
 	next_event = UINT64_MAX;
 	wire_schedule_events();
 	schedule_pulses();
+	schedule_quadrature();
 }
 
 void run_events(void)
@@ -238,6 +240,7 @@ void run_events(void)
 	while (progress) {
 		progress = wire_run_events(now);
 		progress |= run_pulses(now);
+		progress |= run_quadrature(now);
 	}
 	recompute_next_event();
 	wire_events_done();

@@ -188,6 +188,31 @@ uint16_t hal_millis(void)
     return t;
 }
 
+/* Inlined into the encoder interrupts (LTO): called on every counting edge. */
+__attribute__((always_inline)) inline void hal_stamp(uint16_t *ticks, uint8_t *sub)
+{
+    /* the low half only, by bytes (little-endian; char access may alias) */
+    const volatile uint8_t *b = (const volatile uint8_t *)&clock_ticks;
+    uint16_t t = (uint16_t)(b[0] | (uint16_t)b[1] << 8);
+    uint8_t c = TCNT2;
+    if ((TIFR2 & _BV(OCF2A)) && c < TICK_COUNTS / 2u)
+        t++; /* the tick has passed but its interrupt has not run yet */
+    *ticks = t;
+    *sub = c;
+}
+
+uint32_t hal_stamp_us(uint16_t ticks, uint8_t sub)
+{
+    uint8_t s = SREG;
+    uint32_t now;
+    cli();
+    now = clock_ticks;
+    SREG = s;
+    /* signed: a stamp may be one tick ahead of clock_ticks (its interrupt pending) */
+    now -= (uint32_t)(int32_t)(int16_t)(uint16_t)((uint16_t)now - ticks);
+    return now * 100u + sub / 2u;
+}
+
 uint32_t hal_micros(void)
 {
     uint8_t s = SREG, c;

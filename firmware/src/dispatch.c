@@ -5,6 +5,7 @@
 
 #include "analog.h"
 #include "counter.h"
+#include "encoder.h"
 #include "failsafe.h"
 #include "gpio.h"
 #include "i2c.h"
@@ -47,6 +48,7 @@ static aio_handler_t handler(uint8_t ct)
     case AIO_CT_STREAM: return stream_handle;
     case AIO_CT_FAILSAFE: return failsafe_handle;
     case AIO_CT_STEPPER: return stepper_handle;
+    case AIO_CT_ENCODER: return encoder_handle;
     default: return 0;
     }
 }

@@ -14,11 +14,12 @@
  */
 #include "gpio.h"
 
+#include "encoder.h"
 #include "hal.h"
 #include "parser.h"
 #include "pins.h"
 
-static volatile uint16_t watch;       /* GPIO inputs */
+volatile uint16_t gpio_watch; /* GPIO inputs (the pin-change vector calls gpio_pin_change only for them) */
 static volatile uint16_t last_levels;
 static volatile uint16_t rose, fell;  /* for READ */
 static volatile uint16_t s_rose, s_fell; /* for stream samples */
@@ -27,7 +28,7 @@ static uint16_t change_seq;           /* sequence number of the next event */
 
 void gpio_init(void)
 {
-    watch = 0;
+    gpio_watch = 0;
     rose = fell = s_rose = s_fell = notify = 0;
     change_seq = 0;
     last_levels = 0;
@@ -59,7 +60,7 @@ static void report(uint16_t changed, uint16_t levels)
 
 void gpio_pin_change(uint16_t levels)
 {
-    uint16_t changed = (uint16_t)((levels ^ last_levels) & watch);
+    uint16_t changed = (uint16_t)((levels ^ last_levels) & gpio_watch);
     last_levels = levels;
     rose |= (uint16_t)(changed & levels);
     fell |= (uint16_t)(changed & ~levels);
@@ -83,20 +84,22 @@ static void set_watch(uint8_t pin, uint8_t on)
     uint16_t bit = pins_bit_of(pin);
     uint8_t s = hal_irq_save();
     if (on)
-        watch |= bit;
+        gpio_watch |= bit;
     else
-        watch &= (uint16_t)~bit;
+        gpio_watch &= (uint16_t)~bit;
     notify &= (uint16_t)~bit; /* a new role or configuration ends a subscription */
     last_levels = (uint16_t)((last_levels & ~bit) | (hal_pin_levels() & bit));
     rose &= (uint16_t)~bit;
     fell &= (uint16_t)~bit;
     s_rose &= (uint16_t)~bit;
     s_fell &= (uint16_t)~bit;
-    hal_edge_watch(watch);
+    hal_edge_watch((uint16_t)(gpio_watch | encoder_pcint_mask()));
     hal_irq_restore(s);
 }
 
 void gpio_release(uint8_t pin) { set_watch(pin, 0); }
+
+uint16_t gpio_watch_mask(void) { return gpio_watch; }
 
 static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp) __attribute__((noinline));
 

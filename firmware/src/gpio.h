@@ -13,6 +13,9 @@ uint8_t gpio_handle(const aio_request_t *rq, aio_reply_t *rp);
  * request. */
 uint8_t gpio_write(const aio_request_t *rq);
 void gpio_release(uint8_t pin);
+/* The GPIO inputs the pin-change interrupts watch (the encoders add theirs). */
+extern volatile uint16_t gpio_watch;
+uint16_t gpio_watch_mask(void);
 /* Pin-change interrupt: the levels of D2-D13 now (bit n = Dn). */
 void gpio_pin_change(uint16_t levels);
 /* Edges of GPIO inputs since the previous call (for stream samples); clears them. */

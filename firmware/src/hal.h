@@ -121,5 +121,15 @@ void hal_stream_timer_stop(void);
 /* ---- external interrupts INT0 (D2) / INT1 (D3) ---- */
 void hal_counter_enable(uint8_t index, uint8_t rising);
 void hal_counter_disable(uint8_t index);
+/* INT0/INT1 on any change for a quadrature encoder (encoder_int), or off. */
+void hal_encoder_int(uint8_t index, uint8_t on);
+
+/* ---- timestamps for interrupt handlers (encoder.c) ---- */
+/* The low 16 bits of the tick count and the tick timer's count now, in a few
+ * cycles (interrupt context: interrupts off); hal_stamp_us() turns them into
+ * hal_micros()'s microseconds later, outside the interrupt, within 3 s (the
+ * tick count's upper bits are the clock's then). */
+void hal_stamp(uint16_t *ticks, uint8_t *sub);
+uint32_t hal_stamp_us(uint16_t ticks, uint8_t sub);
 
 #endif /* HAL_H */

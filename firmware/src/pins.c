@@ -6,6 +6,7 @@
 #include "aio.h"
 #include "counter.h"
 #include "duty.h"
+#include "encoder.h"
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
@@ -52,6 +53,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_STEPPER:
         stepper_release(pin);
+        break;
+    case ROLE_ENCODER:
+        encoder_release(pin); /* and its other pin */
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

@@ -24,6 +24,7 @@
 #include "analog.h"
 #include "counter.h"
 #include "duty.h"
+#include "encoder.h"
 #include "gpio.h"
 #include "hal.h"
 #include "parser.h"
@@ -49,11 +50,11 @@ static uint8_t channels[AIO_ANALOG_CHANNELS]; /* the mask's channels, in order *
 static uint8_t channel_count;
 static uint8_t channel;              /* index in channels[] of the next conversion */
 static uint8_t pos;                  /* next analog value position in frame */
-/* A sample: CT DT mask flags seq(2) instant(4) len, up to AIO_MAX_BLOB value
- * bytes, the check (more than a reply's AIO_FRAME_MAX once stepper positions
- * can fill the blob). */
+/* A sample: CT DT mask flags seq(2) instant(4) len, up to AIO_STREAM_MAX_VALUES
+ * value bytes (START refuses more: stepper positions and encoder counts take 16
+ * each), the check. */
 #define SAMPLE_HEADER 11u
-static uint8_t frame[SAMPLE_HEADER + AIO_MAX_BLOB + AIO_CHECK_MAX];
+static uint8_t frame[SAMPLE_HEADER + AIO_STREAM_MAX_VALUES + AIO_CHECK_MAX];
 static uint8_t frame_len;
 
 void stream_init(void)
@@ -79,6 +80,8 @@ static uint8_t value_bytes(uint8_t m, uint8_t f)
         n += 8;
     if (f & AIO_STREAM_STEPPERS)
         n += 4u * AIO_STEPPER_COUNT;
+    if (f & AIO_STREAM_ENCODERS)
+        n += 4u * AIO_ENCODER_SLOTS;
     return n;
 }
 
@@ -145,6 +148,9 @@ static void sample(void)
     if (flags & AIO_STREAM_STEPPERS)
         for (r = 0; r < AIO_STEPPER_COUNT; r++)
             p = aio_put32(p, (uint32_t)stepper_position((uint8_t)r));
+    if (flags & AIO_STREAM_ENCODERS)
+        for (r = 0; r < AIO_ENCODER_SLOTS; r++)
+            p = aio_put32(p, (uint32_t)encoder_peek((uint8_t)r));
     frame_len = (uint8_t)(p - frame + 1u);
     busy = 1;
     channel = 0;
@@ -243,8 +249,9 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     f = rq->data[1];
     period = aio_be16(rq->data + 2);
     if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
-        f & ~(AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS | AIO_STREAM_STEPPERS) ||
-        (m == 0 && f == 0) || value_bytes(m, f) > AIO_MAX_BLOB ||
+        f & ~(AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS | AIO_STREAM_STEPPERS |
+              AIO_STREAM_ENCODERS) ||
+        (m == 0 && f == 0) || value_bytes(m, f) > AIO_STREAM_MAX_VALUES ||
         period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
         period % AIO_STREAM_PERIOD_STEP_US)
         return AIO_ERR_VALUE_OUT_OF_RANGE;

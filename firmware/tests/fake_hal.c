@@ -9,6 +9,7 @@
 #include "analog.h"
 #include "app.h"
 #include "counter.h"
+#include "encoder.h"
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
@@ -36,6 +37,7 @@ uint16_t fake_duty_ocr[14];
 uint16_t fake_servo_us[2];
 uint8_t fake_counter_enabled[2];
 uint8_t fake_counter_rising[2];
+uint8_t fake_encoder_int[2];
 uint8_t fake_i2c_mem[256];
 bool fake_i2c_stuck;
 uint8_t fake_i2c_resets;
@@ -84,6 +86,7 @@ void fake_reset(void)
     memset(fake_duty_how, 0, sizeof fake_duty_how);
     memset(fake_duty_ocr, 0, sizeof fake_duty_ocr);
     memset(fake_counter_enabled, 0, 2);
+    memset(fake_encoder_int, 0, 2);
     memset(fake_i2c_mem, 0xFF, sizeof fake_i2c_mem);
     fake_i2c_stuck = false;
     fake_i2c_resets = 0;
@@ -194,8 +197,12 @@ void fake_drive(uint8_t pin, uint8_t level)
     uint8_t changed = fake_pin_level[pin] != level;
     fake_pin_level[pin] = level;
     fake_driven[pin] = 1;
-    if (fake_edge_watch >> pin & 1u)
+    if (fake_edge_watch >> pin & 1u) { /* hal_avr.c's pin-change interrupt */
+        encoder_pin_change(hal_pin_levels());
         gpio_pin_change(hal_pin_levels());
+    }
+    if (changed && (pin == 2 || pin == 3) && fake_encoder_int[pin - 2])
+        encoder_int((uint8_t)(pin - 2), hal_pin_levels());
     /* INT0/INT1 on D2/D3: the configured edge only, as the external interrupts do */
     if (changed && (pin == 2 || pin == 3) && fake_counter_enabled[pin - 2] &&
         level == fake_counter_rising[pin - 2])
@@ -421,3 +428,19 @@ void hal_counter_enable(uint8_t index, uint8_t rising)
 }
 
 void hal_counter_disable(uint8_t index) { fake_counter_enabled[index] = 0; }
+
+void hal_encoder_int(uint8_t index, uint8_t on) { fake_encoder_int[index] = on; }
+
+void hal_stamp(uint16_t *ticks, uint8_t *sub)
+{
+    uint64_t us = fake_fine_now / HAL_FINE_PER_US; /* as hal_micros() */
+    *ticks = (uint16_t)(us / 100u);
+    *sub = (uint8_t)(us % 100u * 2u);
+}
+
+uint32_t hal_stamp_us(uint16_t ticks, uint8_t sub)
+{
+    uint32_t now = (uint32_t)(fake_fine_now / HAL_FINE_PER_US / 100u);
+    now -= (uint32_t)(int32_t)(int16_t)(uint16_t)((uint16_t)now - ticks);
+    return now * 100u + sub / 2u;
+}

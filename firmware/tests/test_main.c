@@ -19,6 +19,7 @@ int main(void)
     test_i2c();
     test_pwm();
     test_counter();
+    test_encoder();
     test_stream();
     test_failsafe();
     test_stepper();

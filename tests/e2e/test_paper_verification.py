@@ -137,6 +137,13 @@ async def test_edge_flags_latch_short_pulses_between_reads(
         pin = await board.digital_input(D5)
         assert await pin.read() == (False, False, False)
         await uno.drive("D5", 1)
+        # A pulse of at least 20 us of simulated time: the harness may run ahead of the
+        # wall clock and then hold its time still, so two drives sent back to back could
+        # land on one simulated instant, a pulse no pin could see (failed so under load)
+        high_from = (await uno.status())["sim_us"]
+        with anyio.fail_after(5):
+            while (await uno.status())["sim_us"] < high_from + 20:
+                pass  # each status round trip lets the harness run
         await uno.drive("D5", 0)
         state = await pin.read()
         assert (state.level, state.rose, state.fell) == (False, True, True)

@@ -162,13 +162,19 @@ async def test_six_soft_servos(virtual_uno_factory: VirtualUnoFactory) -> None:
 
 
 async def test_wheel_encoder(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's quadrature generators (their positions in quarter steps)."""
     uno = await virtual_uno_factory()
+    for pin in ("D2", "D3", "D4", "D5"):
+        await uno.drive(pin, 0)  # where the generators start (AB = 00)
     async with run_example("wheel_encoder", "--port", uno.port, "--seconds", "1.5") as run:
         await run.wait_for("ready")
-        await uno.pulses(2, 120, 500, 500)
-        await uno.pulses(3, 45, 1000, 1000)
-        await uno.wait_pulses()
-        assert "total counts: D2 120, D3 45" in await run.finish()
+        await uno.quadrature("D2", "D3", edges=4_000, rate=8_000, reverse=0.001)
+        await uno.quadrature("D4", "D5", edges=2_000, rate=4_000, direction=-1)
+        truth = {g.a: g.position for g in await uno.wait_quadrature()}
+        out = await run.finish()
+        assert truth[4] == -2_000
+        assert f"total counts: left {truth[2]}, right -2000" in out, out
+        assert "invalid" not in out
 
 
 async def test_i2c_registers(virtual_uno_factory: VirtualUnoFactory) -> None:

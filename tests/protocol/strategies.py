@@ -28,7 +28,7 @@ def _field(spec: FieldSpec) -> st.SearchStrategy[Any]:
         return st.integers(0, flag_bits).map(spec.pytype)
     if issubclass(spec.pytype, IntEnum):
         return st.sampled_from(list(spec.pytype))
-    if wire.code.islower():  # signed (stepper positions and speeds)
+    if wire.code.islower():  # signed (stepper positions and speeds, an encoder's count)
         half = 1 << (8 * wire.size - 1)
         return st.integers(-half, half - 1)
     return st.integers(0, (1 << (8 * wire.size)) - 1)

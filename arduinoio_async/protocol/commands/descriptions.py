@@ -14,7 +14,19 @@ from ...errors import set_request_words
 from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
-from . import analog, counter, failsafe, gpio, i2c, misc, pwm, stepper, stream, transaction
+from . import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pwm,
+    stepper,
+    stream,
+    transaction,
+)
 
 __all__ = ["DESCRIPTIONS", "describe"]
 
@@ -134,6 +146,19 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         f"report the count of {_pin(rq.pin)} every {rq.every} counts"
         if rq.every
         else f"stop reporting the count of {_pin(rq.pin)}"
+    ),
+    encoder.EncoderConfig: lambda rq: (
+        f"make {_pin(rq.pin_a)} (A) and {_pin(rq.pin_b)} (B) quadrature encoder "
+        f"{rq.slot} (x{int(rq.mode)})"
+    ),
+    encoder.EncoderRead: lambda rq: f"read quadrature encoder {rq.slot}",
+    encoder.EncoderPreset: lambda rq: (
+        f"set the count of quadrature encoder {rq.slot} to {rq.value}"
+    ),
+    encoder.EncoderWatch: lambda rq: (
+        f"report quadrature encoder {rq.slot} every {rq.every} counts"
+        if rq.every
+        else f"stop reporting quadrature encoder {rq.slot}"
     ),
     stream.StreamStart: _stream_start,
     stream.StreamStop: lambda rq: "stop the stream",
