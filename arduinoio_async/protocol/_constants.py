@@ -53,6 +53,9 @@ class ErrorCode(IntEnum):
     LINK_CAPACITY = 0x0E
     FAILSAFE_TRIPPED = 0x0F
     EEPROM_FAILED = 0x10
+    #: The class is known, but this firmware image's build profile leaves it out
+    #: (protocol/profiles.py); the capabilities' features word says so beforehand.
+    NOT_IN_IMAGE = 0x1A
 
 
 #: Codes that mean the board could not find the request's frame boundaries: after sending
