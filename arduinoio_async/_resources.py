@@ -43,6 +43,7 @@ from pathlib import Path
 
 from .errors import ArduinoIOError
 from .protocol import FIRMWARE_BAUDS  # the Makefile's BAUDS: built and shipped
+from .protocol.profiles import DEFAULT_PROFILE, UNO_PROFILES, image_stem
 
 __all__ = [
     "ENV_CACHE_DIR",
@@ -97,11 +98,13 @@ def source_tree() -> Path | None:
     return None
 
 
-def firmware_image(baud: int, kind: str = "hex") -> Path:
-    """``arduinoio-<baud>.<kind>`` (kind ``hex`` or ``elf``), searched as the module says."""
+def firmware_image(baud: int, kind: str = "hex", profile: str = DEFAULT_PROFILE) -> Path:
+    """The image of build ``profile`` for ``baud`` (kind ``hex`` or ``elf``), searched as
+    the module says: ``arduinoio-<baud>.<kind>`` for the standard profile,
+    ``arduinoio-<profile>-<baud>.<kind>`` for the others (protocol/profiles.py)."""
     if kind not in ("hex", "elf"):
         raise ValueError(f"firmware image kind is 'hex' or 'elf', not {kind!r}")
-    name = f"arduinoio-{baud}.{kind}"
+    name = f"{image_stem(baud, profile)}.{kind}"
     env = os.environ.get(ENV_FIRMWARE_DIR)
     if env:
         path = Path(env) / name
@@ -119,7 +122,8 @@ def firmware_image(baud: int, kind: str = "hex") -> Path:
     shipped = ", ".join(str(b) for b in FIRMWARE_BAUDS)
     raise ResourceNotFound(
         f"no firmware image {name} (looked in {', '.join(str(c.parent) for c in candidates)}); "
-        f"images ship for {shipped} baud, or build others with `make -C firmware BAUD={baud}` "
+        f"images ship for {shipped} baud in the profiles {', '.join(UNO_PROFILES)}, "
+        f"or build others with `make -C firmware BAUD={baud}` "
         f"and point ${ENV_FIRMWARE_DIR} at firmware/build"
     )
 

@@ -30,6 +30,7 @@ __all__ = [
     "DuplicateBoardError",
     "FailsafeTrippedError",
     "FieldRangeError",
+    "FirmwareFeatureError",
     "I2CError",
     "LinkCapacityError",
     "LinkError",
@@ -115,6 +116,30 @@ class StaleHandleError(UsageError):
         super().__init__(f"{handle} {reason}")
 
 
+class FirmwareFeatureError(UsageError):
+    """The board's firmware image does not hold the feature asked for.
+
+    Raised before anything is sent, from the features word of the board's capabilities
+    reply.  An Uno image is built for a job (docs: firmware profiles), so the message
+    names the images that have the feature and the command that flashes one.
+    """
+
+    def __init__(self, board: str, what: str, feature: str, profiles: tuple[str, ...]) -> None:
+        self.board = board
+        self.what = what
+        self.feature = feature
+        self.profiles = profiles
+        if profiles:
+            names = " and ".join(f"'{name}'" for name in profiles)
+            image = "image has" if len(profiles) == 1 else "images have"
+            hint = f"; the {names} {image} it: arduinoio flash --profile {profiles[0]}"
+        else:
+            hint = "; no Uno image has it"
+        super().__init__(
+            f"{board}'s firmware has no {what} (its capabilities lack the {feature} feature){hint}"
+        )
+
+
 class ValueRangeError(UsageError):
     """A value lies outside the range the board accepts."""
 
@@ -197,6 +222,7 @@ _REFUSAL_REASONS = {
     "FAILSAFE_TRIPPED": "the failsafe has tripped",
     "EEPROM_FAILED": "its EEPROM did not keep the value",
     "STEPPER_MOVING": "the stepper is moving",
+    "NOT_IN_IMAGE": "its firmware image leaves this kind of command out",
 }
 
 #: What a refusal means and what to do about it, by error code name.
@@ -211,6 +237,8 @@ _REFUSAL_HINTS = {
     "(board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
     "I2C_NACK_ADDRESS": "is a device at that address, and powered?",
     "I2C_TIMEOUT": "SDA/SCL held low? pull-ups?",
+    "NOT_IN_IMAGE": "each Uno image is built for a job (docs: firmware profiles); "
+    "flash one that has it with `arduinoio flash --profile NAME`",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
     "STEPPER_MOVING": "stop it and wait until it rests (await stepper.stop(); "
     "await stepper.wait())",

@@ -56,3 +56,7 @@ class BoardCore(Protocol):
     async def release(self, pin: DigitalPin) -> None:
         """End whatever role ``pin`` has, on the board and here."""
         ...
+
+    def require_feature(self, feature: p.Feature, what: str) -> None:
+        """Raise FirmwareFeatureError (nothing sent) unless the firmware has ``feature``."""
+        ...

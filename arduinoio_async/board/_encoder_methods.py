@@ -49,6 +49,7 @@ class EncoderMethods:
         PinRoleError (a pin held by another role, named) or ValueRangeError.
         """
         board = cast("BoardCore", self)
+        board.require_feature(p.Feature.ENCODER, "quadrature encoders")
         require_capable(a, Function.ENCODER)
         require_capable(b, Function.ENCODER)
         assert isinstance(a, DigitalPin) and isinstance(b, DigitalPin)

@@ -40,6 +40,7 @@ class StepperMethods(PinMethods):
         UsageError when the four slots are in use.
         """
         board = cast("BoardCore", self)
+        board.require_feature(p.Feature.STEPPER, "steppers")
         if step == dir:
             raise ValueError(f"a stepper needs two pins, got {step} for both")
         check_speed(max_speed, "stepper top speed")

@@ -43,6 +43,7 @@ from ..transport import (
     tick_holding_bridge,
 )
 from ._encoder_methods import EncoderMethods
+from ._features import require_feature, require_stream_features
 from ._motor_methods import MotorMethods
 from ._stepper_methods import StepperMethods
 from .boot import (
@@ -293,6 +294,12 @@ class Board(MotorMethods, StepperMethods, EncoderMethods):
             gpio.direction = None
             gpio.released = True
 
+    def require_feature(self, feature: p.Feature, what: str) -> None:
+        """Raise :class:`~arduinoio_async.errors.FirmwareFeatureError`, before anything is
+        sent, unless this board's firmware announced ``feature`` (``what`` names it in
+        words); the message names the firmware images that have it."""
+        require_feature(self, feature, what)
+
     async def restore(self) -> None:
         """Replay every pin role, the I2C speed and the watches on a board that reset."""
         await self._restore_on(self.link)
@@ -426,6 +433,7 @@ class Board(MotorMethods, StepperMethods, EncoderMethods):
         :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         """
         request = stream_request(analog, levels, edges, counters, period_ms, steppers, encoders)
+        require_stream_features(self, p.StreamFlags(request.flags))
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
         async with run_stream(self, request, buffer) as samples:
             yield samples

@@ -55,7 +55,7 @@ import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 from .. import protocol as p
 from .._event_queue import EventQueue, SequencedQueue
@@ -163,35 +163,49 @@ async def watch_changes(
     stream.raise_unreported()
 
 
-class CountReports(EventQueue[p.CounterReport]):
-    """Async iterator over a watched counter's reports (``CounterReport`` events).
+T = TypeVar("T")
 
-    A report the board could not send shows as a count that advanced by more than
-    ``every``: :attr:`missed` counts those reports; a full buffer drops the oldest
-    (:attr:`dropped`).
+
+class IntervalReports(EventQueue[T]):
+    """Reports the board pushes every ``every`` counts (a counter's, an encoder's).
+
+    A report the board could not send shows as a count that moved by more than ``every``
+    since the previous one: :attr:`missed` counts those reports; a full buffer drops the
+    oldest (:attr:`dropped`).  A replayed set-up (after a reset, too) starts the count at
+    0 again, so the next report is compared with nothing and none counts as missed.
     """
 
-    WHAT = "a counter"
-
-    def __init__(self, link: Transport, pin: int, every: int, buffer: int) -> None:
-        self.pin = pin
+    def __init__(self, link: Transport, every: int, buffer: int) -> None:
         self.every = every
         self.missed = 0
         self._last: int | None = None
         super().__init__(link, buffer)
 
     def resubscribing(self) -> None:
-        """The counter's replayed set-up (after a reset, too) starts it at 0 again: the next
-        report is compared with nothing, so none counts as missed."""
+        """The set-up is replayed: the next report is compared with nothing."""
         self._last = None
+
+    def _note_count(self, count: int, moved: Callable[[int, int], int]) -> None:
+        """Account the report of ``count``; ``moved(count, last)`` is how far it went."""
+        if self._last is not None:
+            self.missed += max(0, moved(count, self._last) // self.every - 1)
+        self._last = count
+
+
+class CountReports(IntervalReports[p.CounterReport]):
+    """Async iterator over a watched counter's reports (``CounterReport`` events); see
+    :class:`IntervalReports` for :attr:`missed` and :attr:`dropped`."""
+
+    WHAT = "a counter"
+
+    def __init__(self, link: Transport, pin: int, every: int, buffer: int) -> None:
+        self.pin = pin
+        super().__init__(link, every, buffer)
 
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.CounterReport) or event.pin != self.pin:
             return
-        if self._last is not None:
-            advanced = (event.count - self._last) & 0xFFFFFFFF
-            self.missed += max(0, advanced // self.every - 1)
-        self._last = event.count
+        self._note_count(event.count, lambda count, last: (count - last) & 0xFFFFFFFF)
         self._put(event)
 
 

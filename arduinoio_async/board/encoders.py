@@ -21,10 +21,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 from .. import protocol as p
-from .._event_queue import EventQueue
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin
-from .changes import DEFAULT_CHANGE_BUFFER
+from .changes import DEFAULT_CHANGE_BUFFER, IntervalReports
 from .handles import PinHandle
 
 if TYPE_CHECKING:
@@ -157,34 +156,23 @@ class Encoder(PinHandle):
         await self.board.release(self.pin)
 
 
-class EncoderReports(EventQueue[EncoderState]):
-    """Async iterator over a watched encoder's reports (EncoderReport events).
-
-    A report the board could not send (transmit buffer full) shows as a count that moved
-    by more than ``every`` since the previous one: :attr:`missed` counts those; a full
-    buffer here drops the oldest (:attr:`dropped`).
-    """
+class EncoderReports(IntervalReports[EncoderState]):
+    """Async iterator over a watched encoder's reports (EncoderReport events); see
+    :class:`~arduinoio_async.board.changes.IntervalReports` for :attr:`missed` and
+    :attr:`dropped` (an encoder's count moves either way: the distance is signed)."""
 
     WHAT = "an encoder"
 
     def __init__(self, link: Transport, slot: int, every: int, buffer: int) -> None:
         self.slot = slot
-        self.every = every
-        self.missed = 0
-        self._last: int | None = None
-        super().__init__(link, buffer)
-
-    def resubscribing(self) -> None:
-        """A replayed set-up starts the count at 0: the next report is compared with nothing."""
-        self._last = None
+        super().__init__(link, every, buffer)
 
     def _on_event(self, event: p.Event) -> None:
         if not isinstance(event, p.EncoderReport) or event.slot != self.slot:
             return
-        if self._last is not None:
-            moved = abs(((event.count - self._last + 2**31) & 0xFFFFFFFF) - 2**31)
-            self.missed += max(0, moved // self.every - 1)
-        self._last = event.count
+        self._note_count(
+            event.count, lambda count, last: abs(((count - last + 2**31) & 0xFFFFFFFF) - 2**31)
+        )
         self._put(_state(event))
 
 

@@ -23,6 +23,7 @@ from .. import protocol as p
 from ..board import Board
 from ..errors import ArduinoIOError
 from ..manager import candidate_ports
+from ..protocol.profiles import DEFAULT_PROFILE, UNO_PROFILES
 from ._entry import ToolMissing  # exit code 2 (cli/_entry.py)
 from ._target import board_id
 
@@ -66,6 +67,13 @@ def add_commands(sub: Any) -> None:
         choices=_resources.FIRMWARE_BAUDS,
         default=p.DEFAULT_BAUD,
         help="link speed the firmware will use (default %(default)s)",
+    )
+    flash.add_argument(
+        "--profile",
+        choices=UNO_PROFILES,
+        default=DEFAULT_PROFILE,
+        help="which image (docs: firmware profiles): standard (default: encoders, steppers) "
+        "or sensing (encoders, sonar, RC inputs, SPI, I2C blocks in the stream; no steppers)",
     )
     flash.add_argument("--hex", type=Path, default=None, help="flash this Intel hex file instead")
     flash.add_argument(
@@ -126,7 +134,7 @@ async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
     image = args.hex
     if image is None:
         try:
-            image = _resources.firmware_image(args.firmware_baud, "hex")
+            image = _resources.firmware_image(args.firmware_baud, "hex", args.profile)
         except _resources.ResourceNotFound as exc:
             raise ToolMissing(str(exc)) from exc
     elif not image.is_file():
@@ -163,7 +171,7 @@ async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
 
 def _image_baud(image: Path, args: argparse.Namespace) -> int:
     """The firmware's link speed: from a shipped image's name, else ``--firmware-baud``."""
-    match = re.fullmatch(r"arduinoio-(\d+)\.hex", image.name)
+    match = re.fullmatch(r"arduinoio-(?:[a-z]+-)?(\d+)\.hex", image.name)
     return int(match.group(1)) if match else int(args.firmware_baud)
 
 

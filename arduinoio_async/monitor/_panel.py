@@ -37,6 +37,7 @@ from ..errors import ArduinoIOError, PinRoleError, UsageError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
+from ._devices import DeviceView, EncoderView
 from ._elsewhere import RolesElsewhere
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
 from ._steppers import StepperView
@@ -140,7 +141,11 @@ class BoardPanel:
         self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         self.elsewhere = RolesElsewhere(board, on_change=self.changed)
-        self.steppers = StepperView(board, on_change=self.changed)
+        #: Devices beyond one pin (encoders, steppers): their rows and controls (:mod:`._devices`).
+        self.devices: list[DeviceView] = [
+            EncoderView(board, on_change=self.changed),
+            StepperView(board, on_change=self.changed),
+        ]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
         self.known = 0
@@ -265,7 +270,8 @@ class BoardPanel:
         try:
             async with anyio.create_task_group() as tg:
                 tg.start_soon(self.elsewhere.run)
-                tg.start_soon(self.steppers.run)
+                for device in self.devices:
+                    tg.start_soon(device.run)
                 for source in self.sources:
                     tg.start_soon(source.run, self.on_activity)
         finally:
@@ -308,8 +314,8 @@ class BoardPanel:
             "changes": self.changes.describe(),
             "i2c": None if self.i2c is None else int(self.i2c.speed),
             "analog_pins": [pin.name for pin in AnalogPin],
+            **{device.key: device.describe() for device in self.devices},
             "message": self.message,
-            "steppers": self.steppers.rows,
             "pins": [
                 {
                     "name": pin.name,
@@ -340,7 +346,8 @@ class BoardPanel:
                 self.changed()
 
     def _actions(self) -> dict[str, Callable[[Mapping[str, Any]], Any]]:
-        return {
+        devices = {op: act for device in self.devices for op, act in device.actions().items()}
+        return devices | {
             "role": self._set_role,
             "write": self._write,
             "pulse": self._pulse,

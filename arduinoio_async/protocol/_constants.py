@@ -56,6 +56,9 @@ class ErrorCode(IntEnum):
     EEPROM_FAILED = 0x10
     #: The request needs a stopped stepper (SET_POSITION while it moves).
     STEPPER_MOVING = 0x11
+    #: The class is known, but this firmware image's build profile leaves it out
+    #: (protocol/profiles.py); the capabilities' features word says so beforehand.
+    NOT_IN_IMAGE = 0x1A
 
 
 #: Codes that mean the board could not find the request's frame boundaries: after sending

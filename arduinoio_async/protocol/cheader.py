@@ -22,6 +22,7 @@ from . import _constants as c
 from ._layout import Layout
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES
 from .pins import Function, pin_mask
+from .profiles import DEFAULT_PROFILE, OPTIONAL_FEATURES, PROFILES
 
 __all__ = ["HEADER_PATH", "main", "render"]
 
@@ -141,8 +142,31 @@ def render() -> str:
     for (ct, _dt), reply in sorted({**REPLY_TYPES, **EVENT_TYPES}.items()):
         name = _command_name(reply.LAYOUT)
         out.append(f"#define AIO_REPLY_LEN_{c.ClassTag(ct).name}_{name} {reply.LAYOUT.data_size}u")
+    out += _profiles()
     out += ["", "#endif /* AIO_PROTOCOL_H */", ""]
     return "\n".join(out)
+
+
+def _profiles() -> list[str]:
+    """AIO_WITH_<FEATURE> (0 or 1) for the profile the build names (-DAIO_PROFILE_<NAME>)."""
+    out = [
+        "",
+        "/* Build profiles (arduinoio_async/protocol/profiles.py): the Makefile names one with",
+        " * -DAIO_PROFILE_<NAME>; AIO_WITH_<FEATURE> says whether that image holds an optional",
+        f" * class.  Without a profile macro the build is the {DEFAULT_PROFILE} image. */",
+    ]
+    default = next(p for p in PROFILES if p.name == DEFAULT_PROFILE)
+    ordered = [p for p in PROFILES if p is not default] + [default]
+    for index, prof in enumerate(ordered):
+        macro = f"defined(AIO_PROFILE_{prof.name.upper()})"
+        if prof is default:
+            out.append("#else")
+        else:
+            out.append(f"#{'if' if index == 0 else 'elif'} {macro}")
+        for feature in OPTIONAL_FEATURES:
+            out.append(f"#define AIO_WITH_{feature} {int(prof.has(feature))}")
+    out.append("#endif")
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:

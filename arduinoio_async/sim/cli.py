@@ -21,6 +21,7 @@ import anyio
 
 from .._port_registry import announce
 from ..protocol import DEFAULT_BAUD, FIRMWARE_BAUDS
+from ..protocol.profiles import DEFAULT_PROFILE, UNO_PROFILES
 from .harness import SimulatorError, SimulatorNotAvailable
 from .virtual_uno import start_virtual_unos
 
@@ -66,6 +67,13 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--r2r-tolerance", type=float, default=None)
     p.add_argument(
+        "--profile",
+        choices=UNO_PROFILES,
+        default=DEFAULT_PROFILE,
+        help="which firmware image to run (docs: firmware profiles): standard (encoders, "
+        "steppers) or sensing (encoders, sonar, RC inputs, SPI, I2C blocks in the stream)",
+    )
+    p.add_argument(
         "--elf",
         type=Path,
         default=None,
@@ -98,6 +106,7 @@ async def _run(args: argparse.Namespace) -> None:
         "seed": args.seed,
         "r2r_tolerance": args.r2r_tolerance,
         "elf": args.elf,
+        "profile": args.profile,
         "bootloader": args.bootloader,
     }
     ids: list[int | None] = list(args.ids) if args.ids else [None]

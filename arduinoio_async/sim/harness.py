@@ -13,6 +13,7 @@ from pathlib import Path
 
 from .. import _resources
 from ..errors import ArduinoIOError
+from ..protocol.profiles import DEFAULT_PROFILE
 
 __all__ = [
     "INSTALL_HINT",
@@ -56,11 +57,12 @@ def find_harness_binary() -> Path:
         ) from exc
 
 
-def find_firmware_elf(baud: int) -> Path:
-    """Locate the project firmware ELF for ``baud`` (``$ARDUINOIO_FIRMWARE_DIR`` overrides)."""
+def find_firmware_elf(baud: int, profile: str = DEFAULT_PROFILE) -> Path:
+    """Locate the project firmware ELF of build ``profile`` for ``baud``
+    (``$ARDUINOIO_FIRMWARE_DIR`` overrides the directory)."""
     try:
-        return _resources.firmware_image(baud, "elf")
-    except _resources.ResourceNotFound as exc:
+        return _resources.firmware_image(baud, "elf", profile)
+    except (_resources.ResourceNotFound, ValueError) as exc:
         raise SimulatorNotAvailable(str(exc)) from exc
 
 

@@ -26,6 +26,7 @@ import anyio.to_thread
 from anyio.streams.buffered import BufferedByteReceiveStream
 
 from ..protocol import DEFAULT_BAUD
+from ..protocol.profiles import DEFAULT_PROFILE
 from ._quadrature import QuadratureMethods
 from .harness import (
     INSTALL_HINT,
@@ -134,6 +135,7 @@ class VirtualUno(QuadratureMethods):
         seed: int | None = None,
         r2r_tolerance: float | None = None,
         elf: str | os.PathLike[str] | None = None,
+        profile: str = DEFAULT_PROFILE,
         bootloader: str | os.PathLike[str] | None = None,
         binary: str | os.PathLike[str] | None = None,
         control_path: str | os.PathLike[str] | None = None,
@@ -163,6 +165,9 @@ class VirtualUno(QuadratureMethods):
         self.seed = seed
         self.r2r_tolerance = r2r_tolerance
         self._elf = Path(elf) if elf is not None else None
+        #: The firmware build profile the board runs when no ``elf`` is given
+        #: (protocol/profiles.py: ``standard``, ``sensing``).
+        self.profile = profile
         self.bootloader = Path(bootloader) if bootloader is not None else None
         self._binary = Path(binary) if binary is not None else None
         self._control_request = Path(control_path) if control_path is not None else None
@@ -195,7 +200,9 @@ class VirtualUno(QuadratureMethods):
             if not self.bootloader.is_file():
                 raise SimulatorNotAvailable(f"bootloader image {self.bootloader} does not exist")
             args += ["--bootloader", str(self.bootloader)]
-        elf = self._elf or (None if self.bootloader is not None else find_firmware_elf(self.baud))
+        elf = self._elf
+        if elf is None and self.bootloader is None:
+            elf = find_firmware_elf(self.baud, self.profile)
         if elf is not None:
             if not elf.is_file():
                 raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {INSTALL_HINT}")

@@ -96,6 +96,7 @@
 #define AIO_ERR_FAILSAFE_TRIPPED 0x0Fu
 #define AIO_ERR_EEPROM_FAILED 0x10u
 #define AIO_ERR_STEPPER_MOVING 0x11u
+#define AIO_ERR_NOT_IN_IMAGE 0x1Au
 
 /* Flag bits. */
 #define AIO_GPIO_OUTPUT 0x01u
@@ -297,5 +298,31 @@
 #define AIO_REPLY_LEN_EVENT_ANALOG_CHANGE 9u
 #define AIO_REPLY_LEN_EVENT_STEPPER_DONE 10u
 #define AIO_REPLY_LEN_EVENT_ENCODER_REPORT 11u
+
+/* Build profiles (arduinoio_async/protocol/profiles.py): the Makefile names one with
+ * -DAIO_PROFILE_<NAME>; AIO_WITH_<FEATURE> says whether that image holds an optional
+ * class.  Without a profile macro the build is the standard image. */
+#if defined(AIO_PROFILE_SENSING)
+#define AIO_WITH_ENCODER 1
+#define AIO_WITH_STEPPER 0
+#define AIO_WITH_SONAR 1
+#define AIO_WITH_PULSE_IN 1
+#define AIO_WITH_SPI 1
+#define AIO_WITH_I2C_STREAM 1
+#elif defined(AIO_PROFILE_ALL)
+#define AIO_WITH_ENCODER 1
+#define AIO_WITH_STEPPER 1
+#define AIO_WITH_SONAR 1
+#define AIO_WITH_PULSE_IN 1
+#define AIO_WITH_SPI 1
+#define AIO_WITH_I2C_STREAM 1
+#else
+#define AIO_WITH_ENCODER 1
+#define AIO_WITH_STEPPER 1
+#define AIO_WITH_SONAR 0
+#define AIO_WITH_PULSE_IN 0
+#define AIO_WITH_SPI 0
+#define AIO_WITH_I2C_STREAM 0
+#endif
 
 #endif /* AIO_PROTOCOL_H */

@@ -47,8 +47,12 @@ static aio_handler_t handler(uint8_t ct)
     case AIO_CT_COUNTER: return counter_handle;
     case AIO_CT_STREAM: return stream_handle;
     case AIO_CT_FAILSAFE: return failsafe_handle;
+#if AIO_WITH_STEPPER
     case AIO_CT_STEPPER: return stepper_handle;
+#endif
+#if AIO_WITH_ENCODER
     case AIO_CT_ENCODER: return encoder_handle;
+#endif
     default: return 0;
     }
 }
@@ -86,7 +90,7 @@ __attribute__((optimize("O2"))) uint8_t dispatch(const aio_request_t *rq, uint8_
     h = handler(rq->ct);
     rp->len = 0;
     if (!h)
-        err = AIO_ERR_UNKNOWN_CLASS; /* not reached: the parser checked the tags */
+        err = AIO_ERR_NOT_IN_IMAGE; /* the parser knows the class; this image's profile leaves it out */
     else if (failsafe_tripped() && changes_output(rq))
         err = AIO_ERR_FAILSAFE_TRIPPED;
     else

@@ -37,6 +37,8 @@
 #include "parser.h"
 #include "pins.h"
 
+#if AIO_WITH_ENCODER /* the class is in this image (protocol/profiles.py) */
+
 #define SLOTS AIO_ENCODER_SLOTS
 #define NO_SLOT 0xFFu
 
@@ -359,3 +361,5 @@ uint8_t encoder_handle(const aio_request_t *rq, aio_reply_t *rp)
     rp->len = (uint8_t)(put_state(rp->data + 5, s, rq->data + 1) - rp->data);
     return 0;
 }
+
+#endif /* AIO_WITH_ENCODER */

@@ -11,6 +11,8 @@
 #include "aio.h"
 #include "hal.h"
 
+#if AIO_WITH_ENCODER
+
 #ifdef __AVR__
 #define AIO_ENC_TABLE_Q __flash /* read with lpm: no RAM */
 #else
@@ -110,5 +112,17 @@ static inline __attribute__((always_inline)) void encoder_int(uint8_t index, uin
         break;
     }
 }
+
+#else /* !AIO_WITH_ENCODER: an image without the class (protocol/profiles.py).  The hooks
+       * the other modules call do nothing, so they need no #if of their own; the
+       * dispatcher answers the class UNKNOWN_CLASS and the stream refuses its flag. */
+static inline void encoder_init(void) {}
+static inline void encoder_release(uint8_t pin) { (void)pin; }
+static inline uint16_t encoder_pcint_mask(void) { return 0; }
+static inline int32_t encoder_peek(uint8_t slot) { (void)slot; return 0; }
+static inline void encoder_poll(void) {}
+static inline void encoder_pin_change(uint16_t levels) { (void)levels; }
+static inline void encoder_int(uint8_t index, uint16_t levels) { (void)index; (void)levels; }
+#endif /* AIO_WITH_ENCODER */
 
 #endif

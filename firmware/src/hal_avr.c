@@ -71,7 +71,7 @@ static volatile uint8_t *port_of(uint8_t pin) { return pin < 8u ? &PORTD : &PORT
 static volatile uint8_t *ddr_of(uint8_t pin) { return pin < 8u ? &DDRD : &DDRB; }
 /* A byte table (pins_bit holds 16-bit masks): the GPIO WRITE path looks it up
  * once per request. */
-static const uint8_t port_bit[8] = {0x01u, 0x02u, 0x04u, 0x08u, 0x10u, 0x20u, 0x40u, 0x80u};
+static const AIO_FLASH uint8_t port_bit[8] = {0x01u, 0x02u, 0x04u, 0x08u, 0x10u, 0x20u, 0x40u, 0x80u};
 static uint8_t bit_of(uint8_t pin) { return port_bit[pin & 7u]; }
 
 void hal_pin_mode(uint8_t pin, uint8_t mode)

@@ -31,6 +31,8 @@
 #include "pins.h"
 #include "stepper_slots.h"
 
+#if AIO_WITH_STEPPER /* the class is in this image (protocol/profiles.py) */
+
 stepper_t stepper_slot[N];
 volatile uint8_t stepper_active;
 static volatile uint8_t in_tick, owed;
@@ -347,3 +349,5 @@ void stepper_poll(void)
         }
     }
 }
+
+#endif /* AIO_WITH_STEPPER */

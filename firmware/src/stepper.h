@@ -6,6 +6,8 @@
 
 #include "aio.h"
 
+#if AIO_WITH_STEPPER
+
 /* Nonzero while a stepper moves or a step pulse is pending: the tick
  * interrupt (clock.c) then calls stepper_tick(). */
 extern volatile uint8_t stepper_active;
@@ -30,5 +32,15 @@ void stepper_release(uint8_t pin);
 uint32_t stepper_speed_q(uint16_t steps_per_s);
 uint32_t stepper_accel_q(uint32_t steps_per_s2);
 int16_t stepper_speed_of(uint32_t q, int8_t dir);
+
+#else /* !AIO_WITH_STEPPER: an image without the class (protocol/profiles.py).  The hooks
+       * the other modules call do nothing; the dispatcher answers the class NOT_IN_IMAGE
+       * and the stream refuses its flag. */
+static inline void stepper_init(void) {}
+static inline void stepper_poll(void) {}
+static inline void stepper_stop_all(void) {}
+static inline int32_t stepper_position(uint8_t i) { (void)i; return 0; }
+static inline void stepper_release(uint8_t pin) { (void)pin; }
+#endif /* AIO_WITH_STEPPER */
 
 #endif

@@ -9,6 +9,8 @@
 #include "stepper.h"
 #include "stepper_slots.h"
 
+#if AIO_WITH_STEPPER /* the class is in this image (protocol/profiles.py) */
+
 
 static int32_t be32s(const uint8_t *p) { return (int32_t)((uint32_t)aio_be16(p) << 16 | aio_be16(p + 2)); }
 
@@ -239,3 +241,5 @@ uint8_t stepper_handle(const aio_request_t *rq, aio_reply_t *rp)
         return err;
     return rp->len ? 0 : aio_echo(rq, rp);
 }
+
+#endif /* AIO_WITH_STEPPER */

@@ -37,6 +37,12 @@
 
 #define HDR 11u /* 40 01 MASK FLAGS SEQ(2) T(4) LEN */
 
+/* The stream flags this image can carry: an optional class's flag only where the
+ * build profile holds the class (protocol/profiles.py); START refuses the others. */
+#define STREAM_FLAGS                                                                     \
+    (AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS |                        \
+     (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u))
+
 static volatile uint8_t running;
 static uint8_t mask, flags;
 static uint8_t adc_shift;            /* ADC clock of the chain: 16 MHz >> adc_shift */
@@ -78,10 +84,14 @@ static uint8_t value_bytes(uint8_t m, uint8_t f)
         n += 4;
     if (f & AIO_STREAM_COUNTERS)
         n += 8;
+#if AIO_WITH_STEPPER
     if (f & AIO_STREAM_STEPPERS)
         n += 4u * AIO_STEPPER_COUNT;
+#endif
+#if AIO_WITH_ENCODER
     if (f & AIO_STREAM_ENCODERS)
         n += 4u * AIO_ENCODER_SLOTS;
+#endif
     return n;
 }
 
@@ -145,12 +155,16 @@ static void sample(void)
         p = aio_put32(p, counter_peek(0));
         p = aio_put32(p, counter_peek(1));
     }
+#if AIO_WITH_STEPPER
     if (flags & AIO_STREAM_STEPPERS)
         for (r = 0; r < AIO_STEPPER_COUNT; r++)
             p = aio_put32(p, (uint32_t)stepper_position((uint8_t)r));
+#endif
+#if AIO_WITH_ENCODER
     if (flags & AIO_STREAM_ENCODERS)
         for (r = 0; r < AIO_ENCODER_SLOTS; r++)
             p = aio_put32(p, (uint32_t)encoder_peek((uint8_t)r));
+#endif
     frame_len = (uint8_t)(p - frame + 1u);
     busy = 1;
     channel = 0;
@@ -249,8 +263,7 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     f = rq->data[1];
     period = aio_be16(rq->data + 2);
     if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
-        f & ~(AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS | AIO_STREAM_STEPPERS |
-              AIO_STREAM_ENCODERS) ||
+        f & ~STREAM_FLAGS ||
         (m == 0 && f == 0) || value_bytes(m, f) > AIO_STREAM_MAX_VALUES ||
         period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
         period % AIO_STREAM_PERIOD_STEP_US)

@@ -21,7 +21,7 @@ async def test_the_page_shows_a_steppers_position_and_target() -> None:
         await stepper.move_to(400)
         with anyio.fail_after(5):
             while True:
-                rows = (await tab.receive("board"))["steppers"]
+                rows = (await tab.receive("board"))["steppers"]["rows"]
                 if rows and not rows[0]["moving"] and rows[0]["position"] == 400:
                     break
         assert rows == [

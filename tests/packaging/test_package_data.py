@@ -16,20 +16,25 @@ from pathlib import Path
 import pytest
 
 from arduinoio_async import _resources
+from arduinoio_async.protocol.profiles import UNO_PROFILES, image_stem
 
 REPO = Path(__file__).resolve().parents[2]
 REGENERATE = "run `make package-data` and commit arduinoio_async/_data"
 
 
-def test_every_shipped_baud_has_both_images() -> None:
+def test_every_shipped_baud_and_profile_has_both_images() -> None:
     shipped = sorted(path.name for path in _resources.packaged_firmware_dir().iterdir())
     expected = sorted(
-        f"arduinoio-{baud}.{kind}" for baud in _resources.FIRMWARE_BAUDS for kind in ("elf", "hex")
+        f"{image_stem(baud, profile)}.{kind}"
+        for baud in _resources.FIRMWARE_BAUDS
+        for profile in UNO_PROFILES
+        for kind in ("elf", "hex")
     )
     assert shipped == expected
     makefile = (REPO / "firmware" / "Makefile").read_text()
     bauds = " ".join(str(baud) for baud in _resources.FIRMWARE_BAUDS)
     assert f"BAUDS = {bauds}\n" in makefile
+    assert f"PROFILES ?= {' '.join(UNO_PROFILES)}\n" in makefile
 
 
 @pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc is not installed")

@@ -15,6 +15,7 @@ import zipfile
 from pathlib import Path
 
 from arduinoio_async import _resources
+from arduinoio_async.protocol.profiles import UNO_PROFILES, image_stem
 
 from .conftest import REPO
 
@@ -22,8 +23,9 @@ from .conftest import REPO
 DATA = {
     "arduinoio_async/py.typed",
     *(
-        f"arduinoio_async/_data/firmware/arduinoio-{baud}.{kind}"
+        f"arduinoio_async/_data/firmware/{image_stem(baud, profile)}.{kind}"
         for baud in _resources.FIRMWARE_BAUDS
+        for profile in UNO_PROFILES
         for kind in ("hex", "elf")
     ),
     # the virtual Uno harness, compiled on first use (setup.py maps firmware/sim here)

@@ -156,6 +156,12 @@
       i2cResult.textContent = r.ok ? `wrote ${r.data} bytes` : "";
     });
 
+    const encoders = root.querySelector("form.encoders");
+    encoders.querySelector(".encoder-add").addEventListener("click", () =>
+      control(view, "encoder",
+        { a: encoders.a.value.trim().toUpperCase(), b: encoders.b.value.trim().toUpperCase(), mode: encoders.mode.value },
+        (slot) => `encoder ${encoders.a.value}/${encoders.b.value} in slot ${slot}`));
+
     createPlot(view, snapshot.analog_pins);
     return view;
   }
@@ -205,10 +211,34 @@
     fact("failsafe").dataset.tripped = snapshot.failsafe_tripped ? "true" : "false";
     renderStream(view, snapshot.stream);
     renderChanges(view, snapshot.changes);
-    fact("steppers").textContent = (snapshot.steppers || []).map((s) =>
+    const steppers = snapshot.steppers || { supported: false, rows: [] };
+    fact("steppers").textContent = !steppers.supported ? "not in this firmware" : steppers.rows.map((s) =>
       `stepper ${s.index} (${s.pins}): ${s.position} -> ${s.target}` +
       (s.moving ? `, ${s.speed} steps/s` : ", at rest")).join("; ") || "none";
     for (const pin of snapshot.pins) renderPin(view, pin);
+    renderEncoders(view, snapshot.encoders);
+  }
+
+  // Encoders: count, velocity (counts/s from the board's edge times), invalid transitions.
+  function renderEncoders(view, encoders) {
+    const form = view.root.querySelector("form.encoders");
+    const list = form.querySelector(".encoder-rows");
+    form.dataset.supported = encoders && encoders.supported ? "true" : "false";
+    if (!encoders || !encoders.supported) {
+      list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "not in this firmware" }));
+      return;
+    }
+    list.replaceChildren(...encoders.rows.map((e) => {
+      const li = document.createElement("li");
+      li.dataset.slot = e.slot;
+      const text = document.createElement("span");
+      text.className = "encoder-reading";
+      text.textContent = `slot ${e.slot} (${e.pins}): ${e.count} · ${e.velocity} /s · ${e.invalid} invalid`;
+      const reset = Object.assign(document.createElement("button"), { type: "button", textContent: "Reset" });
+      reset.addEventListener("click", () => control(view, "encoder_reset", { slot: e.slot }, () => `encoder ${e.slot} reset`));
+      li.append(text, reset);
+      return li;
+    }));
   }
 
   function renderStream(view, stream) {

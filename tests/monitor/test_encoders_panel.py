@@ -1,0 +1,72 @@
+"""The monitor's encoder panel on the virtual Uno: set up from the page, counts from the
+board, reset; an image without encoders says so.
+
+The oracle is the harness's quadrature generator (its position in quarter steps), never
+the library's reading of its own answer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+import anyio
+import pytest
+
+from arduinoio_async.board import Board
+from arduinoio_async.sim import VirtualUno
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+from .test_server import Page, page, ws_url
+
+monitor = pytest.importorskip("arduinoio_async.monitor")
+pytestmark = pytest.mark.sim
+
+
+@asynccontextmanager
+async def monitored(uno: VirtualUno) -> AsyncIterator[Page]:
+    async with (
+        Board.open(uno.port, baudrate=uno.baud) as board,
+        monitor.serve_monitor([board], http="127.0.0.1:0", period_ms=20) as server,
+        page(ws_url(server)) as tab,
+    ):
+        yield tab
+
+
+async def rows_until(tab: Page, done: Any) -> list[dict[str, Any]]:
+    """The encoder rows of the first snapshot for which ``done(rows)`` holds."""
+    with anyio.fail_after(10):
+        while True:
+            rows: list[dict[str, Any]] = (await tab.receive("board"))["encoders"]["rows"]
+            if done(rows):
+                return rows
+
+
+async def test_an_encoder_set_up_on_the_page_shows_the_boards_count(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory()
+    for pin in ("D4", "D5"):
+        await uno.drive(pin, 0)  # held low before the encoder's pull-ups lift them
+    async with monitored(uno) as tab:
+        first = await tab.call("encoder", a="D4", b="D5", mode="x4")
+        assert first["ok"] and first["data"] == 0
+        await uno.quadrature("D4", "D5", edges=400, rate=2_000, reverse=0.05, seed=3)
+        (truth,) = await uno.wait_quadrature()
+        rows = await rows_until(tab, lambda rows: rows and rows[0]["count"] == truth.position)
+        assert rows[0]["pins"] == "D4/D5" and rows[0]["invalid"] == 0
+        again = await tab.call("encoder", a="D4", b="D6")
+        assert not again["ok"] and "D4" in again["error"]  # the pin's other user, named
+        reset = await tab.call("encoder_reset", slot=0)
+        assert reset["ok"] and reset["data"] == truth.position
+        await rows_until(tab, lambda rows: rows and rows[0]["count"] == 0)
+
+
+async def test_an_image_without_a_class_says_so(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The sensing image has no steppers: their view says so, encoders' is there."""
+    uno = await virtual_uno_factory(profile="sensing")
+    async with monitored(uno) as tab:
+        snapshot = await tab.receive("board")
+        assert snapshot["steppers"] == {"supported": False, "rows": []}
+        assert snapshot["encoders"] == {"supported": True, "rows": []}
