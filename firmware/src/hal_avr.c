@@ -70,8 +70,10 @@ void hal_eeprom_write_u16(uint16_t address, uint16_t value)
 static volatile uint8_t *port_of(uint8_t pin) { return pin < 8u ? &PORTD : &PORTB; }
 static volatile uint8_t *ddr_of(uint8_t pin) { return pin < 8u ? &DDRD : &DDRB; }
 /* A byte table (pins_bit holds 16-bit masks): the GPIO WRITE path looks it up
- * once per request. */
-static const AIO_FLASH uint8_t port_bit[8] = {0x01u, 0x02u, 0x04u, 0x08u, 0x10u, 0x20u, 0x40u, 0x80u};
+ * once per request.  In RAM on purpose (8 bytes): in flash (AIO_FLASH) the lookups
+ * became lpm sequences in the hot paths, +192 B of code, and four steppers at
+ * 10,000 steps/s beside pipelined writes fell to 7,500 (benchmarks.motors_steppers). */
+static const uint8_t port_bit[8] = {0x01u, 0x02u, 0x04u, 0x08u, 0x10u, 0x20u, 0x40u, 0x80u};
 static uint8_t bit_of(uint8_t pin) { return port_bit[pin & 7u]; }
 
 void hal_pin_mode(uint8_t pin, uint8_t mode)
