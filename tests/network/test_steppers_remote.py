@@ -8,7 +8,7 @@ import pytest
 
 from arduinoio_async import D2, D3
 from arduinoio_async import protocol as p
-from arduinoio_async.errors import BoardError
+from arduinoio_async.errors import BoardError, FirmwareFeatureError
 from arduinoio_async.network import open_remote_board
 
 from ..e2e.steps import step_log, step_times
@@ -46,3 +46,23 @@ async def test_a_second_client_cannot_release_a_remote_steppers_pin(
         with pytest.raises(BoardError, match="the pin is busy"):
             await second.release(D3)  # the server knows D3 is the first client's stepper's
         assert (await stepper.read()).position == 0  # still configured on the board
+
+
+async def test_a_served_image_without_steppers_is_refused_at_the_client(
+    serve_unos: ServeFactory,
+) -> None:
+    """The features word crosses the network: a remote client of a sensing image gets the
+    same FirmwareFeatureError as a local one, before anything is sent; a raw request sent
+    anyway comes back from the served board as NOT_IN_IMAGE, and the pins stay free."""
+    async with (
+        serve_unos([7], profile="sensing") as served,
+        open_remote_board(7, connect=[served.endpoint]) as board,
+    ):
+        assert not board.capabilities.features & p.Feature.STEPPER
+        with pytest.raises(FirmwareFeatureError, match="arduinoio flash --profile standard"):
+            await board.stepper(step=D2, dir=D3)
+        with pytest.raises(BoardError) as answered:
+            await board.request(p.StepperConfig(0, int(D2), int(D3)))
+        assert answered.value.code is p.ErrorCode.NOT_IN_IMAGE
+        await board.digital_output(D2)  # nothing took the pin
+        assert (await served.unos[7].pin("D2")).ddr == 1
