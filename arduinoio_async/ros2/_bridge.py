@@ -121,10 +121,11 @@ class BoardNode:
         self.outputs: list[_Command] = []
         self.published = 0
         self.command_errors = 0
-        #: Called as ``on_change(topic, sequence, stamp_ns)`` after each change an input
-        #: published: its attachment's sequence number and the board's time of the edge in
-        #: host nanoseconds (:class:`BoardClock`); for measurements and logging.
-        self.on_change: Callable[[str, int, int], None] | None = None
+        #: Called as ``on_change(topic, sequence, stamp_ns, decoded_ns)`` after each change
+        #: an input published: its attachment's sequence number, the board's time of the
+        #: edge in host nanoseconds (:class:`BoardClock`) and the host time its frame was
+        #: decoded (``time.time_ns()`` scale); for measurements and logging.
+        self.on_change: Callable[[str, int, int, int], None] | None = None
         self._diagnostics = self.node.publisher(DIAGNOSTICS_TOPIC, msgs.DIAGNOSTIC_ARRAY)
         #: The board's firmware-timed stream, when an input comes from it.
         self.stream: StreamedInputs | None = None
@@ -282,14 +283,28 @@ class BoardNode:
             )
             started = False
             while True:  # again after the link failed and the board came back
+                # Each change is published from the link's reader as its frame is decoded
+                # (no hop through a queue and another task: benchmarks/ros2_latency.py);
+                # those before the first reading's message wait for it, in order.
+                held: list[Any] | None = []
+
+                def on_change(change: Any) -> None:
+                    if held is not None:  # noqa: B023 (this round's list: the watch is too)
+                        held.append(change)  # noqa: B023
+                    else:
+                        self._publish_change(source.topic, publisher, change)
+
                 try:
-                    async with pin.watch() as changes:
+                    async with pin.watch(callback=on_change) as changes:
                         self._put(publisher, msgs.bool_msg(bool(await pin.read())))
+                        waiting, held = held, None
+                        for change in waiting or ():
+                            self._publish_change(source.topic, publisher, change)
                         if not started:
                             started = True
                             task_status.started()
-                        async for change in changes:
-                            self._publish_change(source.topic, publisher, change)
+                        async for _ in changes:  # nothing comes: ends with the watch
+                            pass
                 except ArduinoIOError as exc:
                     if not started:
                         raise  # at start: the bridge does not come up, with this error
@@ -331,7 +346,8 @@ class BoardNode:
         board_us = self.clock.observe(change.board_time_us, host_ns)
         self._put(publisher, msgs.bool_msg(change.level))
         if self.on_change is not None:
-            self.on_change(topic, publisher.sequence, self.clock.to_host_ns(board_us))
+            stamp_ns = self.clock.to_host_ns(board_us)
+            self.on_change(topic, publisher.sequence, stamp_ns, host_ns)
 
     async def _read_failed(self, what: str, exc: ArduinoIOError) -> None:
         """A periodic read failed: once per lost link (then wait for the board), else once
