@@ -3,8 +3,8 @@
 The harness's generator (firmware/sim/quadrature.c) turns the encoder in simulated time
 and reports its true position; the board's timestamps are simulated time too, so the
 velocity the bridge computes from them is checked against the generator's edge rate.
-The messages are read by a raw Zenoh subscriber and decoded with rosbags (no code of the
-bridge's on the receiving side); the graph as zenoh-ros2-sdk reads it names the type.
+The messages are read by zenoh-ros2-sdk in its own process and by a raw Zenoh subscriber
+decoding with rosbags (no code of the bridge's on the receiving side).
 """
 
 from __future__ import annotations
@@ -67,7 +67,9 @@ async def test_an_encoder_arrives_as_joint_state_in_radians_and_rad_per_s(
     async with (
         Board.open(uno.port, baudrate=uno.baud) as board,
         running_bridge(encoder_config(), {1: board}) as (port, _),
+        sdk_peer(port) as peer,
     ):
+        await peer.subscribe("/robot/uno/wheel", joint)
         listener = await anyio.to_thread.run_sync(
             zenoh.open, zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
         )
@@ -93,8 +95,14 @@ async def test_an_encoder_arrives_as_joint_state_in_radians_and_rad_per_s(
             undeclare(subscriber)
         finally:
             await anyio.to_thread.run_sync(listener.close)
-        async with sdk_peer(port) as peer:
-            assert (await peer.topics())["/robot/uno/wheel"] == [joint]
+        # zenoh-ros2-sdk decodes the same JointStates; its graph names the type.
+        sdk = await peer.message(
+            lambda m: (
+                m.get("topic") == "/robot/uno/wheel" and math.isclose(m["position"][0], target)
+            )
+        )
+        assert sdk["name"] == ["left_wheel"] and sdk["frame_id"] == "base"
+        assert (await peer.topics())["/robot/uno/wheel"] == [joint]
 
     assert truth == EDGES
     assert received[0].position[0] == 0.0 and received[0].velocity[0] == 0.0
