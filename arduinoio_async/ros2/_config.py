@@ -20,6 +20,7 @@ import yaml
 from ..errors import UsageError
 from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ..protocol.timers import TIMER_OF, Timer
 from ._sources import INPUTS, OUTPUTS, PIN_NEEDS
 from ._wire import fully_qualified
 
@@ -185,6 +186,7 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
         isinstance(stream_ms, bool) or not isinstance(stream_ms, int | float) or stream_ms < 0.25
     ):
         raise ConfigError(f"{where}.stream_ms: {stream_ms!r} is not a period of 0.25 ms or more")
+    _check_stream_timer(inputs, outputs, stream_ms is not None, where)
     link_ms = item.get("link_failsafe_ms")
     low, high = FAILSAFE_MIN_TIMEOUT_MS, FAILSAFE_MAX_TIMEOUT_MS
     if link_ms is not None and (
@@ -203,6 +205,31 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
         None if stream_ms is None else float(stream_ms),
         link_ms,
     )
+
+
+def _check_stream_timer(
+    inputs: tuple[InputConfig, ...], outputs: tuple[OutputConfig, ...], stream_ms: bool, where: str
+) -> None:
+    """The board's stream (encoders, or analog inputs with stream_ms) is timed by Timer0,
+    which a motor's duty PWM on D5/D6 holds: the board would refuse the stream at start."""
+    streams = any(s.kind == "encoder" or (stream_ms and s.kind in ("volts", "battery"))
+                  for s in inputs)  # fmt: skip
+    if not streams:
+        return
+    for index, output in enumerate(outputs):
+        if output.kind == "motor" and TIMER_OF.get(output.pin) is Timer.TIMER0:
+            free = [p for p in capable_pins(Function.DUTY_PWM) if isinstance(p, DigitalPin)]
+            others = ", ".join(p.name for p in free if TIMER_OF.get(p) is not Timer.TIMER0)
+            raise ConfigError(
+                f"{where}.outputs[{index}].pin: a motor on {output.pin.name} holds Timer0, "
+                f"which times the board's stream (encoders, stream_ms): use {_or(others)}"
+            )
+
+
+def _or(names: str) -> str:
+    """'D3, D9, D10' -> 'D3, D9 or D10'."""
+    head, _, last = names.rpartition(", ")
+    return f"{head} or {last}" if head else last
 
 
 def _list(item: Mapping[str, Any], key: str, where: str) -> list[Any]:

@@ -123,6 +123,15 @@ def test_the_example_configuration_loads() -> None:
          r"inputs\[0\]\.mode: 'x3' is not one of x1, x2, x4"),
         ({"inputs": [{"pin": "D2", "type": "bool", "topic": "b", "counts_per_rev": 8}]},
          r"inputs\[0\]\.counts_per_rev: only an encoder takes 'counts_per_rev'"),
+        # The stream's samples are timed by Timer0, which a motor's duty PWM on D5/D6 holds.
+        ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 8}],
+          "outputs": [{"pin": "D5", "type": "motor", "topic": "m", "direction": "D4"}]},
+         r"boards\[0\]\.outputs\[0\]\.pin: a motor on D5 holds Timer0, which times the "
+         r"board's stream \(encoders, stream_ms\): use D3, D9 or D10"),
+        ({"stream_ms": 5, "inputs": [{"pin": "A0", "type": "volts", "topic": "v"}],
+          "outputs": [{"pin": "D6", "type": "motor", "topic": "m", "direction": "D4"}]},
+         r"outputs\[0\]\.pin: a motor on D6 holds Timer0"),
     ],
 )  # fmt: skip
 def test_mistakes_are_named_with_their_place(board: dict[str, Any], message: str) -> None:
