@@ -4,9 +4,13 @@ rosbags (round trips), so a sensor's converter is checked before its board API e
 from __future__ import annotations
 
 import math
+import time
+from types import SimpleNamespace
+from typing import Any, cast
 
 import pytest
 
+from arduinoio_async.ros2 import BoardClock, parse
 from arduinoio_async.ros2 import _messages as msgs
 from arduinoio_async.ros2._sources import (
     INPUTS,
@@ -18,6 +22,7 @@ from arduinoio_async.ros2._sources import (
     pulse_payload,
     range_payload,
 )
+from arduinoio_async.ros2._stream import StreamedInputs, _Joint
 
 STAMP = msgs.Stamp(1_700_000_000_123_456_789)
 
@@ -80,3 +85,49 @@ def test_an_rc_signal_lost_is_nan_not_centre() -> None:
 def test_an_asymmetric_rc_channel_normalises_each_side_by_its_own_span() -> None:
     reading = PulseReading(1300, min_us=1100, centre_us=1400, max_us=1900)
     assert msgs.decode(msgs.FLOAT32, pulse_payload(reading)).data == pytest.approx(-1 / 3)
+
+
+def test_a_joint_publishes_on_change_and_every_period_while_it_stands() -> None:
+    """StreamedInputs with synthetic stream samples (the board's clock in board_time_us):
+    a message per changed count, none while it stands until ``period`` of board time."""
+    config = parse(
+        {
+            "boards": [
+                {
+                    "name": "uno",
+                    "id": 1,
+                    "inputs": [{"pin": "D4", "pin_b": "D5", "type": "encoder", "topic": "wheel",
+                                "counts_per_rev": 100, "period": 0.05}],
+                }
+            ]
+        }
+    )  # fmt: skip
+    source = config.boards[0].inputs[0]
+    sent: list[Any] = []
+    stream = StreamedInputs(
+        cast(Any, None),
+        [source],
+        period_ms=None,
+        clock=BoardClock(),
+        frame_id="uno",
+        publisher=lambda s: cast(Any, s.topic),
+        put=lambda publisher, payload: sent.append(msgs.decode(msgs.JOINT_STATE, payload)),
+        link_lost=cast(Any, None),
+    )
+    stream.joints.append(_Joint(source, cast(Any, source.topic), slot=1))
+    counts = [0, 0, 5, 5, 5, 5, 5, 5, 3]  # one sample every 10 ms of board time
+    for index, count in enumerate(counts):
+        sample = SimpleNamespace(
+            host_time=time.monotonic(),
+            board_time_us=1_000_000 + index * 10_000,
+            analog={},
+            encoders=(99, count, 0, 0),  # slot 1 is this joint's
+        )
+        stream.publish(sample)
+    # The first sample, the move to 5, the standing joint after 50 ms, the move back to 3.
+    assert [round(m.position[0] / (2 * math.pi / 100)) for m in sent] == [0, 5, 5, 3]
+    rad = 2 * math.pi / 100
+    assert [m.velocity[0] for m in sent] == pytest.approx(
+        [0.0, 5 * rad / 0.02, 0.0, -2 * rad / 0.01]
+    )
+    assert all(list(m.name) == ["wheel"] and m.header.frame_id == "uno" for m in sent)
