@@ -93,6 +93,7 @@ if TYPE_CHECKING:
         SoftPwm,
     )
     from .board.motors import DutyPwm, Motor
+    from .board.steppers import LimitSwitch, Stepper, StepperState
     from .board.streaming import Sample, SampleStream
     from .manager import BoardManager, ManagerEvent, ProbeResult
     from .opener import open_board
@@ -117,6 +118,9 @@ _LAZY = {
     "BoardManager": ".manager",
     "DutyPwm": ".board.motors",
     "Motor": ".board.motors",
+    "Stepper": ".board.steppers",
+    "StepperState": ".board.steppers",
+    "LimitSwitch": ".board.steppers",
     "ManagerEvent": ".manager",
     "ProbeResult": ".manager",
     "open_board": ".opener",
@@ -182,6 +186,7 @@ __all__ = [
     "I2CBus",
     "I2CError",
     "I2CSpeed",
+    "LimitSwitch",
     "LinkCapacityError",
     "LinkError",
     "LinkResyncError",
@@ -200,6 +205,8 @@ __all__ = [
     "Servo",
     "SoftPwm",
     "StaleHandleError",
+    "Stepper",
+    "StepperState",
     "TimerBusyError",
     "UsageError",
     "ValueRangeError",

@@ -221,6 +221,7 @@ _REFUSAL_REASONS = {
     "LINK_CAPACITY": "too much for the link",
     "FAILSAFE_TRIPPED": "the failsafe has tripped",
     "EEPROM_FAILED": "its EEPROM did not keep the value",
+    "STEPPER_MOVING": "the stepper is moving",
     "NOT_IN_IMAGE": "its firmware image leaves this kind of command out",
 }
 
@@ -239,6 +240,8 @@ _REFUSAL_HINTS = {
     "NOT_IN_IMAGE": "each Uno image is built for a job (docs: firmware profiles); "
     "flash one that has it with `arduinoio flash --profile NAME`",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
+    "STEPPER_MOVING": "stop it and wait until it rests (await stepper.stop(); "
+    "await stepper.wait())",
 }
 
 

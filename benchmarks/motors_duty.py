@@ -16,6 +16,9 @@ PORT and has no such glitch.  The first run, with the writes on D13, measured th
 simulator artifact on D9 (errors of hundreds of ticks), not the firmware.
 
     .venv/bin/python -m benchmarks.motors_duty --json benchmarks/results/motors.json
+
+The JSON file is merged (:func:`benchmarks._results.merge_result`): the steppers' keys
+(``motors_steppers``, ``stack_depth``) are kept.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from arduinoio_async.protocol.pins import DigitalPin, DutyPwmPin
 from arduinoio_async.protocol.timers import DUTY_FREQUENCIES, TIMER_OF, timer_setting
 from arduinoio_async.sim import VirtualUno
 
-from ._results import command_line, write_result
+from ._results import command_line, merge_result
 
 PINS: tuple[DutyPwmPin, ...] = (D5, D9, D3)
 DUTIES = (0.01, 0.37, 0.5, 0.99)
@@ -97,7 +100,7 @@ def main() -> int:
     }
     print(f"duty_error_ticks_max: {result['duty_error_ticks_max']} over {len(result['rows'])}")
     if args.json:
-        write_result(args.json, result, indent=2)
+        merge_result(args.json, lambda data: data.update(result))
     return 0
 
 

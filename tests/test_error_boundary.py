@@ -91,6 +91,7 @@ CALLS: dict[str, Callable[[Scene], Awaitable[object]]] = {
     "soft_pwm": lambda s: s.board.soft_pwm(D3, pulse_us=1500),
     "start_link": start_link,
     "status": lambda s: s.board.status(),
+    "stepper": lambda s: s.board.stepper(step=D6, dir=D7),
     "temperature": lambda s: s.board.temperature(),
     "wait_rebooted": lambda s: s.board.wait_rebooted(deadline=DEADLINE),
     "write_id": lambda s: s.board.write_id(0x0043, deadline=DEADLINE),

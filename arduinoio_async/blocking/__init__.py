@@ -69,6 +69,7 @@ from ._handles import (
     Runner,
     _Blocking,
 )
+from ._stepper import BlockingStepper
 
 _log = logging.getLogger(__name__)
 
@@ -84,6 +85,7 @@ __all__ = [
     "BlockingMotor",
     "BlockingPulseOutput",
     "BlockingSamples",
+    "BlockingStepper",
     "connect",
     "open_board",
 ]
@@ -167,6 +169,17 @@ class BlockingBoard(_Blocking):
             lambda: self.handle.motor(pwm, direction, direction2, frequency_hz=frequency_hz)
         )
         return BlockingMotor(self._runner, handle)
+
+    def stepper(
+        self, *, step: DigitalPin, dir: DigitalPin, max_speed: int = 1000, acceleration: int = 1000
+    ) -> BlockingStepper:
+        """A step/dir stepper (see ``Board.stepper``)."""
+        handle = self._runner.call(
+            lambda: self.handle.stepper(
+                step=step, dir=dir, max_speed=max_speed, acceleration=acceleration
+            )
+        )
+        return BlockingStepper(self._runner, handle)
 
     def motor_2pwm(
         self, in1: DutyPwmPin, in2: DutyPwmPin, *, frequency_hz: int | None = None

@@ -45,6 +45,7 @@ from ..transport import (
 from ._encoder_methods import EncoderMethods
 from ._features import require_feature, require_stream_features
 from ._motor_methods import MotorMethods
+from ._stepper_methods import StepperMethods
 from .boot import (
     READY_TIMEOUT,
     check_same_board,
@@ -72,7 +73,7 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(MotorMethods, EncoderMethods):
+class Board(MotorMethods, StepperMethods, EncoderMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -420,16 +421,18 @@ class Board(MotorMethods, EncoderMethods):
         counters: bool = False,
         period_ms: float = 10.0,
         buffer: int = DEFAULT_BUFFER,
+        steppers: bool = False,
         encoders: bool = False,
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
         ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
         async for s in samples: ...``.  Commands keep working meanwhile.  A period the
-        link cannot carry is refused by the board with :class:`LinkCapacityError`; see
+        link cannot carry is refused by the board with :class:`LinkCapacityError`;
+        ``steppers=True`` carries every stepper slot's position (``Sample.steppers``); see
         :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         """
-        request = stream_request(analog, levels, edges, counters, period_ms, encoders)
+        request = stream_request(analog, levels, edges, counters, period_ms, steppers, encoders)
         require_stream_features(self, p.StreamFlags(request.flags))
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
         async with run_stream(self, request, buffer) as samples:

@@ -59,6 +59,9 @@ class Sample:
     fell: int | None = None
     #: Counts of D2 and D3, if the stream includes counters.
     counters: tuple[int, int] | None = None
+    #: Positions of the stepper slots 0-3 (0 for a slot without a stepper), if the stream
+    #: includes steppers.
+    steppers: tuple[int, ...] | None = None
     #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
     #: includes encoders.
     encoders: tuple[int, ...] | None = None
@@ -91,6 +94,9 @@ class Sample:
         counters = None
         if frame.flags & p.StreamFlags.COUNTERS:
             counters = (take(4), take(4))
+        steppers = None
+        if frame.flags & p.StreamFlags.STEPPERS:
+            steppers = tuple((take(4) ^ 0x80000000) - 0x80000000 for _ in range(p.STEPPER_COUNT))
         encoders = None
         if frame.flags & p.StreamFlags.ENCODERS:
             encoders = tuple(
@@ -105,6 +111,7 @@ class Sample:
             rose,
             fell,
             counters,
+            steppers,
             encoders,
         )
 
@@ -115,6 +122,7 @@ def stream_request(
     edges: bool,
     counters: bool,
     period_ms: float,
+    steppers: bool = False,
     encoders: bool = False,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request."""
@@ -129,6 +137,8 @@ def stream_request(
         flags |= p.StreamFlags.EDGES
     if counters:
         flags |= p.StreamFlags.COUNTERS
+    if steppers:
+        flags |= p.StreamFlags.STEPPERS
     if encoders:
         flags |= p.StreamFlags.ENCODERS
     if not mask and not flags:
@@ -138,8 +148,9 @@ def stream_request(
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
-            f"at most {p.STREAM_MAX_VALUES} a sample (encoders take "
-            f"{4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, levels 2)",
+            f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
+            f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
+            "levels 2)",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0

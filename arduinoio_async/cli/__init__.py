@@ -17,7 +17,14 @@ from collections.abc import Sequence
 from rich.console import Console
 
 from ..transport import run as run_event_loop  # uvloop when installed
-from . import _board_commands, _discovery, _encoder_commands, _flash, _motor_commands
+from . import (
+    _board_commands,
+    _discovery,
+    _encoder_commands,
+    _flash,
+    _motor_commands,
+    _stepper_commands,
+)
 from ._entry import make_console, run_command
 
 __all__ = ["main", "run"]
@@ -31,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     _discovery.add_commands(sub)
     _board_commands.add_commands(sub)
     _motor_commands.add_commands(sub)
+    _stepper_commands.add_commands(sub)
     _encoder_commands.add_commands(sub)
     _flash.add_commands(sub)
     sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)

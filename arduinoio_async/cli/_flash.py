@@ -72,8 +72,8 @@ def add_commands(sub: Any) -> None:
         "--profile",
         choices=UNO_PROFILES,
         default=DEFAULT_PROFILE,
-        help="which image (docs: firmware profiles): standard (default), motion (steppers "
-        "instead of encoders) or sensing (sonar, RC inputs, SPI, I2C blocks in the stream)",
+        help="which image (docs: firmware profiles): standard (default: encoders, steppers) "
+        "or sensing (encoders, sonar, RC inputs, SPI, I2C blocks in the stream; no steppers)",
     )
     flash.add_argument("--hex", type=Path, default=None, help="flash this Intel hex file instead")
     flash.add_argument(

@@ -37,9 +37,10 @@ from ..errors import ArduinoIOError, PinRoleError, UsageError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
 from ._changes import ChangeSource
 from ._counts import CountSource
-from ._devices import DeviceView, EncoderView
+from ._devices import DeviceView, EncoderView, MotorView
 from ._elsewhere import RolesElsewhere
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
+from ._steppers import StepperView
 
 if TYPE_CHECKING:
     from ..board import Board
@@ -140,8 +141,12 @@ class BoardPanel:
         self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         self.elsewhere = RolesElsewhere(board, on_change=self.changed)
-        #: Devices beyond one pin (encoders, ...): their rows and controls (:mod:`._devices`).
-        self.devices: list[DeviceView] = [EncoderView(board, on_change=self.changed)]
+        #: Devices beyond one pin (encoders, motors, steppers): :mod:`._devices`.
+        self.devices: list[DeviceView] = [
+            EncoderView(board, on_change=self.changed),
+            MotorView(board, on_change=self.changed),
+            StepperView(board, on_change=self.changed),
+        ]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
         self.known = 0

@@ -28,7 +28,16 @@ __all__ = ["PinHolders", "role_of", "roles_of"]
 
 #: Requests that give a pin a role or take it away.
 CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
-    {p.GpioConfig, p.PwmConfig, p.CounterConfig, p.EncoderConfig, p.PinRelease, p.Transaction}
+    {
+        p.GpioConfig,
+        p.PwmConfig,
+        p.CounterConfig,
+        p.EncoderConfig,
+        p.PinRelease,
+        p.Transaction,
+        p.StepperConfig,
+        p.StepperLimit,
+    }
 )
 
 
@@ -49,9 +58,18 @@ def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
 
 
 def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
-    """Every (pin, role) ``request`` sets up.  An encoder's set-up claims both its pins and
-    its slot (key ``-1 - slot``: a set-up of a slot in use reconfigures it on the board),
-    in a role naming both pins, so only the same encoder is shared."""
+    """Every (pin, role) ``request`` sets up or releases: :func:`role_of`'s, a stepper's
+    pins (its step and direction pins, a limit switch), and an encoder's: its set-up claims
+    both its pins and its slot (key ``-1 - slot``: a set-up of a slot in use reconfigures it
+    on the board), in a role naming both pins, so only the same encoder is shared."""
+    if isinstance(request, p.StepperConfig):
+        n = request.index
+        return [
+            (request.step_pin, f"stepper {n}'s step pin"),
+            (request.dir_pin, f"stepper {n}'s direction pin"),
+        ]
+    if isinstance(request, p.StepperLimit):
+        return [(request.pin, f"stepper {request.index}'s limit switch")] if request.pin else []
     if isinstance(request, p.EncoderConfig):
         role = f"quadrature encoder D{request.pin_a}/D{request.pin_b} (slot {request.slot})"
         return [(request.pin_a, role), (request.pin_b, role), (-1 - request.slot, role)]

@@ -33,6 +33,9 @@ from ._constants import (
     SERVO_DEFAULT_MIN_US,
     SERVO_PERIOD_US,
     SOFT_PWM_STEP_US,
+    STEPPER_COUNT,
+    STEPPER_MAX_ACCEL,
+    STEPPER_MAX_SPEED,
     STREAM_FRAME_OVERHEAD,
     STREAM_LINK_SHARE_DEN,
     STREAM_LINK_SHARE_NUM,
@@ -56,12 +59,25 @@ from ._constants import (
     I2CSpeed,
     SafeKind,
     StatusFlags,
+    StepperDoneReason,
     StreamFlags,
 )
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from .commands import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pwm,
+    stepper,
+    stream,
+    transaction,
+)
 from .commands import descriptions as _descriptions  # noqa: F401 (says requests in errors)
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403
@@ -71,6 +87,7 @@ from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
+from .commands.stepper import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
 from .commands.transaction import *  # noqa: F403
 
@@ -110,6 +127,9 @@ __all__ = [
     "SERVO_DEFAULT_MIN_US",
     "SERVO_PERIOD_US",
     "SOFT_PWM_STEP_US",
+    "STEPPER_COUNT",
+    "STEPPER_MAX_ACCEL",
+    "STEPPER_MAX_SPEED",
     "STREAM_FRAME_OVERHEAD",
     "STREAM_LINK_SHARE_DEN",
     "STREAM_LINK_SHARE_NUM",
@@ -142,6 +162,7 @@ __all__ = [
     "Request",
     "SafeKind",
     "StatusFlags",
+    "StepperDoneReason",
     "StreamFlags",
     "checksum",
     "crc16",
@@ -154,6 +175,7 @@ __all__ += analog.__all__
 __all__ += i2c.__all__
 __all__ += pwm.__all__
 __all__ += counter.__all__
+__all__ += stepper.__all__
 __all__ += encoder.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__

@@ -26,6 +26,7 @@ class ClassTag(IntEnum):
     COUNTER = 0x06
     STREAM = 0x07  # extension
     FAILSAFE = 0x08  # extension
+    STEPPER = 0x09  # extension (issue 26)
     ENCODER = 0x0A  # extension: quadrature encoders
     EVENT = 0x40  # extension: frames the board sends without a request
 
@@ -53,6 +54,8 @@ class ErrorCode(IntEnum):
     LINK_CAPACITY = 0x0E
     FAILSAFE_TRIPPED = 0x0F
     EEPROM_FAILED = 0x10
+    #: The request needs a stopped stepper (SET_POSITION while it moves).
+    STEPPER_MOVING = 0x11
     #: The class is known, but this firmware image's build profile leaves it out
     #: (protocol/profiles.py); the capabilities' features word says so beforehand.
     NOT_IN_IMAGE = 0x1A
@@ -110,6 +113,8 @@ class StreamFlags(IntFlag):
     LEVELS = 0x01
     EDGES = 0x02
     COUNTERS = 0x04
+    #: The i32 position of each of the STEPPER_COUNT stepper slots (extension, issue 26).
+    STEPPERS = 0x08
     #: One i32 count per encoder slot (ENCODER_SLOTS of them, slot 0 first; a free
     #: slot reads 0).
     ENCODERS = 0x10
@@ -137,6 +142,21 @@ class SafeKind(IntEnum):
     #: A duty-cycle PWM output's duty (0-65535 of the period; 0 = stopped: a motor's safe
     #: state).
     DUTY = 3
+
+
+class StepperDoneReason(IntEnum):
+    """Why a stepper stopped (the StepperDone event, extension, issue 26)."""
+
+    #: A move reached its target exactly.
+    TARGET = 0
+    #: STOP (decelerated or immediate) or a RUN at speed 0 came to rest.
+    STOPPED = 1
+    #: The limit switch on the negative side closed while it moved that way.
+    LIMIT_MIN = 2
+    #: The limit switch on the positive side closed while it moved that way.
+    LIMIT_MAX = 3
+    #: The failsafe tripped.
+    FAILSAFE = 4
 
 
 class StatusFlags(IntFlag):
@@ -178,6 +198,8 @@ class Feature(IntFlag):
     #: SET_FRAMING: frames checked by CRC-16/CCITT-FALSE instead of the XOR byte
     #: (extension, docs/protocol.md 7.7).
     CRC16 = 0x10000
+    #: STEPPER class: step/dir steppers with limit switches (extension, issue 26).
+    STEPPER = 0x20000
     #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
     #: in the stream and EncoderReport events (extension).
     ENCODER = 0x40000
@@ -234,6 +256,12 @@ DUTY_FULL: Final = 0xFFFF
 #: timer compare match on the board (protocol extension: the paper's firmware had 100).
 SOFT_PWM_STEP_US: Final = 1
 SERVO_PERIOD_US: Final = 20000
+
+#: Steppers (extension, issue 26): slots, the fastest step rate of one stepper (the board
+#: steps from its 100 us tick, at most one step a tick) and the largest acceleration.
+STEPPER_COUNT: Final = 4
+STEPPER_MAX_SPEED: Final = 10000
+STEPPER_MAX_ACCEL: Final = 1_000_000
 
 ANALOG_MAX: Final = 1023
 ANALOG_CHANNELS: Final = 6

@@ -29,6 +29,7 @@ from typing import Any, ClassVar, TypeVar
 from ..errors import FieldRangeError
 
 __all__ = [
+    "I16",
     "I32",
     "U8",
     "U16",
@@ -45,7 +46,7 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class Scalar:
-    """A big-endian integer of ``size`` bytes (unsigned unless its code is lower case)."""
+    """A big-endian integer of ``size`` bytes (unsigned unless its struct code is lower case)."""
 
     code: str
     size: int
@@ -55,6 +56,8 @@ class Scalar:
 U8 = Scalar("B", 1, "u8")
 U16 = Scalar("H", 2, "u16 (big-endian)")
 U32 = Scalar("I", 4, "u32 (big-endian)")
+#: Signed (two's complement): stepper positions and speeds.
+I16 = Scalar("h", 2, "i16 (big-endian)")
 #: Signed (two's complement): an encoder's count goes both ways.
 I32 = Scalar("i", 4, "i32 (big-endian)")
 

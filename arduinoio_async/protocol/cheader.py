@@ -84,6 +84,7 @@ def render() -> str:
     out += _enum("AIO_SAFE", c.SafeKind)
     out += _enum("AIO_ENCODER", c.EncoderMode)
     out += _enum("AIO_STATUS", c.StatusFlags)
+    out += _enum("AIO_STEPPER_DONE", c.StepperDoneReason)
     out += [f"#define AIO_FEATURE_{m.name} 0x{int(m):04X}u" for m in c.Feature if m.name]
     out += ["", "/* Limits. */"]
     for name in (
@@ -112,6 +113,9 @@ def render() -> str:
         "EEPROM_ID_ADDRESS",
         "FILLER",
         "LOW_LATENCY_PAD",
+        "STEPPER_COUNT",
+        "STEPPER_MAX_SPEED",
+        "STEPPER_MAX_ACCEL",
     ):
         out.append(f"#define AIO_{name} {getattr(c, name)}u")
     out += ["", "/* Table III: bit n set when pin (or analog channel) n can do it. */"]

@@ -4,8 +4,8 @@ Why profiles at all: the Uno's ATmega328P has 32 KiB of flash (30 KiB once optib
 its section) and 2 KiB of RAM, of which the stack must keep at least 400 B at its deepest.
 The classes this project grew (steppers, quadrature encoders, sonar, RC pulse inputs, SPI,
 I2C blocks in the stream) do not all fit one Uno image under that budget, so an Uno image
-is built for a job: ``standard`` (every general feature), ``motion`` (the actuator board:
-steppers instead of encoders) and ``sensing`` (the sensor board: the new sensors).  The
+is built for a job: ``standard`` (every general feature, quadrature encoders and steppers)
+and ``sensing`` (the sensor board: encoders and the new sensors, without steppers).  The
 core (GPIO, analog, I2C, servo, soft and duty PWM, counters, the stream, the failsafe,
 transactions, CRC framing) is in every image.
 
@@ -60,17 +60,13 @@ class Profile:
 PROFILES: Final = (
     Profile(
         "standard",
-        "every general feature with quadrature encoders (the default image)",
-        frozenset({"ENCODER"}),
-    ),
-    Profile(
-        "motion",
-        "the actuator board: steppers with limit switches instead of encoders",
-        frozenset({"STEPPER"}),
+        "every general feature with quadrature encoders and steppers (the default image)",
+        frozenset({"ENCODER", "STEPPER"}),
     ),
     Profile(
         "sensing",
-        "the sensor board: encoders, sonar, RC pulse inputs, SPI and I2C blocks in the stream",
+        "the sensor board: encoders, sonar, RC pulse inputs, SPI and I2C blocks in the "
+        "stream (no steppers)",
         frozenset({"ENCODER", "SONAR", "PULSE_IN", "SPI", "I2C_STREAM"}),
     ),
     Profile(
@@ -107,7 +103,7 @@ def profiles_with(feature: str) -> tuple[str, ...]:
 
 def image_stem(baud: int, profile_name: str = DEFAULT_PROFILE) -> str:
     """The image file's name without extension: ``arduinoio-1000000`` for the default
-    profile (the name every earlier release used), ``arduinoio-motion-1000000`` otherwise."""
+    profile (the name every earlier release used), ``arduinoio-sensing-1000000`` otherwise."""
     profile(profile_name)  # refuse unknown names here, with the choices
     if profile_name == DEFAULT_PROFILE:
         return f"arduinoio-{baud}"

@@ -70,8 +70,8 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
         "--profile",
         choices=UNO_PROFILES,
         default=DEFAULT_PROFILE,
-        help="which firmware image to run (docs: firmware profiles): standard, motion "
-        "(steppers) or sensing (sonar, RC inputs, SPI, I2C blocks in the stream)",
+        help="which firmware image to run (docs: firmware profiles): standard (encoders, "
+        "steppers) or sensing (encoders, sonar, RC inputs, SPI, I2C blocks in the stream)",
     )
     p.add_argument(
         "--elf",

@@ -166,7 +166,7 @@ class VirtualUno(QuadratureMethods):
         self.r2r_tolerance = r2r_tolerance
         self._elf = Path(elf) if elf is not None else None
         #: The firmware build profile the board runs when no ``elf`` is given
-        #: (protocol/profiles.py: ``standard``, ``motion``, ``sensing``).
+        #: (protocol/profiles.py: ``standard``, ``sensing``).
         self.profile = profile
         self.bootloader = Path(bootloader) if bootloader is not None else None
         self._binary = Path(binary) if binary is not None else None

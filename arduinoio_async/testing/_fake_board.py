@@ -23,6 +23,7 @@ from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
+from ._fake_stepper import FakeSteppers
 from ._fake_wire import FakeWire
 from ._faults import Faults
 from ._peripherals import (
@@ -93,7 +94,8 @@ class FakeBoard(EncoderModels, FakeWire):
         #: The framing of the next reply, when not the one in force (RESET's reply).
         self._reply_framing: p.Framing | None = None
         self._booted = 0.0
-        self.stream = StreamModel()
+        self.steppers = FakeSteppers(self)
+        self.stream = StreamModel(positions=self.steppers.positions)
         self.failsafe = FailsafeModel()
         self.change_sequence = 0
         self.analog_sequence = 0
@@ -141,6 +143,7 @@ class FakeBoard(EncoderModels, FakeWire):
             p.FailsafeSafeState: self._failsafe_safe_state,
             p.FailsafeDisarm: self._failsafe_disarm,
             p.Transaction: self._transaction,
+            **self.steppers.handlers(),
         }
         if not self.crc_capable:
             del self._handlers[p.SetFraming]
@@ -152,6 +155,7 @@ class FakeBoard(EncoderModels, FakeWire):
         self._task_group.start_soon(self._serve, self._board_stream)
         self._task_group.start_soon(self._watchdog)
         self._task_group.start_soon(self._send_changes)
+        self._task_group.start_soon(self.steppers.run)
         return self
 
     async def __aexit__(self, *exc_info: object) -> None:
@@ -271,7 +275,7 @@ class FakeBoard(EncoderModels, FakeWire):
         handler = self._handlers.get(type(request))
         if handler is None:
             return p.ErrorReply(layout.class_tag, layout.descriptor, E.UNKNOWN_DESCRIPTOR)
-        if self.failsafe.tripped and _changes_output(request):
+        if self.failsafe.refuses(request):
             return self._error(request, E.FAILSAFE_TRIPPED)
         return handler(request)
 
@@ -287,6 +291,7 @@ class FakeBoard(EncoderModels, FakeWire):
         """A fresh boot (watchdog, power loss, the reset button): RAM state is gone, the
         subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
         self._pins = {n: PinModel() for n in range(2, 14)}
+        self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
         self.change_sequence = 0
@@ -453,6 +458,7 @@ class FakeBoard(EncoderModels, FakeWire):
                 self.pulses[pin] = value
             elif kind is p.SafeKind.DUTY and role == "duty":
                 self.duties[pin] = (self.duties[pin][0], value)
+        self.steppers.stop_all()
         self.failsafe.armed, self.failsafe.tripped = False, True
         with contextlib.suppress(anyio.BrokenResourceError, anyio.ClosedResourceError):
             await self._send(self._board_stream, p.FailsafeTripped().encode())
@@ -487,11 +493,3 @@ def _split_items(items: bytes) -> list[bytes] | None:
         out.append(items[pos : pos + size])
         pos += size
     return out if out and need <= p.MAX_BLOB else None
-
-
-def _changes_output(request: p.Frame) -> bool:
-    """Requests the firmware refuses while its failsafe is tripped (``dispatch.c``)."""
-    tag = request.LAYOUT.class_tag
-    if tag == p.ClassTag.GPIO:
-        return not isinstance(request, p.GpioRead | p.GpioWatch)
-    return tag == p.ClassTag.PWM

@@ -11,6 +11,7 @@ import anyio
 from anyio.streams.memory import MemoryObjectSendStream
 
 from .. import protocol as p
+from ._fake_stepper import FakeSteppers
 from ._peripherals import DIGITAL, PeripheralModels, PinModel, has
 from ._timed import StreamModel
 
@@ -25,6 +26,7 @@ class GpioModels(PeripheralModels):
     levels: list[bool]
     analog: list[int]
     stream: StreamModel
+    steppers: FakeSteppers
     change_sequence: int
     changes_dropped: int
     _driven: set[int]
@@ -86,6 +88,8 @@ class GpioModels(PeripheralModels):
     def _release(self, request: p.PinRelease) -> p.Frame:
         if not has(DIGITAL, request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
+        if self._pins[request.pin].role == "stepper":
+            self.steppers.release(request.pin)
         self._pins[request.pin] = PinModel()
         self.pulses.pop(request.pin, None)
         self.duties.pop(request.pin, None)

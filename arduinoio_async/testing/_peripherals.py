@@ -46,7 +46,7 @@ def has(mask: int, pin: int) -> bool:
 class PinModel:
     """One digital pin as the firmware keeps it (a reset makes a fresh one)."""
 
-    role: str = "free"  # free | input | output | pwm | counter | duty
+    role: str = "free"  # free | input | output | pwm | counter | duty | stepper
     pull_up: bool = False
     rose: bool = False
     fell: bool = False

@@ -35,6 +35,8 @@ class StreamModel:
     fell: int = 0
     #: Cancels the sampling task of the running stream.
     scope: anyio.CancelScope | None = None
+    #: The stepper slots' positions (StreamFlags.STEPPERS), set by the board.
+    positions: Callable[[], Sequence[int]] = lambda: [0] * p.STEPPER_COUNT
 
     def check(self, request: p.StreamStart, baud: int, i2c_on: bool) -> p.ErrorCode | None:
         """The firmware's checks of a START request, in its order."""
@@ -43,6 +45,7 @@ class StreamModel:
             p.StreamFlags.LEVELS
             | p.StreamFlags.EDGES
             | p.StreamFlags.COUNTERS
+            | p.StreamFlags.STEPPERS
             | p.StreamFlags.ENCODERS
         )
         if (
@@ -82,6 +85,8 @@ class StreamModel:
             self.rose = self.fell = 0
         if request.flags & p.StreamFlags.COUNTERS:
             payload += struct.pack(">II", counters[2], counters[3])
+        if request.flags & p.StreamFlags.STEPPERS:
+            payload += struct.pack(f">{p.STEPPER_COUNT}i", *self.positions())
         if request.flags & p.StreamFlags.ENCODERS:
             counts = tuple(encoders) + (0,) * (p.ENCODER_SLOTS - len(encoders))
             payload += struct.pack(f">{p.ENCODER_SLOTS}i", *counts)
@@ -108,6 +113,17 @@ class FailsafeModel:
     safe: dict[int, tuple[p.SafeKind, int]] = field(default_factory=dict)
     #: Set when arming changes the deadline, so the watchdog task re-reads it.
     changed: anyio.Event = field(default_factory=anyio.Event)
+
+    def refuses(self, request: p.Frame) -> bool:
+        """The firmware refuses requests that change an output while tripped (``dispatch.c``)."""
+        if not self.tripped:
+            return False
+        tag = request.LAYOUT.class_tag
+        if tag == p.ClassTag.GPIO:
+            return not isinstance(request, p.GpioRead | p.GpioWatch)
+        if tag == p.ClassTag.STEPPER:
+            return isinstance(request, p.StepperMove | p.StepperRun)
+        return tag == p.ClassTag.PWM
 
     def feed(self) -> None:
         if self.armed:

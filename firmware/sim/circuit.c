@@ -19,6 +19,7 @@
 
 #include "circuit.h"
 #include "pacing.h"
+#include "steps.h"
 
 #include "i2c_eeprom.h"
 
@@ -277,6 +278,7 @@ static void record_level(int p, int level)
 		c->rise_t = t;
 		c->have_rise = 1;
 		c->rises++;
+		steps_rise(p, t);
 	} else {
 		if (c->have_rise) {
 			c->high_us[c->hi_next] = (double)(t - c->rise_t) / CYC_PER_US;

@@ -28,6 +28,8 @@
 #include "json.h"
 #include "pacing.h"
 #include "pty.h"
+#include "stack.h"
+#include "steps.h"
 #include "quadrature.h"
 #include "wire.h"
 
@@ -73,6 +75,7 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 	wire_status(r);
 	bridge_status(r);
 	circuit_status(r);
+	steps_status(r);
 	quadrature_status(r);
 	sb_add(r, "}");
 }
@@ -290,6 +293,11 @@ static const struct command commands[] = {
 	{"quadrature_status", 1, cmd_quadrature_status},
 	{"quadrature_stop", 0, cmd_quadrature_stop},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
+	{"step_log", 0, cmd_step_log},
+	{"steps", 1, cmd_steps},
+	{"limit_at", 0, cmd_limit_at},
+	{"stack_paint", 1, cmd_stack_paint},
+	{"stack_low", 1, cmd_stack_low},
 };
 
 static const struct command *find_command(const char *name)

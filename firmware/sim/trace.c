@@ -40,10 +40,20 @@ void trace_open(void)
 
 void trace_event_(char kind, uint64_t arg)
 {
+	trace_event_at_(kind, arg, now_ns());
+}
+
+uint64_t trace_clock(void)
+{
+	return now_ns();
+}
+
+void trace_event_at_(char kind, uint64_t arg, uint64_t ns)
+{
 	if (nrecords >= TRACE_MAX)
 		return;
 	struct trace_record *r = &records[nrecords++];
-	r->ns = now_ns();
+	r->ns = ns;
 	r->cycle = avr ? avr->cycle : 0;
 	r->lead = (int64_t)r->cycle - (int64_t)wall_cycles(r->ns);
 	r->arg = arg;

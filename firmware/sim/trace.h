@@ -9,6 +9,11 @@ extern int trace_on;
 
 void trace_open(void);
 void trace_event_(char kind, uint64_t arg);
+/* For a write: the time taken just before it, so a host that reads the bytes can never
+ * have seen them before the record's time (the record after the write could be later
+ * than the host's own timestamp of the read). */
+uint64_t trace_clock(void);
+void trace_event_at_(char kind, uint64_t arg, uint64_t ns);
 void trace_close(void);
 
 /* One record: wall time (CLOCK_MONOTONIC, comparable with the host's

@@ -188,9 +188,11 @@ static void write_out(unsigned n)
 	uint8_t buf[RING];
 	for (unsigned i = 0; i < n; i++)
 		buf[i] = to_pty.d[(to_pty.tail + i) & (RING - 1)].b;
+	uint64_t before = trace_on ? trace_clock() : 0;
 	ssize_t w = write(pty_fd(), buf, n);
 	pty_writes++;
-	trace_event('W', (uint64_t)w);
+	if (trace_on)
+		trace_event_at_('W', (uint64_t)w, before);
 	out_blocked = w < (ssize_t)n; /* pty full (host not reading): retry on POLLOUT */
 	if (w > 0) {
 		bytes_to_host += (unsigned long)w;

@@ -8,6 +8,15 @@
 
 #include "aio_protocol.h"
 
+/* Constant tables the AVR build keeps in flash only (read with lpm, one cycle more than
+ * from RAM): a `static const` table is otherwise copied into RAM at boot, and RAM is what
+ * the stack needs (at least 400 B left at its deepest: docs/firmware-profiles.md). */
+#ifdef __AVR__
+#define AIO_FLASH __flash
+#else
+#define AIO_FLASH
+#endif
+
 /* Largest request data: I2C WRITE, 3 fixed bytes + 32. */
 #define AIO_REQUEST_DATA_MAX (3u + AIO_MAX_BLOB)
 /* Largest reply data: I2C READ, 3 fixed bytes + 32. */

@@ -31,6 +31,7 @@
 #include "parser.h"
 #include "pins.h"
 #include "pwm.h"
+#include "stepper.h"
 #include "stream.h"
 
 /* A batch answers at most BATCH_MAX requests and claims at most CLAIM_MAX
@@ -69,6 +70,7 @@ void app_init(void)
     i2c_init();
     pwm_init();
     duty_init();
+    stepper_init();
     counter_init();
     encoder_init();
     stream_init();
@@ -143,6 +145,7 @@ uint8_t app_step(void)
     hal_rx_view_t rx;
 
     failsafe_poll();
+    stepper_poll();
     encoder_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))

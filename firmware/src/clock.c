@@ -16,6 +16,7 @@
 #include "clock.h"
 #include "hal.h"
 #include "failsafe.h"
+#include "stepper.h"
 
 #define TICK_COUNTS 200u /* timer counts per tick */
 
@@ -64,6 +65,38 @@ __asm__(".section .text.clock_slow_call,\"ax\",@progbits\n"
         "\tpop r0\n"
         "\tret\n"
         "\t.text\n");
+
+#if AIO_WITH_STEPPER
+/* The same for the steppers (stepper.c), called first on every tick while
+ * one moves, so their step pulses keep to the tick. */
+__asm__(".section .text.clock_step_call,\"ax\",@progbits\n"
+        ".global clock_step_call\n"
+        "clock_step_call:\n"
+        "\tpush r0\n\tpush r18\n\tpush r19\n\tpush r20\n\tpush r21\n\tpush r22\n"
+        "\tpush r23\n\tpush r25\n\tpush r26\n\tpush r27\n\tpush r30\n"
+        "\tpush r31\n"
+        "\tcall stepper_tick\n"
+        "\tpop r31\n\tpop r30\n\tpop r27\n\tpop r26\n\tpop r25\n"
+        "\tpop r23\n\tpop r22\n\tpop r21\n\tpop r20\n\tpop r19\n\tpop r18\n"
+        "\tpop r0\n"
+        "\tret\n"
+        "\t.text\n");
+
+/* The tick's stepper check: call them while one moves. */
+#define TICK_STEPPERS                                                                    \
+    "lds r24, %[stepping]\n\t"                                                           \
+    "tst r24\n\t"                                                                        \
+    "breq 8f\n\t"                                                                        \
+    "push r1\n\t"                                                                        \
+    "clr r1\n\t"                                                                         \
+    "call clock_step_call\n\t"                                                           \
+    "pop r1\n\t"                                                                         \
+    "8:\n\t"
+#define STEPPING_OPERAND , [stepping] "i"(&stepper_active)
+#else /* an image without steppers (protocol/profiles.py): nothing to call */
+#define TICK_STEPPERS ""
+#define STEPPING_OPERAND
+#endif
 
 /* Hand-written, ~40 cycles a tick (the compiled one took ~75): interrupts
  * are enabled from the first instruction, so a software PWM edge never waits
@@ -119,6 +152,7 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "ldi r24, 0\n\t"
         "2:\n\t"
         "sts %[div], r24\n\t"
+        TICK_STEPPERS
         "lds r24, %[armed]\n\t"
         "tst r24\n\t"
         "brne 5f\n\t"
@@ -137,7 +171,8 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "reti\n\t"
         :
         : [t0] "i"(&clock_ticks), [div] "i"(&ms_div), [ms] "i"(&millis), [armed] "i"(&failsafe_is_armed),
-          [watching] "i"(&analog_watching));
+          [watching] "i"(&analog_watching)
+          STEPPING_OPERAND);
 }
 
 uint16_t hal_ticks(void)

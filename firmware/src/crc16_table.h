@@ -10,11 +10,7 @@
 
 #include <stdint.h>
 
-#ifdef __AVR__
-#define AIO_FLASH __flash
-#else
-#define AIO_FLASH
-#endif
+#include "aio.h" /* AIO_FLASH */
 
 static const AIO_FLASH uint16_t crc16_table[256] = {
     0x0000u, 0x1021u, 0x2042u, 0x3063u, 0x4084u, 0x50A5u, 0x60C6u, 0x70E7u,

@@ -12,6 +12,7 @@
 #include "misc.h"
 #include "parser.h"
 #include "pwm.h"
+#include "stepper.h"
 #include "stream.h"
 
 uint8_t dispatch_error(uint8_t ct, uint8_t dt, uint8_t code, uint8_t *frame)
@@ -27,6 +28,8 @@ static uint8_t changes_output(const aio_request_t *rq)
 {
     if (rq->ct == AIO_CT_GPIO)
         return rq->dt != AIO_DT_GPIO_READ && rq->dt != AIO_DT_GPIO_WATCH;
+    if (rq->ct == AIO_CT_STEPPER)
+        return rq->dt == AIO_DT_STEPPER_MOVE || rq->dt == AIO_DT_STEPPER_RUN;
     return rq->ct == AIO_CT_PWM;
 }
 
@@ -44,6 +47,9 @@ static aio_handler_t handler(uint8_t ct)
     case AIO_CT_COUNTER: return counter_handle;
     case AIO_CT_STREAM: return stream_handle;
     case AIO_CT_FAILSAFE: return failsafe_handle;
+#if AIO_WITH_STEPPER
+    case AIO_CT_STEPPER: return stepper_handle;
+#endif
 #if AIO_WITH_ENCODER
     case AIO_CT_ENCODER: return encoder_handle;
 #endif

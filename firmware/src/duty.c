@@ -29,16 +29,16 @@ typedef struct {
 } duty_freq_t;
 
 /* The Python mirror is arduinoio_async/protocol/timers.py. */
-static const duty_freq_t freq0[] = {
+static const AIO_FLASH duty_freq_t freq0[] = {
     {62500u, 1u, 255u}, {7812u, 2u, 255u}, {976u, 3u, 255u}, {244u, 4u, 255u}, {61u, 5u, 255u},
 };
-static const duty_freq_t freq1[] = {
+static const AIO_FLASH duty_freq_t freq1[] = {
     {31250u, 1u, 511u}, {20000u, 1u, 799u},   {3906u, 1u, 4095u},
     {976u, 1u, 16383u}, {490u, 1u, 32652u},  {244u, 1u, 65535u},
 };
-static const duty_freq_t freq2[] = {{10000u, 2u, 199u}};
+static const AIO_FLASH duty_freq_t freq2[] = {{10000u, 2u, 199u}};
 
-static const duty_freq_t *timer_freq[DUTY_TIMERS]; /* in use, 0 = no duty pin */
+static const AIO_FLASH duty_freq_t *timer_freq[DUTY_TIMERS]; /* in use, 0 = no duty pin */
 
 void duty_init(void)
 {
@@ -72,9 +72,9 @@ static uint8_t sibling(uint8_t pin)
 
 uint8_t duty_timer_busy(uint8_t timer) { return timer_freq[timer] != 0; }
 
-static const duty_freq_t *find(uint8_t timer, uint16_t hz)
+static const AIO_FLASH duty_freq_t *find(uint8_t timer, uint16_t hz)
 {
-    const duty_freq_t *t = timer == DUTY_TIMER0 ? freq0 : timer == DUTY_TIMER1 ? freq1 : freq2;
+    const AIO_FLASH duty_freq_t *t = timer == DUTY_TIMER0 ? freq0 : timer == DUTY_TIMER1 ? freq1 : freq2;
     uint8_t n = timer == DUTY_TIMER0 ? sizeof freq0 / sizeof *freq0
                 : timer == DUTY_TIMER1 ? sizeof freq1 / sizeof *freq1
                                        : sizeof freq2 / sizeof *freq2;
@@ -85,7 +85,7 @@ static const duty_freq_t *find(uint8_t timer, uint16_t hz)
 }
 
 /* Another user holds the pin's timer: PIN_BUSY. */
-static uint8_t timer_taken(uint8_t pin, const duty_freq_t *f)
+static uint8_t timer_taken(uint8_t pin, const AIO_FLASH duty_freq_t *f)
 {
     uint8_t timer = timer_of(pin), other = sibling(pin), p;
     if (timer_freq[timer] && timer_freq[timer] != f && pins_role[other] == ROLE_DUTY)
@@ -110,7 +110,7 @@ static uint16_t high_counts(uint16_t duty, uint16_t top)
 
 void duty_set(uint8_t pin, uint16_t duty)
 {
-    const duty_freq_t *f = timer_freq[timer_of(pin)];
+    const AIO_FLASH duty_freq_t *f = timer_freq[timer_of(pin)];
     uint16_t h;
     if (!f)
         return;
@@ -137,7 +137,7 @@ uint8_t duty_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
     uint8_t pin = rq->data[0], timer;
     uint16_t hz, duty;
-    const duty_freq_t *f;
+    const AIO_FLASH duty_freq_t *f;
     uint8_t err;
 
     if (rq->dt != AIO_DT_PWM_DUTY_CONFIG && rq->dt != AIO_DT_PWM_DUTY_SET)

@@ -8,6 +8,7 @@
 #include "pins.h"
 #include "duty.h"
 #include "pwm.h"
+#include "stepper.h"
 
 typedef struct {
     uint8_t kind;
@@ -67,6 +68,7 @@ void failsafe_tick(void)
         else if (safe[pin].kind == AIO_SAFE_DUTY && pins_role[pin] == ROLE_DUTY)
             duty_set(pin, safe[pin].value);
     }
+    stepper_stop_all();
     failsafe_is_armed = 0;
     tripped = 1;
     tripped_event[0] = AIO_CT_EVENT;

@@ -65,6 +65,10 @@ void hal_pin_write(uint8_t pin, uint8_t level);
 uint16_t hal_pin_levels(void);       /* bit n = level of Dn */
 void hal_edge_watch(uint16_t mask);  /* pin-change interrupts on these pins (bit n = Dn) */
 
+/* Step pulses (stepper.c): every pin of `mask` (bit n = Dn, outputs) to
+ * `level` at once, atomic against the interrupts that write the ports. */
+void hal_step_pins(uint16_t mask, uint8_t level);
+
 /* ---- ADC ---- */
 #define HAL_ADC_TEMPERATURE 8u
 uint16_t hal_adc_convert(uint8_t channel); /* blocking; channel 8 uses the 1.1 V reference */

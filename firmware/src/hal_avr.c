@@ -1,7 +1,8 @@
 /*
  * hal_avr.c - hal.h for the ATmega328P on an Arduino Uno: pins, ADC, EEPROM,
- * TWI, Timer0 alarms, external and pin-change interrupts, sleep, reset.
- * (UART: uart.c; time: clock.c; servo and duty-cycle PWM timers: hal_avr_pwm.c.)
+ * Timer0 alarms, external and pin-change interrupts, sleep, reset.
+ * (UART: uart.c; time: clock.c; TWI: hal_avr_twi.c; servo and duty-cycle PWM
+ * timers: hal_avr_pwm.c.)
  *
  * Pin map: D2-D7 = PD2-PD7, D8-D13 = PB0-PB5, A0-A5 = PC0-PC5.
  */
@@ -21,8 +22,6 @@
 #include "pins.h"
 #include "pwm.h"
 #include "stream.h"
-
-#define TWI_STEP_TICKS 20u /* 2 ms */
 
 uint8_t hal_irq_save(void)
 {
@@ -71,7 +70,9 @@ void hal_eeprom_write_u16(uint16_t address, uint16_t value)
 static volatile uint8_t *port_of(uint8_t pin) { return pin < 8u ? &PORTD : &PORTB; }
 static volatile uint8_t *ddr_of(uint8_t pin) { return pin < 8u ? &DDRD : &DDRB; }
 /* A byte table (pins_bit holds 16-bit masks): the GPIO WRITE path looks it up
- * once per request. */
+ * once per request.  In RAM on purpose (8 bytes): in flash (AIO_FLASH) the lookups
+ * became lpm sequences in the hot paths, +192 B of code, and four steppers at
+ * 10,000 steps/s beside pipelined writes fell to 7,500 (benchmarks.motors_steppers). */
 static const uint8_t port_bit[8] = {0x01u, 0x02u, 0x04u, 0x08u, 0x10u, 0x20u, 0x40u, 0x80u};
 static uint8_t bit_of(uint8_t pin) { return port_bit[pin & 7u]; }
 
@@ -142,6 +143,24 @@ ISR(PCINT0_vect)
 }
 ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
 
+/* A port without a step pin in the mask is not written at all (most ticks of a
+ * slow stepper have none). */
+void hal_step_pins(uint16_t mask, uint8_t level)
+{
+    uint8_t s, d = (uint8_t)mask, b = (uint8_t)(mask >> 8);
+    if (!mask)
+        return;
+    s = hal_irq_save();
+    if (level) {
+        PORTD |= d;
+        PORTB |= b;
+    } else {
+        PORTD &= (uint8_t)~d;
+        PORTB &= (uint8_t)~b;
+    }
+    hal_irq_restore(s);
+}
+
 void hal_softpwm_low(uint8_t mask)
 {
     uint8_t s = hal_irq_save();
@@ -190,95 +209,6 @@ ISR(ADC_vect, ISR_NOBLOCK)
     uint16_t v = ADC;
     ADCSRA = _BV(ADEN) | ADC_PRESCALE; /* ADIE off until the next start */
     analog_adc_done(v);
-}
-
-/* ---------------------------------------------------------------- TWI */
-
-static uint8_t twi_fast;
-
-/* Waits for TWINT, at most 2 ms. */
-static uint8_t twi_wait(void)
-{
-    uint16_t start = hal_ticks();
-    while (!(TWCR & _BV(TWINT)))
-        if ((uint16_t)(hal_ticks() - start) > TWI_STEP_TICKS)
-            return 0;
-    return 1;
-}
-
-/* A byte and its acknowledge take 9 SCL periods; TWINT cannot legitimately
- * come earlier.  Waiting that long before polling costs nothing on the
- * hardware and keeps us from acting on a stale TWINT/TWSR in emulators
- * (simavr 1.6 leaves TWINT readable as set while the byte is on the bus). */
-static uint8_t twi_byte_wait(void)
-{
-    if (twi_fast)
-        _delay_us(23);
-    else
-        _delay_us(91);
-    return twi_wait();
-}
-
-void hal_twi_init(uint8_t fast)
-{
-    PORTC |= _BV(PORTC4) | _BV(PORTC5); /* internal pull-ups on SDA/SCL */
-    TWSR = 0;
-    TWBR = fast ? 12u : 72u; /* (16 MHz / f - 16) / 2 */
-    twi_fast = fast;
-    TWCR = _BV(TWEN);
-}
-
-void hal_twi_reset(void)
-{
-    TWCR = 0;
-    TWCR = _BV(TWEN);
-}
-
-uint8_t hal_twi_start(void)
-{
-    uint8_t st;
-    TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN);
-    if (!twi_wait())
-        return HAL_TWI_TIMEOUT;
-    st = TWSR & 0xF8u;
-    return (st == 0x08u || st == 0x10u) ? HAL_TWI_OK : HAL_TWI_TIMEOUT;
-}
-
-uint8_t hal_twi_write(uint8_t byte)
-{
-    uint8_t st;
-    TWDR = byte;
-    TWCR = _BV(TWINT) | _BV(TWEN);
-    if (!twi_byte_wait())
-        return HAL_TWI_TIMEOUT;
-    st = TWSR & 0xF8u;
-    if (st == 0x18u || st == 0x28u || st == 0x40u)
-        return HAL_TWI_OK;
-    if (st == 0x20u || st == 0x30u || st == 0x48u)
-        return HAL_TWI_NACK;
-    return HAL_TWI_TIMEOUT; /* arbitration lost or bus error: reset the unit */
-}
-
-uint8_t hal_twi_read(bool ack, uint8_t *byte)
-{
-    uint8_t st;
-    TWCR = (uint8_t)(_BV(TWINT) | _BV(TWEN) | (ack ? _BV(TWEA) : 0));
-    if (!twi_byte_wait())
-        return HAL_TWI_TIMEOUT;
-    st = TWSR & 0xF8u;
-    *byte = TWDR;
-    return (st == 0x50u || st == 0x58u) ? HAL_TWI_OK : HAL_TWI_TIMEOUT;
-}
-
-void hal_twi_stop(void)
-{
-    uint16_t start = hal_ticks();
-    TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN);
-    while (TWCR & _BV(TWSTO))
-        if ((uint16_t)(hal_ticks() - start) > TWI_STEP_TICKS) {
-            hal_twi_reset();
-            return;
-        }
 }
 
 /* ---------------------------------------------------------------- Timer0 alarms */

@@ -10,10 +10,11 @@
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
+#include "stepper.h"
 
 uint8_t pins_role[PINS_COUNT];
 
-const uint16_t pins_bit[16] = {
+const AIO_FLASH uint16_t pins_bit[16] = {
     1u << 0, 1u << 1, 1u << 2,  1u << 3,  1u << 4,  1u << 5,  1u << 6,  1u << 7,
     1u << 8, 1u << 9, 1u << 10, 1u << 11, 1u << 12, 1u << 13, 1u << 14, 1u << 15,
 };
@@ -49,6 +50,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_DUTY:
         duty_release(pin);
+        break;
+    case ROLE_STEPPER:
+        stepper_release(pin);
         break;
     case ROLE_ENCODER:
         encoder_release(pin); /* and its other pin */

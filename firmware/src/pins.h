@@ -6,16 +6,21 @@
 
 #include <stdint.h>
 
+#include "aio.h"
+
 #define PINS_FIRST 2u
 #define PINS_LAST 13u
 #define PINS_COUNT 14u
 
-enum { ROLE_FREE = 0, ROLE_GPIO_IN, ROLE_GPIO_OUT, ROLE_PWM, ROLE_COUNTER, ROLE_DUTY, ROLE_ENCODER };
+enum {
+    ROLE_FREE = 0, ROLE_GPIO_IN, ROLE_GPIO_OUT, ROLE_PWM, ROLE_COUNTER, ROLE_DUTY, ROLE_STEPPER,
+    ROLE_ENCODER
+};
 
 extern uint8_t pins_role[PINS_COUNT];
 
 /* 1 << n: the AVR has no barrel shifter, a variable shift is a loop. */
-extern const uint16_t pins_bit[16];
+extern const AIO_FLASH uint16_t pins_bit[16];
 
 static inline __attribute__((always_inline)) uint16_t pins_bit_of(uint8_t pin) { return pins_bit[pin & 15u]; }
 

@@ -29,6 +29,7 @@
 #include "hal.h"
 #include "parser.h"
 #include "i2c.h"
+#include "stepper.h"
 
 #ifndef BAUD
 #define BAUD 115200UL
@@ -40,7 +41,7 @@
  * build profile holds the class (protocol/profiles.py); START refuses the others. */
 #define STREAM_FLAGS                                                                     \
     (AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS |                        \
-     (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u))
+     (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u))
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
@@ -55,7 +56,11 @@ static uint8_t channels[AIO_ANALOG_CHANNELS]; /* the mask's channels, in order *
 static uint8_t channel_count;
 static uint8_t channel;              /* index in channels[] of the next conversion */
 static uint8_t pos;                  /* next analog value position in frame */
-static uint8_t frame[AIO_FRAME_MAX];
+/* A sample: CT DT mask flags seq(2) instant(4) len, up to AIO_STREAM_MAX_VALUES
+ * value bytes (START refuses more: stepper positions and encoder counts take 16
+ * each), the check. */
+#define SAMPLE_HEADER 11u
+static uint8_t frame[SAMPLE_HEADER + AIO_STREAM_MAX_VALUES + AIO_CHECK_MAX];
 static uint8_t frame_len;
 
 void stream_init(void)
@@ -79,6 +84,10 @@ static uint8_t value_bytes(uint8_t m, uint8_t f)
         n += 4;
     if (f & AIO_STREAM_COUNTERS)
         n += 8;
+#if AIO_WITH_STEPPER
+    if (f & AIO_STREAM_STEPPERS)
+        n += 4u * AIO_STEPPER_COUNT;
+#endif
 #if AIO_WITH_ENCODER
     if (f & AIO_STREAM_ENCODERS)
         n += 4u * AIO_ENCODER_SLOTS;
@@ -146,6 +155,11 @@ static void sample(void)
         p = aio_put32(p, counter_peek(0));
         p = aio_put32(p, counter_peek(1));
     }
+#if AIO_WITH_STEPPER
+    if (flags & AIO_STREAM_STEPPERS)
+        for (r = 0; r < AIO_STEPPER_COUNT; r++)
+            p = aio_put32(p, (uint32_t)stepper_position((uint8_t)r));
+#endif
 #if AIO_WITH_ENCODER
     if (flags & AIO_STREAM_ENCODERS)
         for (r = 0; r < AIO_ENCODER_SLOTS; r++)

@@ -23,6 +23,12 @@
 #include <avr/io.h>
 
 #include "aio_protocol.h"
+
+/* The two rings take the bottom of RAM, 0x100-0x2FF, in .noinit (not zeroed at boot: the
+ * indices say what is valid); the Makefile starts .data at 0x300 above them.  Left among
+ * the other variables, their 256-byte alignment opened a hole below them that nothing
+ * filled (up to 255 bytes: the linker places .bss in order), RAM the stack needs. */
+#define AIO_RING_PLACEMENT __attribute__((section(".noinit.rings"), aligned(256)))
 #include "hal.h"
 #include "uart.h"
 
@@ -47,7 +53,7 @@ _Static_assert(TX_SIZE <= 255u, "tx counts are 8-bit");
 /* 256 bytes, 256-aligned, of which at most RX_SIZE are in use: the 8-bit
  * indices wrap by themselves and are the low address byte (hal.h: the ring
  * handed to the parser has HAL_RX_RING bytes). */
-static uint8_t rx_buf[HAL_RX_RING] __attribute__((aligned(256)));
+static uint8_t rx_buf[HAL_RX_RING] AIO_RING_PLACEMENT;
 static volatile uint8_t rx_overflow; /* nonzero: overflowed */
 
 /* The indices the interrupts use live in the general purpose I/O registers:
@@ -70,7 +76,7 @@ static volatile uint8_t rx_overflow; /* nonzero: overflowed */
  * more than TX_SIZE of them are ever in use (tx_resv - TX_TAIL), so the
  * buffering behaviour is that of a TX_SIZE buffer.  The UDRE interrupt owns
  * TX_TAIL and sends up to tx_commit; producers own tx_resv and tx_commit. */
-static uint8_t tx_buf[256] __attribute__((aligned(256))); /* index = low address byte */
+static uint8_t tx_buf[256] AIO_RING_PLACEMENT; /* index = low address byte */
 static volatile uint8_t tx_commit; /* end of the bytes ready to send */
 static volatile uint8_t tx_resv;   /* end of the reserved bytes */
 static volatile uint8_t tx_open;   /* open reservations */

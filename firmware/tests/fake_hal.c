@@ -13,6 +13,7 @@
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
+#include "stepper.h"
 #include "stream.h"
 
 uint32_t fake_ticks;
@@ -46,6 +47,7 @@ uint64_t fake_fine_now;
 uint32_t fake_softpwm_width[8];
 uint32_t fake_softpwm_rises[8];
 uint32_t fake_adc_shift;
+uint32_t fake_step_rises[14];
 
 /* The two Timer0 alarms: due time in fine counts, 0 = off. */
 static uint64_t pwm_due, stream_due, stream_period;
@@ -65,6 +67,7 @@ static uint8_t i2c_ptr;
 void fake_reset(void)
 {
     fake_ticks = 0;
+    memset(fake_step_rises, 0, sizeof fake_step_rises);
     fake_tx_len = 0;
     fake_tx_pad = 0;
     fake_tx_pads = 0;
@@ -159,6 +162,8 @@ void fake_advance(uint32_t ticks)
         }
         fake_fine_now = end;
         fake_ticks++;
+        if (stepper_active)
+            stepper_tick(); /* first, as the tick interrupt does (clock.c) */
         app_tick();
     }
 }
@@ -325,6 +330,17 @@ void hal_pin_mode(uint8_t pin, uint8_t mode)
 }
 
 void hal_pin_write(uint8_t pin, uint8_t level) { fake_pin_level[pin] = level; }
+
+void hal_step_pins(uint16_t mask, uint8_t level)
+{
+    uint8_t pin;
+    for (pin = 2; pin < 14; pin++)
+        if (mask >> pin & 1u) {
+            if (level && !fake_pin_level[pin])
+                fake_step_rises[pin]++;
+            fake_pin_level[pin] = level;
+        }
+}
 
 void hal_edge_watch(uint16_t mask) { fake_edge_watch = mask; }
 

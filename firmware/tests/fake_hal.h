@@ -36,7 +36,8 @@ extern uint16_t fake_edge_watch;
 extern uint64_t fake_fine_now;          /* Timer0 counts (0.5 us) since start */
 extern uint32_t fake_softpwm_width[8];  /* counts of each D2-D7 pin's last pulse */
 extern uint32_t fake_softpwm_rises[8];  /* its pulses started */
-extern uint32_t fake_adc_shift;         /* clock shift of the last chain conversion */
+extern uint32_t fake_adc_shift;
+extern uint32_t fake_step_rises[14];    /* step pulses per pin (hal_step_pins) */         /* clock shift of the last chain conversion */
 
 void fake_reset(void);
 void fake_rx_push(const uint8_t *bytes, uint32_t n);

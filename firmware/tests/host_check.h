@@ -57,6 +57,7 @@ void test_counter(void);
 void test_encoder(void);
 void test_stream(void);
 void test_failsafe(void);
+void test_stepper(void);
 void test_unknown_descriptors(void);
 void test_framing(void);
 void test_crc_framing(void);

@@ -22,6 +22,7 @@ int main(void)
     test_encoder();
     test_stream();
     test_failsafe();
+    test_stepper();
     test_unknown_descriptors();
     test_framing();
     test_crc_framing();

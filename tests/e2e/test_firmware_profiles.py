@@ -24,6 +24,9 @@ from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
 pytestmark = pytest.mark.sim
 
+#: An Uno image without steppers, and the one that has them.
+WITHOUT_STEPPERS, WITH_STEPPERS = "sensing", "standard"
+
 
 def optional_bits(features: int) -> set[str]:
     """The optional classes a features word announces (names known to the protocol)."""
@@ -43,29 +46,30 @@ async def test_each_image_announces_exactly_its_profiles_classes(
         features = board.capabilities.features
     wanted = {f for f in profile(name).features if f in p.Feature.__members__}
     assert optional_bits(features) == wanted
-    core = features & ~sum(p.Feature[f] for f in OPTIONAL_FEATURES if f in p.Feature.__members__)
-    assert core & p.Feature.GPIO and core & p.Feature.STREAM and core & p.Feature.FAILSAFE
+    assert features & p.Feature.GPIO and features & p.Feature.STREAM
+    assert features & p.Feature.FAILSAFE and features & p.Feature.DUTY_PWM
 
 
-async def test_an_image_without_encoders_refuses_them_before_sending_and_on_the_wire(
+async def test_an_image_without_steppers_refuses_them_before_sending_and_on_the_wire(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
-    """The library refuses from the features word, naming the images that have encoders;
+    """The library refuses from the features word, naming the image that has steppers;
     a request sent anyway gets NOT_IN_IMAGE from the board (an ordinary error reply: the
     link goes on) and leaves the pins free."""
-    uno = await virtual_uno_factory(profile="motion")
+    assert not profile(WITHOUT_STEPPERS).has("STEPPER")
+    uno = await virtual_uno_factory(profile=WITHOUT_STEPPERS)
     async with Board.open(uno.port, baudrate=uno.baud) as board:
         with pytest.raises(FirmwareFeatureError) as refused:
-            await board.encoder(D2, D3)
+            await board.stepper(step=D2, dir=D3)
         text = str(refused.value)
-        assert "quadrature encoders" in text
-        assert "'standard'" in text and "arduinoio flash --profile standard" in text
-        assert D2 not in board.roles
+        assert "steppers" in text
+        assert f"'{WITH_STEPPERS}'" in text and f"--profile {WITH_STEPPERS}" in text
+        assert D2 not in board.roles and D3 not in board.roles
         with pytest.raises(FirmwareFeatureError):
-            async with board.stream(encoders=True, period_ms=10):
+            async with board.stream(steppers=True, period_ms=10):
                 pass
         with pytest.raises(BoardError) as answered:
-            await board.request(p.EncoderConfig(0, int(D2), int(D3), p.EncoderMode.X4))
+            await board.request(p.StepperConfig(0, int(D2), int(D3)))
         assert answered.value.code is p.ErrorCode.NOT_IN_IMAGE
         assert await board.read_id() == board.board_id  # the link went on in order
         # the board gave the pins to nothing: both take another role at once
@@ -76,11 +80,11 @@ async def test_an_image_without_encoders_refuses_them_before_sending_and_on_the_
 async def test_cli_names_the_image_to_flash(
     virtual_uno_factory: VirtualUnoFactory, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    uno = await virtual_uno_factory(profile="motion")
+    uno = await virtual_uno_factory(profile=WITHOUT_STEPPERS)
     console = Console(file=io.StringIO(), width=200)
-    argv = ["encoder", "D2", "D3", "--port", uno.port, "--baud", str(uno.baud), "--seconds", "0"]
+    argv = ["stepper", "D2", "D3", "--by", "10", "--port", uno.port, "--baud", str(uno.baud)]
     code = await anyio.to_thread.run_sync(lambda: cli_main(argv, console=console))
     err = capsys.readouterr().err
     assert code == 1, err  # docs/howto/command-line.md: the board or the request refused
-    assert "arduinoio flash --profile standard" in err
+    assert f"arduinoio flash --profile {WITH_STEPPERS}" in err
     assert len(err.strip().splitlines()) == 1

@@ -259,3 +259,16 @@ async def test_design_card_starts_its_own_virtual_uno() -> None:
     async with run_example("design_card") as run:
         out = await run.finish()
     assert "D2 high; D3 (jumpered to D2 on the test circuit) reads" in out
+
+
+async def test_stepper_homing(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The fixture logs the step pulses, closes the switch on D4 at the 800th step and
+    opens it again 50 steps into the move away from it."""
+    uno = await virtual_uno_factory()
+    await uno.command("step_log", pin="D2", enable=True)
+    await uno.command("limit_at", pin="D2", after=800, drive="D4", level=0)
+    await uno.command("limit_at", pin="D2", after=850, drive="D4", level=1)
+    out = await run_to_end("stepper_homing", uno, "--to", "2000", "500")
+    assert "homed after 800 steps: position 0" in out and "at 2000" in out and "at 500" in out
+    steps = await uno.command("steps", pin="D2", **{"from": 1 << 30})
+    assert steps["count"] == 800 + 2000 + 1500, steps

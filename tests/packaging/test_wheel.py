@@ -106,6 +106,19 @@ def _read_id(installed: Installed, port: str) -> str:
     return checked(installed.run(installed.exe("python"), "-c", script, port)).stdout.strip()
 
 
+def _has_steppers(installed: Installed, port: str) -> str:
+    """What the board running on ``port`` announces: does its image hold steppers?"""
+    script = (
+        "import sys, anyio\n"
+        "from arduinoio_async import Board, protocol as p\n"
+        "async def main():\n"
+        "    async with Board.open(sys.argv[1]) as board:\n"
+        "        print(bool(board.capabilities.features & p.Feature.STEPPER))\n"
+        "anyio.run(main)\n"
+    )
+    return checked(installed.run(installed.exe("python"), "-c", script, port)).stdout.strip()
+
+
 def test_arduinoio_sim_from_the_wheel_answers_read_id(installed: Installed) -> None:
     process, info = _start_sim(installed, "--id", "3")
     try:
@@ -152,6 +165,16 @@ def test_arduinoio_flash_from_the_wheel_through_a_bootloader(installed: Installe
         print(flashed.stdout)
         assert "arduinoio-1000000.hex" in flashed.stdout and "0x0007 stored" in flashed.stdout
         assert _read_id(installed, port) == "7"
+        assert _has_steppers(installed, port) == "True"
+        # the sensor board's image (docs/firmware-profiles.md): the ID in EEPROM stays
+        flashed = checked(
+            installed.run(
+                installed.exe("arduinoio"), "flash", "--port", port, "--profile", "sensing"
+            )
+        )
+        assert "arduinoio-sensing-1000000.hex" in flashed.stdout
+        assert _read_id(installed, port) == "7"
+        assert _has_steppers(installed, port) == "False"
     finally:
         assert _stop_sim(process) == 0
 

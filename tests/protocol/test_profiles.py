@@ -35,8 +35,8 @@ def test_every_optional_class_is_in_some_uno_image() -> None:
 
 def test_the_default_image_keeps_the_old_file_names() -> None:
     assert image_stem(1_000_000) == "arduinoio-1000000"
-    assert image_stem(115_200, "motion") == "arduinoio-motion-115200"
-    with pytest.raises(ValueError, match="standard, motion, sensing"):
+    assert image_stem(115_200, "sensing") == "arduinoio-sensing-115200"
+    with pytest.raises(ValueError, match="standard, sensing"):
         image_stem(115_200, "everything")
 
 
@@ -51,9 +51,9 @@ def test_the_header_switches_follow_the_table() -> None:
 
 
 def test_the_error_names_the_images_and_the_command() -> None:
-    error = FirmwareFeatureError("board 0x0001", "steppers", "STEPPER", ("motion",))
+    error = FirmwareFeatureError("board 0x0001", "steppers", "STEPPER", ("standard",))
     assert isinstance(error, UsageError)
     assert str(error) == (
         "board 0x0001's firmware has no steppers (its capabilities lack the STEPPER "
-        "feature); the 'motion' image has it: arduinoio flash --profile motion"
+        "feature); the 'standard' image has it: arduinoio flash --profile standard"
     )

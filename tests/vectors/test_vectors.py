@@ -14,11 +14,13 @@ import anyio.abc
 import pytest
 
 from arduinoio_async import protocol as p
+from arduinoio_async.board._features import STREAM_FLAG_FEATURES
+from arduinoio_async.protocol.profiles import OPTIONAL_FEATURES, PROFILES
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 from arduinoio_async.testing import FakeBoard
 from arduinoio_async.transport._serial import open_serial_stream
 
-from .vectors import C_HEADER, Drive, VectorFile, load_all, render_c_header
+from .vectors import C_HEADER, Drive, Exchange, VectorFile, load_all, render_c_header
 
 VECTORS = load_all()
 BAUD = 115200  # the capacity vectors state the paper's baud
@@ -74,10 +76,39 @@ async def test_fake_board(vf: VectorFile) -> None:
         await run_vectors(vf, RawLink(fake.host_stream), drive)
 
 
+def optional_classes(vf: VectorFile) -> set[str]:
+    """The optional classes (build-profile features) a vector file's requests need: a
+    request of an optional class, or a stream START carrying an optional class's flag."""
+    needed: set[str] = set()
+    for step in vf.steps:
+        if not isinstance(step, Exchange):
+            continue
+        ct, dt = step.request[0], step.request[1]
+        name = p.ClassTag(ct).name if ct in p.ClassTag.__members__.values() else ""
+        if name in OPTIONAL_FEATURES:
+            needed.add(name)
+        start = p.StreamStart.LAYOUT
+        if (ct, dt) == (start.class_tag, start.descriptor) and len(step.request) > 3:
+            flags = p.StreamFlags(step.request[3])
+            needed |= {
+                f.name or "" for flag, (f, _) in STREAM_FLAG_FEATURES.items() if flags & flag
+            }
+    return needed
+
+
+def image_for(vf: VectorFile) -> str | None:
+    """The first Uno image that holds every optional class the file needs (None: none)."""
+    needed = optional_classes(vf)
+    return next((prof.name for prof in PROFILES if prof.uno and needed <= prof.features), None)
+
+
 @pytest.mark.sim
 @pytest.mark.parametrize("vf", VECTORS, ids=[vf.name for vf in VECTORS])
 async def test_virtual_uno(vf: VectorFile, virtual_uno_factory: VirtualUnoFactory) -> None:
-    uno = await virtual_uno_factory(board_id=vf.board_id, baud=BAUD)
+    image = image_for(vf)
+    if image is None:
+        pytest.skip(f"no Uno image holds {sorted(optional_classes(vf))} at once")
+    uno = await virtual_uno_factory(board_id=vf.board_id, baud=BAUD, profile=image)
     stream = await open_serial_stream(uno.port, BAUD)
     try:
         link = RawLink(stream)

@@ -156,6 +156,15 @@
       i2cResult.textContent = r.ok ? `wrote ${r.data} bytes` : "";
     });
 
+    const motors = root.querySelector("form.motors");
+    motors.querySelector(".motor-add").addEventListener("click", () => {
+      const pin = (input) => input.value.trim().toUpperCase();
+      const args = motors.kind.value === "2pwm"
+        ? { kind: "2pwm", in1: pin(motors.in1), in2: pin(motors.in2) }
+        : { kind: "dir", pwm: pin(motors.pwm), in1: pin(motors.in1), in2: pin(motors.in2) };
+      control(view, "motor", args, (index) => `motor ${index} set up`);
+    });
+
     const encoders = root.querySelector("form.encoders");
     encoders.querySelector(".encoder-add").addEventListener("click", () =>
       control(view, "encoder",
@@ -211,8 +220,44 @@
     fact("failsafe").dataset.tripped = snapshot.failsafe_tripped ? "true" : "false";
     renderStream(view, snapshot.stream);
     renderChanges(view, snapshot.changes);
+    const steppers = snapshot.steppers || { supported: false, rows: [] };
+    fact("steppers").textContent = !steppers.supported ? "not in this firmware" : steppers.rows.map((s) =>
+      `stepper ${s.index} (${s.pins}): ${s.position} -> ${s.target}` +
+      (s.moving ? `, ${s.speed} steps/s` : ", at rest")).join("; ") || "none";
     for (const pin of snapshot.pins) renderPin(view, pin);
     renderEncoders(view, snapshot.encoders);
+    renderMotors(view, snapshot.motors);
+  }
+
+  // DC motors: a speed slider (-100..100 %), brake and coast; the state the board was given.
+  function renderMotors(view, motors) {
+    const list = view.root.querySelector("form.motors .motor-rows");
+    const rows = (motors && motors.rows) || [];
+    const shown = Array.from(list.children).map((li) => li.dataset.key).join(",");
+    if (shown === rows.map((m) => `${m.index}:${m.pins}`).join(",")) {
+      for (const m of rows) {  // the same motors: only their readings change
+        const li = list.querySelector(`li[data-index="${m.index}"]`);
+        li.querySelector(".motor-state").textContent = `${m.state} ${Math.round(m.speed * 100)} %`;
+      }
+      return;
+    }
+    list.replaceChildren(...rows.map((m) => {
+      const li = document.createElement("li");
+      li.dataset.index = m.index;
+      li.dataset.key = `${m.index}:${m.pins}`;
+      const label = Object.assign(document.createElement("span"), { textContent: `motor ${m.index} (${m.pins}) ` });
+      const slider = Object.assign(document.createElement("input"),
+        { type: "range", min: -100, max: 100, step: 1, value: Math.round(m.speed * 100), className: "motor-speed" });
+      const send = latestOnly((value) => request(view.key, "motor_speed", { index: m.index, speed: value / 100 }));
+      slider.addEventListener("input", () => send(Number(slider.value)));
+      const state = Object.assign(document.createElement("output"), { className: "motor-state", textContent: `${m.state} ${Math.round(m.speed * 100)} %` });
+      const brake = Object.assign(document.createElement("button"), { type: "button", textContent: "Brake" });
+      brake.addEventListener("click", () => { slider.value = 0; control(view, "motor_brake", { index: m.index }); });
+      const coast = Object.assign(document.createElement("button"), { type: "button", textContent: "Coast" });
+      coast.addEventListener("click", () => { slider.value = 0; control(view, "motor_coast", { index: m.index }); });
+      li.append(label, slider, state, brake, coast);
+      return li;
+    }));
   }
 
   // Encoders: count, velocity (counts/s from the board's edge times), invalid transitions.

@@ -14,7 +14,19 @@ from ...errors import set_request_words
 from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
-from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from . import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pwm,
+    stepper,
+    stream,
+    transaction,
+)
 
 __all__ = ["DESCRIPTIONS", "describe"]
 
@@ -153,6 +165,32 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
     failsafe.FailsafeArm: lambda rq: f"arm the failsafe ({rq.timeout_ms} ms)",
     failsafe.FailsafeSafeState: _safe_state,
     failsafe.FailsafeDisarm: lambda rq: "disarm the failsafe",
+    stepper.StepperConfig: lambda rq: (
+        f"make stepper {rq.index} step on {_pin(rq.step_pin)} with its direction on "
+        f"{_pin(rq.dir_pin)}"
+    ),
+    stepper.StepperProfile: lambda rq: (
+        f"give stepper {rq.index} a top speed of {rq.max_speed} steps/s and an "
+        f"acceleration of {rq.acceleration} steps/s^2"
+    ),
+    stepper.StepperMove: lambda rq: (
+        f"move stepper {rq.index} by {rq.steps} steps"
+        if rq.relative
+        else f"move stepper {rq.index} to position {rq.steps}"
+    ),
+    stepper.StepperRun: lambda rq: f"run stepper {rq.index} at {rq.speed} steps/s",
+    stepper.StepperStop: lambda rq: (
+        f"stop stepper {rq.index} {'at once' if rq.immediate else 'with deceleration'}"
+    ),
+    stepper.StepperRead: lambda rq: f"read stepper {rq.index}",
+    stepper.StepperSetPosition: lambda rq: f"call stepper {rq.index}'s position {rq.position}",
+    stepper.StepperLimit: lambda rq: (
+        f"bind a {'positive' if rq.positive else 'negative'}-side limit switch on "
+        f"{_pin(rq.pin)} (closed when {'high' if rq.active_high else 'low'}) to stepper {rq.index}"
+        if rq.pin
+        else f"remove stepper {rq.index}'s {'positive' if rq.positive else 'negative'}-side "
+        "limit switch"
+    ),
 }
 
 

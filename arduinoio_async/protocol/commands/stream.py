@@ -12,6 +12,7 @@ from typing import Annotated
 from .._constants import (
     ENCODER_SLOTS,
     MAX_BLOB,
+    STEPPER_COUNT,
     STREAM_FRAME_OVERHEAD,
     STREAM_LINK_SHARE_DEN,
     STREAM_LINK_SHARE_NUM,
@@ -75,7 +76,8 @@ class StreamSample(_Sampled, Event):
 
     Order: one u16 per analog channel in ``analog_mask`` (lowest channel first), then if
     LEVELS: u16 levels of D0-D15 (bit n = Dn), if EDGES: u16 rose, u16 fell (latched since
-    the previous sample), if COUNTERS: u32 count of D2, u32 count of D3, if ENCODERS: one
+    the previous sample), if COUNTERS: u32 count of D2, u32 count of D3, if STEPPERS: i32
+    position of each stepper slot 0-3 (0 for a slot without a stepper), if ENCODERS: one
     i32 count per encoder slot (ENCODER_SLOTS, slot 0 first; a free slot reads 0).
     """
 
@@ -97,6 +99,8 @@ def sample_payload_size(analog_mask: int, flags: StreamFlags) -> int:
         size += 4
     if flags & StreamFlags.COUNTERS:
         size += 8
+    if flags & StreamFlags.STEPPERS:
+        size += 4 * STEPPER_COUNT
     if flags & StreamFlags.ENCODERS:
         size += 4 * ENCODER_SLOTS
     return size

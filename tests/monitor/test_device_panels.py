@@ -1,5 +1,5 @@
-"""The monitor's encoder panel on the virtual Uno: set up from the page, counts from the
-board, reset; an image without encoders says so.
+"""The monitor's device panels on the virtual Uno: an encoder set up from the page, its
+count from the board, reset; a motor's speed, brake; an image without a class says so.
 
 The oracle is the harness's quadrature generator (its position in quarter steps), never
 the library's reading of its own answer.
@@ -18,6 +18,7 @@ from arduinoio_async.board import Board
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from ..e2e.pulses import fresh_pulses
 from .test_server import Page, page, ws_url
 
 monitor = pytest.importorskip("arduinoio_async.monitor")
@@ -32,6 +33,10 @@ async def monitored(uno: VirtualUno) -> AsyncIterator[Page]:
         page(ws_url(server)) as tab,
     ):
         yield tab
+
+
+async def level(uno: VirtualUno, pin: str) -> int:
+    return (await uno.pin(pin)).level
 
 
 async def rows_until(tab: Page, done: Any) -> list[dict[str, Any]]:
@@ -63,10 +68,36 @@ async def test_an_encoder_set_up_on_the_page_shows_the_boards_count(
         await rows_until(tab, lambda rows: rows and rows[0]["count"] == 0)
 
 
-async def test_an_image_without_encoders_says_so(virtual_uno_factory: VirtualUnoFactory) -> None:
-    uno = await virtual_uno_factory(profile="motion")
+async def test_an_image_without_a_class_says_so(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The sensing image has no steppers: their view says so, encoders' is there."""
+    uno = await virtual_uno_factory(profile="sensing")
     async with monitored(uno) as tab:
         snapshot = await tab.receive("board")
-        assert snapshot["encoders"] == {"supported": False, "rows": []}
-        refused = await tab.call("encoder", a="D4", b="D5")
-        assert not refused["ok"] and "arduinoio flash --profile standard" in refused["error"]
+        assert snapshot["steppers"] == {"supported": False, "rows": []}
+        assert snapshot["encoders"] == {"supported": True, "rows": []}
+
+
+async def test_a_motor_set_up_on_the_page_drives_its_pins(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """L298N wiring from the page (PWM D9, IN1 D7, IN2 D8): the speed slider's value reaches
+    the pins the fixture measures; brake and coast show on the pins too."""
+    uno = await virtual_uno_factory()
+    async with monitored(uno) as tab:
+        made = await tab.call("motor", kind="dir", pwm="D9", in1="D7", in2="D8")
+        assert made["ok"] and made["data"] == 0
+        assert (await tab.call("motor_speed", index=0, speed=-0.5))["ok"]
+        with anyio.fail_after(10):
+            while True:
+                rows = (await tab.receive("board"))["motors"]["rows"]
+                if rows and rows[0]["speed"] == -0.5:
+                    break
+        assert rows[0]["pins"] == "D9/D7/D8" and rows[0]["state"] == "running"
+        assert (await level(uno, "D7"), await level(uno, "D8")) == (0, 1)  # reverse
+        stats = await fresh_pulses(uno, "D9", 6, within=10.0)
+        duty = sum(stats.high_us[-4:]) / sum(stats.period_us[-4:])
+        assert abs(duty - 0.5) < 0.02, stats
+        assert (await tab.call("motor_brake", index=0))["ok"]
+        assert (await level(uno, "D7"), await level(uno, "D8")) == (1, 1)
+        refused = await tab.call("motor_speed", index=3, speed=0.1)
+        assert not refused["ok"] and "no motor 3" in refused["error"]
