@@ -52,6 +52,8 @@ async def edges(
     n: int,
     windows: list[tuple[int, int]],
     drive_to_receipt: list[float],
+    stages: list[tuple[int, int]],
+    split: dict[str, list[float]],
 ) -> list[float]:
     """Drive ``n`` edges on D3, one at a time; each one's edge-to-receipt latency (ms).
 
@@ -60,6 +62,11 @@ async def edges(
     stamp), both >= 0 when the converted stamp lies where the edge truly happened;
     ``drive_to_receipt`` the time (ms) from before the drive command to the receipt, which
     needs no clock estimate (and includes the harness's command round trip).
+    ``split`` gets each edge's stages (ms): ``drive_to_decoded`` (the harness's command,
+    the simulated board, the UART, the link's decoding), ``decoded_to_put`` (the change's
+    way through the bridge: the watch's queue, the stamp conversion, CDR, the Zenoh put)
+    and ``put_to_subscriber`` (Zenoh on loopback and the SDK's decoding in its process);
+    ``decoded_to_subscriber`` is the whole way after the board's UART (the last two).
     """
     latencies = []
     level = True
@@ -73,6 +80,11 @@ async def edges(
         latencies.append((got["received_ns"] - stamps[index]) / 1e6)
         windows.append((stamps[index] - before, after - stamps[index]))
         drive_to_receipt.append((got["received_ns"] - before) / 1e6)
+        decoded, put = stages[index]
+        split["drive_to_decoded"].append((decoded - before) / 1e6)
+        split["decoded_to_put"].append((put - decoded) / 1e6)
+        split["put_to_subscriber"].append((got["received_ns"] - put) / 1e6)
+        split["decoded_to_subscriber"].append((got["received_ns"] - decoded) / 1e6)
         level = not level
         await anyio.sleep(0.005)  # pacing between edges, not a wait for a condition
     return latencies
@@ -110,6 +122,8 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
     zconfig = zenoh_config(listen=[f"tcp/127.0.0.1:{port}"])
     session = await anyio.to_thread.run_sync(zenoh.open, zconfig)
     stamps: list[int] = []
+    #: Per published edge: (host time its frame was decoded, time the put returned).
+    stages: list[tuple[int, int]] = []
     try:
         async with (
             VirtualUno(board_id=1, usb_bridge="none") as uno,
@@ -117,7 +131,12 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
             anyio.create_task_group() as tg,
         ):
             nodes = await tg.start(run_bridge, session, parse(CONFIG), {1: board})
-            nodes[0].on_change = lambda topic, seq, stamp: stamps.append(stamp)
+
+            def on_change(topic: str, seq: int, stamp: int, decoded: int) -> None:
+                stamps.append(stamp)
+                stages.append((decoded, time.time_ns()))
+
+            nodes[0].on_change = on_change
             nodes[0].clock = BoardClock(bucket_s=args.bucket_s, buckets=args.buckets)
             async with sdk_peer(port) as peer:
                 await peer.subscribe("/uno/d3", "std_msgs/msg/Bool")
@@ -125,12 +144,21 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
                 await peer._answer("echoing")
                 windows: list[tuple[int, int]] = []
                 driven: list[float] = []
-                await edges(uno, peer, stamps, 20, windows, driven)  # warm-up: routes, clock
+                split: dict[str, list[float]] = {
+                    "drive_to_decoded": [], "decoded_to_put": [], "put_to_subscriber": [],
+                    "decoded_to_subscriber": [],
+                }  # fmt: skip
+                # Warm-up (routes, the clock's first buckets), not recorded.
+                await edges(uno, peer, stamps, 20, windows, driven, stages, split)
                 del windows[:], driven[:]
+                for values in split.values():
+                    del values[:]
                 ros: list[float] = []
                 plain: list[float] = []
                 for _ in range(args.rounds):  # interleaved: a busy moment hits both
-                    ros += await edges(uno, peer, stamps, args.n // args.rounds, windows, driven)
+                    ros += await edges(
+                        uno, peer, stamps, args.n // args.rounds, windows, driven, stages, split
+                    )
                     plain += await round_trips(session, args.n // args.rounds)
                 drift = nodes[0].clock.drift_ppm
                 spread = nodes[0].clock.spread_ns
@@ -147,6 +175,7 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
         "edge_to_ros_subscriber": ros_figures,
         "drive_command_to_ros_subscriber": figures(driven),
         "plain_zenoh_round_trip": plain_figures,
+        "stages": {name: figures(values) for name, values in split.items()},
         "board_clock": {
             "bucket_s": args.bucket_s,
             "buckets": args.buckets,
@@ -160,6 +189,10 @@ async def main(args: argparse.Namespace) -> dict[str, Any]:
         },
     }
     result["ratio_p50"] = round(ros_figures["p50_ms"] / plain_figures["p50_ms"], 2)
+    # The way after the board's UART (no simulated board, no clock estimate in it) against
+    # the same round trip: the part of the latency that is the bridge's and Zenoh's.
+    after_uart = result["stages"]["decoded_to_subscriber"]["p50_ms"]
+    result["ratio_after_uart_p50"] = round(after_uart / plain_figures["p50_ms"], 2)
     return result
 
 

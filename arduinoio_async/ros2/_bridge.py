@@ -30,12 +30,14 @@ import anyio
 import zenoh
 
 from ..errors import ArduinoIOError, UsageError
-from ..protocol import VCC_MV, I2CSpeed
+from ..protocol import I2CSpeed
 from . import _imu
 from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
 from ._endpoints import Context, Node, Publisher
+from ._sources import INPUTS
+from ._stream import StreamedInputs, streamed
 from ._wire import Attachment
 
 if TYPE_CHECKING:
@@ -48,8 +50,6 @@ __all__ = ["BoardNode", "run_bridge"]
 
 log = logging.getLogger(__name__)
 
-#: Volts of one ADC count (AVCC 5 V over 1024 steps, as ``AnalogInput.read_volts``).
-VOLTS_PER_COUNT = VCC_MV / 1000 / 1024
 #: Seconds between looks at a board whose link failed (a Board has no event for its return).
 RECONNECT_POLL = 0.25
 #: Where every node publishes its diagnostics (the ROS convention, an absolute name).
@@ -121,11 +121,14 @@ class BoardNode:
         self.outputs: list[_Command] = []
         self.published = 0
         self.command_errors = 0
-        #: Called as ``on_change(topic, sequence, stamp_ns)`` after each change an input
-        #: published: its attachment's sequence number and the board's time of the edge in
-        #: host nanoseconds (:class:`BoardClock`); for measurements and logging.
-        self.on_change: Callable[[str, int, int], None] | None = None
+        #: Called as ``on_change(topic, sequence, stamp_ns, decoded_ns)`` after each change
+        #: an input published: its attachment's sequence number, the board's time of the
+        #: edge in host nanoseconds (:class:`BoardClock`) and the host time its frame was
+        #: decoded (``time.time_ns()`` scale); for measurements and logging.
+        self.on_change: Callable[[str, int, int, int], None] | None = None
         self._diagnostics = self.node.publisher(DIAGNOSTICS_TOPIC, msgs.DIAGNOSTIC_ARRAY)
+        #: The board's firmware-timed stream, when an input comes from it.
+        self.stream: StreamedInputs | None = None
 
     def close(self) -> None:
         """Take the node off the graph: undeclare its tokens, publishers, subscribers."""
@@ -145,14 +148,22 @@ class BoardNode:
                     tg.start_soon(self._watch_freshness, command)
             if self.config.link_failsafe_ms is not None:
                 await self._arm_link_failsafe(self.config.link_failsafe_ms)
-            streamed = [s for s in self.config.inputs if s.kind in ("volts", "battery")]
-            if self.config.stream_ms is None:
-                streamed = []
+            from_stream = streamed(self.config.inputs, self.config.stream_ms)
             for source in self.config.inputs:
-                if source not in streamed:
+                if source not in from_stream:
                     await tg.start(self._publish_input, source)
-            if streamed:
-                await tg.start(self._publish_stream, streamed)
+            if from_stream:
+                self.stream = StreamedInputs(
+                    self.board,
+                    from_stream,
+                    period_ms=self.config.stream_ms,
+                    clock=self.clock,
+                    frame_id=self.config.frame_id,
+                    publisher=self._publisher,
+                    put=self._put,
+                    link_lost=self._link_lost,
+                )
+                await tg.start(self.stream.run)
             tg.start_soon(self._publish_diagnostics)
             task_status.started()
 
@@ -253,14 +264,7 @@ class BoardNode:
     # ---- inputs --------------------------------------------------------------------------
 
     def _publisher(self, source: InputConfig) -> Publisher:
-        ros_type = {
-            "bool": msgs.BOOL,
-            "volts": msgs.FLOAT32,
-            "battery": msgs.BATTERY_STATE,
-            "counter": msgs.INT64,
-            "imu": msgs.IMU,
-        }
-        return self.node.publisher(source.topic, ros_type[source.kind])
+        return self.node.publisher(source.topic, INPUTS[source.kind].ros_type)
 
     def _put(self, publisher: Publisher, payload: bytes) -> None:
         publisher.publish(payload)
@@ -279,14 +283,28 @@ class BoardNode:
             )
             started = False
             while True:  # again after the link failed and the board came back
+                # Each change is published from the link's reader as its frame is decoded
+                # (no hop through a queue and another task: benchmarks/ros2_latency.py);
+                # those before the first reading's message wait for it, in order.
+                held: list[Any] | None = []
+
+                def on_change(change: Any) -> None:
+                    if held is not None:  # noqa: B023 (this round's list: the watch is too)
+                        held.append(change)  # noqa: B023
+                    else:
+                        self._publish_change(source.topic, publisher, change)
+
                 try:
-                    async with pin.watch() as changes:
+                    async with pin.watch(callback=on_change) as changes:
                         self._put(publisher, msgs.bool_msg(bool(await pin.read())))
+                        waiting, held = held, None
+                        for change in waiting or ():
+                            self._publish_change(source.topic, publisher, change)
                         if not started:
                             started = True
                             task_status.started()
-                        async for change in changes:
-                            self._publish_change(source.topic, publisher, change)
+                        async for _ in changes:  # nothing comes: ends with the watch
+                            pass
                 except ArduinoIOError as exc:
                     if not started:
                         raise  # at start: the bridge does not come up, with this error
@@ -328,7 +346,8 @@ class BoardNode:
         board_us = self.clock.observe(change.board_time_us, host_ns)
         self._put(publisher, msgs.bool_msg(change.level))
         if self.on_change is not None:
-            self.on_change(topic, publisher.sequence, self.clock.to_host_ns(board_us))
+            stamp_ns = self.clock.to_host_ns(board_us)
+            self.on_change(topic, publisher.sequence, stamp_ns, host_ns)
 
     async def _read_failed(self, what: str, exc: ArduinoIOError) -> None:
         """A periodic read failed: once per lost link (then wait for the board), else once
@@ -374,44 +393,6 @@ class BoardNode:
                 )
                 self._put(publisher, payload)
             await anyio.sleep(source.period)
-
-    async def _publish_stream(
-        self,
-        sources: list[InputConfig],
-        *,
-        task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED,
-    ) -> None:
-        """The analog inputs from one firmware-timed stream, each sample stamped with the
-        board's time of sampling in host time (BatteryState's ``header.stamp``)."""
-        publishers = [(source, self._publisher(source)) for source in sources]
-        period_ms = self.config.stream_ms
-        assert period_ms is not None
-        pins = [cast("AnalogPin", source.pin) for source in sources]
-        started = False
-        while True:  # again after the link failed and the board came back
-            try:
-                async with self.board.stream(analog=pins, period_ms=period_ms) as samples:
-                    if not started:
-                        started = True
-                        task_status.started()
-                    async for sample in samples:
-                        self._publish_sample(publishers, sample)
-            except ArduinoIOError as exc:
-                if not started:
-                    raise
-                await self._link_lost("stream", exc)
-
-    def _publish_sample(self, publishers: list[tuple[InputConfig, Publisher]], sample: Any) -> None:
-        host_ns = time.time_ns() - int((time.monotonic() - sample.host_time) * 1e9)
-        board_us = self.clock.observe(sample.board_time_us, host_ns)
-        stamp = msgs.Stamp(self.clock.to_host_ns(board_us))
-        for source, publisher in publishers:
-            volts = sample.analog[cast("AnalogPin", source.pin)] * VOLTS_PER_COUNT * source.scale
-            if source.kind == "volts":
-                payload = msgs.float32_msg(volts)
-            else:
-                payload = msgs.battery_state(stamp, self.config.frame_id, volts)
-            self._put(publisher, payload)
 
     # ---- diagnostics ---------------------------------------------------------------------
 

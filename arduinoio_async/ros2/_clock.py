@@ -32,6 +32,9 @@ __all__ = ["BoardClock"]
 _WRAP_US = 1 << 32
 #: A step back of the board clock this large is a reset, not frames out of order.
 RESET_JUMP_US = 1_000_000
+#: When the fitted line moves earlier, stamps advance at this fraction of the board's
+#: elapsed time until they meet it again (a slew, as NTP does): they never go back.
+SLEW = 0.5
 
 
 @dataclass
@@ -53,6 +56,8 @@ class BoardClock:
         self._fit: _Fit | None = None
         #: Largest distance (ns) of an envelope point above the fitted line.
         self.spread_ns = 0
+        #: The latest (unwrapped board us, host ns) :meth:`to_host_ns` returned.
+        self._last_out: tuple[int, int] | None = None
 
     def unwrap(self, board_us: int) -> int:
         """``board_us`` (32-bit, wrapping) as a count that keeps growing."""
@@ -74,12 +79,17 @@ class BoardClock:
         bucket = board // self._bucket_us
         if self._envelope and self._envelope[-1][0] // self._bucket_us == bucket:
             last_board, last_host = self._envelope[-1]
-            if host_ns - board * 1000 < last_host - last_board * 1000:
-                self._envelope[-1] = (board, host_ns)
+            if host_ns - board * 1000 >= last_host - last_board * 1000:
+                return board  # above the bucket's lowest pair: the line is unchanged
+            self._envelope[-1] = (board, host_ns)
+            if len(self._envelope) >= 3:
+                return board  # the fit leaves the filling bucket out: unchanged
         elif self._envelope and board < self._envelope[-1][0]:
             return board  # a little out of order (another frame kind): nothing to learn
         else:
             self._envelope.append((board, host_ns))
+        # Refit only when the points it uses changed: once per bucket in the steady state
+        # (a fit on every stamped frame cost ~80 us of each change's way to ROS).
         self._refit()
         return board
 
@@ -90,6 +100,7 @@ class BoardClock:
         self._wraps = 0
         self._fit = None
         self.spread_ns = 0
+        self._last_out = None
 
     def _refit(self) -> None:
         points = list(self._envelope)
@@ -120,7 +131,13 @@ class BoardClock:
         return 0.0 if self._fit is None else (self._fit.rate - 1.0) * 1e6
 
     def to_host_ns(self, board_us: int) -> int:
-        """The host time (ns) of board time ``board_us`` (unwrapped or raw, recent)."""
+        """The host time (ns) of board time ``board_us`` (unwrapped or raw, recent).
+
+        Monotonic for board times in order: when a refit moved the line earlier, a later
+        board time gets a stamp after the previous one (by :data:`SLEW` of the elapsed
+        board time) until the line catches up, so stamps never go back; an earlier board
+        time than the last converted one gets the line's value.
+        """
         if self._fit is None:
             raise RuntimeError("no stamped frame observed yet")
         fit = self._fit
@@ -129,4 +146,10 @@ class BoardClock:
             board = board_us + self._wraps * _WRAP_US
             if board_us > self._last_raw + _WRAP_US // 2:  # just before the last wrap
                 board -= _WRAP_US
-        return int(fit.offset_ns + fit.rate * (board - fit.origin_us) * 1000.0)
+        host = int(fit.offset_ns + fit.rate * (board - fit.origin_us) * 1000.0)
+        last = self._last_out
+        if last is not None and board >= last[0]:
+            host = max(host, last[1] + int((board - last[0]) * 1000 * SLEW))
+        if last is None or board >= last[0]:
+            self._last_out = (board, host)
+        return host

@@ -20,28 +20,19 @@ import yaml
 from ..errors import UsageError
 from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ..protocol.timers import TIMER_OF, Timer
+from ._sources import INPUTS, OUTPUTS, PIN_NEEDS
 from ._wire import fully_qualified
 
 __all__ = ["BoardConfig", "BridgeConfig", "ConfigError", "InputConfig", "OutputConfig", "load"]
 
-#: Input kinds -> the pins they need.
-INPUT_KINDS = {
-    "bool": "digital",
-    "volts": "analog",
-    "battery": "analog",
-    "counter": "counter",
-    "imu": "i2c",
-}
+#: Input kinds -> the pins they need (from the table in :mod:`._sources`).
+INPUT_KINDS = {name: kind.pins for name, kind in INPUTS.items()}
 #: Output kinds -> the pins they need.
-OUTPUT_KINDS = {"bool": "digital", "servo": "servo", "motor": "duty"}
-_PIN_TEXT = {
-    "digital": "D2-D13",
-    "analog": "A0-A5",
-    "servo": "D9, D10",
-    "counter": "D2, D3",
-    "duty": "D3, D5, D6, D9, D10",
-    "i2c": "A4",
-}
+OUTPUT_KINDS = {name: kind.pins for name, kind in OUTPUTS.items()}
+_PIN_TEXT = PIN_NEEDS
+#: Keys only an encoder takes.
+_ENCODER_KEYS = INPUTS["encoder"].keys - {"period"}
 
 
 class ConfigError(UsageError):
@@ -59,6 +50,12 @@ class InputConfig:
     period: float = 0.1  # analog: seconds between readings
     scale: float = 1.0  # analog: volts at the pin -> published volts (a divider)
     address: int = 0x68  # imu: the MPU-6050's I2C address
+    pin_b: DigitalPin | None = None  # encoder: pin B (``pin`` is A)
+    #: encoder: counts per revolution of the joint in the decoding ``mode``'s units
+    #: (an x4 count per edge: 4 x the encoder's lines, times any gear ratio).
+    counts_per_rev: float = 0.0
+    mode: str = "x4"  # encoder: x1, x2 or x4
+    joint: str = ""  # encoder: the JointState's joint name
 
 
 @dataclass(frozen=True)
@@ -189,6 +186,7 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
         isinstance(stream_ms, bool) or not isinstance(stream_ms, int | float) or stream_ms < 0.25
     ):
         raise ConfigError(f"{where}.stream_ms: {stream_ms!r} is not a period of 0.25 ms or more")
+    _check_stream_timer(inputs, outputs, stream_ms is not None, where)
     link_ms = item.get("link_failsafe_ms")
     low, high = FAILSAFE_MIN_TIMEOUT_MS, FAILSAFE_MAX_TIMEOUT_MS
     if link_ms is not None and (
@@ -207,6 +205,31 @@ def _board(data: object, where: str, namespace: str, topics: dict[str, str]) -> 
         None if stream_ms is None else float(stream_ms),
         link_ms,
     )
+
+
+def _check_stream_timer(
+    inputs: tuple[InputConfig, ...], outputs: tuple[OutputConfig, ...], stream_ms: bool, where: str
+) -> None:
+    """The board's stream (encoders, or analog inputs with stream_ms) is timed by Timer0,
+    which a motor's duty PWM on D5/D6 holds: the board would refuse the stream at start."""
+    streams = any(s.kind == "encoder" or (stream_ms and s.kind in ("volts", "battery"))
+                  for s in inputs)  # fmt: skip
+    if not streams:
+        return
+    for index, output in enumerate(outputs):
+        if output.kind == "motor" and TIMER_OF.get(output.pin) is Timer.TIMER0:
+            free = [p for p in capable_pins(Function.DUTY_PWM) if isinstance(p, DigitalPin)]
+            others = ", ".join(p.name for p in free if TIMER_OF.get(p) is not Timer.TIMER0)
+            raise ConfigError(
+                f"{where}.outputs[{index}].pin: a motor on {output.pin.name} holds Timer0, "
+                f"which times the board's stream (encoders, stream_ms): use {_or(others)}"
+            )
+
+
+def _or(names: str) -> str:
+    """'D3, D9, D10' -> 'D3, D9 or D10'."""
+    head, _, last = names.rpartition(", ")
+    return f"{head} or {last}" if head else last
 
 
 def _list(item: Mapping[str, Any], key: str, where: str) -> list[Any]:
@@ -242,6 +265,7 @@ def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | Analog
         "counter": pin in capable_pins(Function.COUNTER),
         "duty": pin in capable_pins(Function.DUTY_PWM),
         "i2c": pin is AnalogPin.A4,
+        "encoder": pin in capable_pins(Function.ENCODER),
     }[need]
     if not ok:
         raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({_PIN_TEXT[need]} can)")
@@ -277,9 +301,14 @@ def _kind(value: object, kinds: Mapping[str, str], where: str) -> str:
 def _input(
     data: object, where: str, node_ns: str, topics: dict[str, str], pins: set[int]
 ) -> InputConfig:
-    allowed = {"pin", "type", "topic", "pull_up", "period", "scale", "address"}
+    allowed = {"pin", "type", "topic"}.union(*(kind.keys for kind in INPUTS.values()))
     item = _mapping(data, where, allowed)
     kind = _kind(item.get("type"), INPUT_KINDS, where)
+    if kind == "encoder":
+        return _encoder(item, where, node_ns, topics, pins)
+    stray = sorted(_ENCODER_KEYS & item.keys())
+    if stray:
+        raise ConfigError(f"{where}.{stray[0]}: only an encoder takes {stray[0]!r}")
     # An IMU sits on the I2C bridge: SDA A4 and SCL A5, both taken.
     pin = _pin(
         item.get("pin", "A4") if kind == "imu" else item.get("pin"), kind, INPUT_KINDS[kind], where
@@ -347,3 +376,44 @@ def _output(
         safe = False if kind == "bool" else 0.0
     topic = _topic(item.get("topic"), node_ns, topics, where)
     return OutputConfig(pin, kind, topic, timeout, safe, directions[0], directions[1])
+
+
+def _encoder(
+    item: Mapping[str, Any], where: str, node_ns: str, topics: dict[str, str], pins: set[int]
+) -> InputConfig:
+    """An encoder on pins A and B, published as a JointState from the board's stream."""
+    pin = _pin(item.get("pin"), "encoder", "encoder", where)
+    _claim(pin, pins, where)
+    if "pin_b" not in item:
+        raise ConfigError(f"{where}.pin_b: an encoder needs its pin B")
+    pin_b = _pin(item["pin_b"], "encoder", "encoder", f"{where}.pin_b")
+    _claim(pin_b, pins, f"{where}.pin_b")
+    assert isinstance(pin, DigitalPin) and isinstance(pin_b, DigitalPin)
+    cpr = item.get("counts_per_rev")
+    if cpr is None:
+        raise ConfigError(
+            f"{where}.counts_per_rev: an encoder needs its counts per revolution "
+            "(in the mode's counts: x4 counts 4 per line)"
+        )
+    if isinstance(cpr, bool) or not isinstance(cpr, int | float) or not math.isfinite(cpr):
+        raise ConfigError(f"{where}.counts_per_rev: {cpr!r} is not a number")
+    if cpr == 0:
+        raise ConfigError(f"{where}.counts_per_rev: 0 is not a number of counts")
+    mode = item.get("mode", "x4")
+    if mode not in ("x1", "x2", "x4"):
+        raise ConfigError(f"{where}.mode: {mode!r} is not one of x1, x2, x4")
+    period = _positive(item.get("period", 1.0), f"{where}.period")
+    topic = _topic(item.get("topic"), node_ns, topics, where)
+    joint = item.get("joint", topic.rsplit("/", 1)[-1])
+    if not isinstance(joint, str) or not joint:
+        raise ConfigError(f"{where}.joint: {joint!r} is not a joint name")
+    return InputConfig(
+        pin,
+        "encoder",
+        topic,
+        period=period,
+        pin_b=pin_b,
+        counts_per_rev=float(cpr),
+        mode=str(mode),
+        joint=joint,
+    )

@@ -27,6 +27,8 @@ __all__ = [
     "FLOAT64",
     "IMU",
     "INT64",
+    "JOINT_STATE",
+    "RANGE",
     "Stamp",
     "battery_state",
     "bool_msg",
@@ -137,14 +139,20 @@ def imu(
 
 
 def range_msg(
-    stamp: Stamp, frame_id: str, metres: float, *, min_range: float, max_range: float
+    stamp: Stamp,
+    frame_id: str,
+    metres: float,
+    *,
+    min_range: float,
+    max_range: float,
+    field_of_view: float = 0.26,
 ) -> bytes:
     """An ultrasound Range (radiation_type 0)."""
     message = _new(
         RANGE,
         header=stamp.header(frame_id),
         radiation_type=0,
-        field_of_view=0.26,
+        field_of_view=field_of_view,
         min_range=min_range,
         max_range=max_range,
         range=metres,
@@ -154,11 +162,16 @@ def range_msg(
 
 
 def joint_state(
-    stamp: Stamp, names: Sequence[str], position: Sequence[float], velocity: Sequence[float]
+    stamp: Stamp,
+    names: Sequence[str],
+    position: Sequence[float],
+    velocity: Sequence[float],
+    frame_id: str = "",
 ) -> bytes:
+    """A JointState without efforts (an empty array says "not measured")."""
     message = _new(
         JOINT_STATE,
-        header=stamp.header(""),
+        header=stamp.header(frame_id),
         name=list(names),
         position=np.asarray(position, dtype=np.float64),
         velocity=np.asarray(velocity, dtype=np.float64),

@@ -21,11 +21,14 @@ from __future__ import annotations
 
 import json
 import sys
+import tempfile
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import zenoh_ros2_sdk as sdk  # type: ignore[import-untyped]  # no type information
+from zenoh_ros2_sdk.message_registry import get_registry  # type: ignore[import-untyped]
 
 #: The message texts the SDK would otherwise fetch from GitHub (common_interfaces).
 DEFINITIONS = {
@@ -35,7 +38,43 @@ DEFINITIONS = {
     "std_msgs/msg/Int64": "int64 data\n",
 }
 
+#: Nested types: the SDK resolves a message's field types from .msg files in its registry's
+#: directory (else it would clone common_interfaces from GitHub); these are ROS 2 Jazzy's.
+NESTED = {
+    "builtin_interfaces/msg/Time": "int32 sec\nuint32 nanosec\n",
+    "std_msgs/msg/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
+    "sensor_msgs/msg/JointState": (
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
+        "float64[] effort\n"
+    ),
+}
+DEFINITIONS["sensor_msgs/msg/JointState"] = NESTED["sensor_msgs/msg/JointState"]
+
 _out = threading.Lock()
+
+
+def local_definitions() -> None:
+    """Give the SDK's registry a directory with the nested types' .msg files."""
+    root = Path(tempfile.mkdtemp(prefix="sdk-msgs-"))
+    for name, text in NESTED.items():
+        path = root / f"{name}.msg"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    get_registry(str(root))
+
+
+def fields(message: Any) -> dict[str, Any]:
+    """What the test compares: ``data``, or a JointState's fields and stamp."""
+    if hasattr(message, "data"):
+        return {"data": message.data}
+    stamp = message.header.stamp
+    return {
+        "name": list(message.name),
+        "position": [float(x) for x in message.position],
+        "velocity": [float(x) for x in message.velocity],
+        "frame_id": message.header.frame_id,
+        "stamp_ns": stamp.sec * 1_000_000_000 + stamp.nanosec,
+    }
 
 
 def say(item: dict[str, Any]) -> None:
@@ -46,6 +85,7 @@ def say(item: dict[str, Any]) -> None:
 
 def main() -> None:
     port = int(sys.argv[1])
+    local_definitions()
     keep: list[Any] = []
     publishers: dict[str, Any] = {}
     for line in sys.stdin:
@@ -53,9 +93,13 @@ def main() -> None:
         op = order["op"]
         if op == "sub":
             topic = order["topic"]
+            if order["type"] in NESTED:  # its typestore learns the nested types first
+                session = sdk.ZenohSession.get_instance(router_port=port)
+                for name, text in NESTED.items():
+                    session.register_message_type(text, name)
 
             def on_message(message: Any, topic: str = topic) -> None:
-                say({"topic": topic, "data": message.data, "received_ns": time.time_ns()})
+                say({"topic": topic, **fields(message), "received_ns": time.time_ns()})
 
             keep.append(
                 sdk.ROS2Subscriber(

@@ -8,6 +8,7 @@ exponential tail (the serial line and the event loop only ever add delay), and t
 
 from __future__ import annotations
 
+import itertools
 import random
 
 import pytest
@@ -70,3 +71,21 @@ def test_a_board_that_reset_by_itself_starts_a_new_estimate() -> None:
         board_us = 1000 + step * 10_000
         clock.observe(board_us, reboot_host + board_us * 1000)
     assert clock.to_host_ns(500_000) == reboot_host + 500_000_000
+
+
+def test_stamps_of_later_board_times_never_go_back_when_the_line_moves_down() -> None:
+    """A new envelope point with less transit moves the fitted line down (earlier); the
+    stamps of the frames that follow must still increase (ROS consumers, tf and message
+    filters drop or misorder messages whose stamps go back), and then converge on the
+    new line instead of staying late."""
+    clock = BoardClock(bucket_s=0.25, buckets=20)
+    stamps = []
+    for step in range(2000):  # 1 ms apart; 5 ms of transit in the first second, then 0.2
+        board_us = step * 1_000
+        transit = 5_000_000 if step < 1000 else MIN_TRANSIT_NS
+        clock.observe(board_us, true_host_ns(board_us) + transit)
+        stamps.append(clock.to_host_ns(board_us))
+    steps = [b - a for a, b in itertools.pairwise(stamps)]
+    assert min(steps) > 0, [s for s in steps if s <= 0][:5]
+    # Converged: the last stamp is on the new line again (late by the least transit).
+    assert stamps[-1] - true_host_ns(1999 * 1_000) <= MIN_TRANSIT_NS + clock.spread_ns

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from arduinoio_async import A0, D2, D3, D9
+from arduinoio_async import A0, D2, D3, D4, D5, D9
 from arduinoio_async.ros2 import ConfigError, load, parse
 
 EXAMPLE = Path(__file__).parents[2] / "examples" / "ros2_two_boards.yaml"
@@ -70,7 +70,7 @@ def test_the_example_configuration_loads() -> None:
                      {"pin": "D3", "type": "bool", "topic": "b"}]},
          r"inputs\[1\]\.pin: D3 is used twice on this board"),
         ({"inputs": [{"pin": "D3", "type": "switch", "topic": "a"}]},
-         r"inputs\[0\]\.type: 'switch' is not one of battery, bool, counter, imu, volts"),
+         r"inputs\[0\]\.type: 'switch' is not one of battery, bool, counter, encoder, imu, volts"),
         ({"inputs": [{"pin": "D3", "type": "bool", "topic": "a", "pullup": True}]},
          r"inputs\[0\]: unknown key 'pullup'"),
         ({"outputs": [{"pin": "D2", "type": "bool", "topic": "a", "timeout": 0}]},
@@ -96,11 +96,55 @@ def test_the_example_configuration_loads() -> None:
                      {"pin": "A5", "type": "volts", "topic": "v"}]},
          r"inputs\[1\]\.pin: A5 is used twice on this board"),
         ({"stream_ms": 0.1}, r"boards\[0\]\.stream_ms: 0.1 is not a period of 0.25 ms or more"),
+        # Encoders (JointState): pins A and B, counts per revolution, their own keys.
+        ({"inputs": [{"pin": "D14", "pin_b": "D3", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 2048}]},
+         r"inputs\[0\]\.pin: unknown pin 'D14' \(D2-D13, A0-A5\)"),
+        ({"inputs": [{"pin": "D2", "pin_b": "A0", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 2048}]},
+         r"inputs\[0\]\.pin_b\.pin: A0 cannot be a 'encoder' \(D2-D13 can\)"),
+        ({"inputs": [{"pin": "D2", "type": "encoder", "topic": "e", "counts_per_rev": 2048}]},
+         r"inputs\[0\]\.pin_b: an encoder needs its pin B"),
+        ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e"}]},
+         r"inputs\[0\]\.counts_per_rev: an encoder needs its counts per revolution"),
+        ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 0}]},
+         r"inputs\[0\]\.counts_per_rev: 0 is not a number of counts"),
+        ({"inputs": [{"pin": "D2", "pin_b": "D2", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 8}]},
+         r"inputs\[0\]\.pin_b\.pin: D2 is used twice on this board"),
+        ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 8},
+                     {"pin": "D4", "pin_b": "D5", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 8}]},
+         r"inputs\[1\]\.topic: duplicate topic /robot/front/e"),
+        ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 8, "mode": "x3"}]},
+         r"inputs\[0\]\.mode: 'x3' is not one of x1, x2, x4"),
+        ({"inputs": [{"pin": "D2", "type": "bool", "topic": "b", "counts_per_rev": 8}]},
+         r"inputs\[0\]\.counts_per_rev: only an encoder takes 'counts_per_rev'"),
+        # The stream's samples are timed by Timer0, which a motor's duty PWM on D5/D6 holds.
+        ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e",
+                      "counts_per_rev": 8}],
+          "outputs": [{"pin": "D5", "type": "motor", "topic": "m", "direction": "D4"}]},
+         r"boards\[0\]\.outputs\[0\]\.pin: a motor on D5 holds Timer0, which times the "
+         r"board's stream \(encoders, stream_ms\): use D3, D9 or D10"),
+        ({"stream_ms": 5, "inputs": [{"pin": "A0", "type": "volts", "topic": "v"}],
+          "outputs": [{"pin": "D6", "type": "motor", "topic": "m", "direction": "D4"}]},
+         r"outputs\[0\]\.pin: a motor on D6 holds Timer0"),
     ],
 )  # fmt: skip
 def test_mistakes_are_named_with_their_place(board: dict[str, Any], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         parse(config(**board), "robot.yaml")
+
+
+def test_an_encoder_entry() -> None:
+    entry = {"pin": "D4", "pin_b": "D5", "type": "encoder", "topic": "wheel", "counts_per_rev": 800}
+    source = parse(config(inputs=[entry])).boards[0].inputs[0]
+    assert (source.pin, source.pin_b, source.kind) == (D4, D5, "encoder")
+    assert (source.counts_per_rev, source.mode, source.joint) == (800.0, "x4", "wheel")
+    assert source.topic == "/robot/front/wheel" and source.period == 1.0
 
 
 def test_duplicate_nodes_and_board_ids() -> None:
