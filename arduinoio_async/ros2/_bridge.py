@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from ..board import Board
     from ..board.handles import DigitalOutput, Servo
     from ..board.motors import Motor
+    from ..board.steppers import Stepper
     from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin
 
 __all__ = ["BoardNode", "run_bridge"]
@@ -171,8 +172,17 @@ class BoardNode:
 
     async def _set_up_output(self, config: OutputConfig) -> _Command:
         # The configuration checked each pin against Table III: the casts restate that.
-        handle: DigitalOutput | Motor | Servo
-        if config.kind == "bool":
+        handle: DigitalOutput | Motor | Servo | Stepper
+        if config.kind == "stepper":
+            assert config.direction is not None
+            handle = await self.board.stepper(
+                step=config.pin,
+                dir=config.direction,
+                max_speed=config.max_speed,
+                acceleration=config.acceleration,
+            )
+            ros_type = msgs.FLOAT64
+        elif config.kind == "bool":
             handle = await self.board.digital_output(config.pin, initial=bool(config.safe))
             ros_type = msgs.BOOL
         elif config.kind == "motor":
@@ -203,6 +213,8 @@ class BoardNode:
                 states[command.handle] = bool(safe)
             elif command.config.kind == "motor":
                 states[command.handle] = 0.0  # a motor's failsafe state is stopped
+            elif command.config.kind == "stepper":
+                continue  # the board's failsafe stops every stepper by itself
             else:  # servo: the safe angle's pulse width, or no pulses
                 servo = command.handle
                 degrees = None if safe is None else _degrees(float(safe))
@@ -230,6 +242,8 @@ class BoardNode:
                 await command.handle.write(bool(value))
             elif command.config.kind == "motor":
                 await command.handle.set_speed(float(value or 0.0))
+            elif command.config.kind == "stepper":
+                await self._move_stepper(command, value)
             elif value is None:
                 await command.handle.stop()
             else:
@@ -239,6 +253,19 @@ class BoardNode:
             log.warning(
                 "%s: %s <- %r failed: %s", self.config.name, command.config.topic, value, exc
             )
+
+    async def _move_stepper(self, command: _Command, value: float | bool | None) -> None:
+        """A position target (radians with steps_per_rev, else steps); None: the safe
+        state, an immediate stop (what the board's failsafe does to a stepper)."""
+        stepper = command.handle
+        if value is None:
+            await stepper.stop(immediate=True)
+            return
+        per_rev = command.config.steps_per_rev
+        target = float(value) * per_rev / (2 * math.pi) if per_rev else float(value)
+        if not math.isfinite(target) or abs(target) >= 2**31:
+            raise ValueError(f"{value!r} is not a stepper position")
+        await stepper.move_to(round(target))
 
     async def _watch_freshness(self, command: _Command) -> None:
         timeout = command.config.timeout

@@ -70,9 +70,15 @@ class OutputConfig:
     #: The safe state: a level for ``bool``, radians for ``servo`` (None: no pulses), a
     #: speed -1..1 for ``motor``.
     safe: bool | float | None = None
-    #: A motor's direction input(s) (IN1, and IN2 for drivers that can brake).
+    #: A motor's direction input(s) (IN1, and IN2 for drivers that can brake); a
+    #: stepper's DIR pin (``pin`` is its STEP pin).
     direction: DigitalPin | None = None
     direction2: DigitalPin | None = None
+    #: A stepper's top speed (steps/s) and acceleration (steps/s^2).
+    max_speed: int = 1000
+    acceleration: int = 1000
+    #: A stepper's steps per revolution: commands are radians; None: commands are steps.
+    steps_per_rev: float | None = None
 
 
 @dataclass(frozen=True)
@@ -336,6 +342,7 @@ def _output(
     data: object, where: str, node_ns: str, topics: dict[str, str], pins: set[int]
 ) -> OutputConfig:
     allowed = {"pin", "type", "topic", "timeout", "safe", "direction", "direction2"}
+    allowed |= {"max_speed", "acceleration", "steps_per_rev"}
     item = _mapping(data, where, allowed)
     kind = _kind(item.get("type"), OUTPUT_KINDS, where)
     pin = _pin(item.get("pin"), kind, OUTPUT_KINDS[kind], where)
@@ -346,14 +353,17 @@ def _output(
         if key not in item:
             directions.append(None)
             continue
-        if kind != "motor":
-            raise ConfigError(f"{where}.{key}: only a motor has direction pins")
+        if kind != "motor" and (kind, key) != ("stepper", "direction"):
+            raise ConfigError(f"{where}.{key}: only a motor or a stepper has direction pins")
         direction = _pin(item[key], kind, "digital", f"{where}.{key}")
         _claim(direction, pins, f"{where}.{key}")
         assert isinstance(direction, DigitalPin)
         directions.append(direction)
     if kind == "motor" and directions[0] is None:
         raise ConfigError(f"{where}.direction: a motor needs its direction pin (IN1)")
+    if kind == "stepper" and directions[0] is None:
+        raise ConfigError(f"{where}.direction: a stepper needs its driver's DIR pin")
+    stepper = _stepper_options(item, kind, where)
     timeout = item.get("timeout")
     if timeout is not None:
         timeout = _positive(timeout, f"{where}.timeout")
@@ -372,10 +382,34 @@ def _output(
         and (isinstance(safe, bool) or not isinstance(safe, int | float) or abs(safe) > 1)
     ):
         raise ConfigError(f"{where}.safe: {safe!r} is not a speed -1..1")
-    if timeout is not None and safe is None and kind != "servo":
+    if kind == "stepper" and safe is not None:
+        raise ConfigError(f"{where}.safe: a stepper's safe state is stopped (leave safe out)")
+    if timeout is not None and safe is None and kind not in ("servo", "stepper"):
         safe = False if kind == "bool" else 0.0
     topic = _topic(item.get("topic"), node_ns, topics, where)
-    return OutputConfig(pin, kind, topic, timeout, safe, directions[0], directions[1])
+    return OutputConfig(pin, kind, topic, timeout, safe, directions[0], directions[1], **stepper)
+
+
+def _stepper_options(item: Mapping[str, Any], kind: str, where: str) -> dict[str, Any]:
+    """A stepper's max_speed (1-10,000 steps/s), acceleration and steps_per_rev."""
+    options: dict[str, Any] = {}
+    for key, top in (("max_speed", 10_000), ("acceleration", 1_000_000)):
+        if key not in item:
+            continue
+        if kind != "stepper":
+            raise ConfigError(f"{where}.{key}: only a stepper takes {key}")
+        value = item[key]
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= top:
+            raise ConfigError(f"{where}.{key}: {value!r} is not a whole number 1-{top:,}")
+        options[key] = value
+    if "steps_per_rev" in item:
+        if kind != "stepper":
+            raise ConfigError(f"{where}.steps_per_rev: only a stepper takes steps_per_rev")
+        value = item["steps_per_rev"]
+        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+            raise ConfigError(f"{where}.steps_per_rev: {value!r} is not a positive number")
+        options["steps_per_rev"] = float(value)
+    return options
 
 
 def _encoder(

@@ -7,8 +7,8 @@ stream, and the configuration keys only it takes.  Adding a sensor is one row pl
 converter from a plain reading (a dataclass below, no board handle) to the message's
 payload, so the converters are unit-tested with CDR round trips before the sensor's
 board API exists.  Rows for sensors whose board API is not yet in the library (sonar,
-RC pulse inputs, steppers, the streamed IMU) are kept out of the tables until the lead
-wires their converter to the handle; their converters are here already.
+RC pulse inputs, the streamed IMU) are kept out of the tables until their handle is
+wired; their converters are here already.
 """
 
 from __future__ import annotations
@@ -76,6 +76,13 @@ OUTPUTS: dict[str, Kind] = {
     "servo": Kind(msgs.FLOAT64, "servo", keys=frozenset({"timeout", "safe"})),
     "motor": Kind(
         msgs.FLOAT64, "duty", keys=frozenset({"timeout", "safe", "direction", "direction2"})
+    ),
+    #: A position target: radians with ``steps_per_rev``, else steps; the board runs the
+    #: move (trapezoidal profile); a command timeout stops it.
+    "stepper": Kind(
+        msgs.FLOAT64,
+        "digital",
+        keys=frozenset({"timeout", "direction", "max_speed", "acceleration", "steps_per_rev"}),
     ),
 }
 

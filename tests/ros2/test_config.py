@@ -83,7 +83,7 @@ def test_the_example_configuration_loads() -> None:
         ({"outputs": [{"pin": "D4", "type": "motor", "topic": "m", "direction": "D7"}]},
          r"outputs\[0\]\.pin: D4 cannot be a 'motor' \(D3, D5, D6, D9, D10 can\)"),
         ({"outputs": [{"pin": "D2", "type": "bool", "topic": "m", "direction": "D7"}]},
-         r"outputs\[0\]\.direction: only a motor has direction pins"),
+         r"outputs\[0\]\.direction: only a motor or a stepper has direction pins"),
         ({"outputs": [{"pin": "D9", "type": "motor", "topic": "m", "direction": "D9"}]},
          r"outputs\[0\]\.direction\.pin: D9 is used twice"),
         ({"inputs": [{"pin": "D4", "type": "counter", "topic": "c"}]},
