@@ -222,6 +222,8 @@ _REFUSAL_REASONS = {
     "FAILSAFE_TRIPPED": "the failsafe has tripped",
     "EEPROM_FAILED": "its EEPROM did not keep the value",
     "NOT_IN_IMAGE": "its firmware image leaves this kind of command out",
+    "SPI_NOT_CONFIGURED": "the SPI bridge is off",
+    "SPI_MODE_FAULT": "the SPI unit left master mode (D10, the AVR's SS, went low as an input)",
 }
 
 #: What a refusal means and what to do about it, by error code name.
@@ -239,6 +241,8 @@ _REFUSAL_HINTS = {
     "NOT_IN_IMAGE": "each Uno image is built for a job (docs: firmware profiles); "
     "flash one that has it with `arduinoio flash --profile NAME`",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
+    "SPI_NOT_CONFIGURED": "set the SPI bridge up first (board.spi(cs=...))",
+    "SPI_MODE_FAULT": "make D10 the chip select or an output while SPI is in use",
 }
 
 

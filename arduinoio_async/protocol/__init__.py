@@ -55,13 +55,15 @@ from ._constants import (
     GpioState,
     I2CSpeed,
     SafeKind,
+    SpiBitOrder,
+    SpiClock,
     StatusFlags,
     StreamFlags,
 )
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from .commands import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, spi, stream, transaction
 from .commands import descriptions as _descriptions  # noqa: F401 (says requests in errors)
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403
@@ -71,6 +73,7 @@ from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
+from .commands.spi import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
 from .commands.transaction import *  # noqa: F403
 
@@ -141,6 +144,8 @@ __all__ = [
     "Reply",
     "Request",
     "SafeKind",
+    "SpiBitOrder",
+    "SpiClock",
     "StatusFlags",
     "StreamFlags",
     "checksum",
@@ -158,3 +163,4 @@ __all__ += encoder.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__
+__all__ += spi.__all__

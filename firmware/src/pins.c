@@ -10,6 +10,7 @@
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
+#include "spi.h"
 
 uint8_t pins_role[PINS_COUNT];
 
@@ -52,6 +53,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_ENCODER:
         encoder_release(pin); /* and its other pin */
+        break;
+    case ROLE_SPI:
+        spi_release(pin); /* and the bridge's other three pins */
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

@@ -1,7 +1,7 @@
 """The command table: every request, its reply and the events, one module per class tag.
 
 The modules mirror ``firmware/src`` (``misc``, ``gpio``, ``analog``, ``i2c``, ``pwm``,
-``counter``, ``stream``, ``failsafe``, ``transaction``, ``encoder``), each holding the frames its C
+``counter``, ``stream``, ``failsafe``, ``transaction``, ``encoder``, ``spi``), each holding the frames its C
 counterpart handles or sends.  Importing this package fills the tables of ``_messages``
 (``REQUEST_TYPES``, ``REPLY_TYPES``, ``EVENT_TYPES``) that the decoder, the generated C
 header and the generated docs read; ``arduinoio_async.protocol`` re-exports every
@@ -15,12 +15,12 @@ from __future__ import annotations
 from typing import Any
 
 from .._messages import REQUEST_TYPES, Request
-from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, spi, stream, transaction
 
 __all__ = ["IDEMPOTENT_WRITES", "MODULES", "READ_ONLY_REQUESTS"]
 
 #: Every command module, in class tag order; importing them filled the command table.
-MODULES = (misc, gpio, analog, i2c, pwm, counter, stream, failsafe, transaction, encoder)
+MODULES = (misc, gpio, analog, i2c, pwm, counter, stream, failsafe, transaction, encoder, spi)
 
 #: Requests that only read (docs/protocol.md, "Idempotency and retries"), in tag order.
 READ_ONLY_REQUESTS: tuple[type[Request[Any]], ...] = tuple(

@@ -14,7 +14,7 @@ from ...errors import set_request_words
 from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
-from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, spi, stream, transaction
 
 __all__ = ["DESCRIPTIONS", "describe"]
 
@@ -148,6 +148,11 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         if rq.every
         else f"stop reporting quadrature encoder {rq.slot}"
     ),
+    spi.SpiConfig: lambda rq: (
+        f"take D11-D13 and {_pin(rq.cs)} (chip select) for SPI mode {rq.mode} "
+        f"at {rq.clock.hz / 1e6:g} MHz"
+    ),
+    spi.SpiTransfer: lambda rq: f"exchange {_bytes(len(rq.data))} over SPI",
     stream.StreamStart: _stream_start,
     stream.StreamStop: lambda rq: "stop the stream",
     failsafe.FailsafeArm: lambda rq: f"arm the failsafe ({rq.timeout_ms} ms)",
