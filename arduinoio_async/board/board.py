@@ -45,6 +45,7 @@ from ..transport import (
 from ._encoder_methods import EncoderMethods
 from ._features import require_feature, require_stream_features
 from ._motor_methods import MotorMethods
+from ._spi_methods import SpiMethods
 from .boot import (
     READY_TIMEOUT,
     check_same_board,
@@ -72,7 +73,7 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(MotorMethods, EncoderMethods):
+class Board(MotorMethods, EncoderMethods, SpiMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -288,6 +289,11 @@ class Board(MotorMethods, EncoderMethods):
         holder = getattr(handle, "encoder", None)  # ... and its pin A with B
         if holder is not None:
             self._roles.release(holder.pin)
+        owner = getattr(handle, "owner", None)  # an SPI pin: the whole bus goes
+        if owner is not None:
+            self._roles.release(owner.pin)
+            for other in owner.other_pins:
+                self._roles.release(other)
         gpio = self._gpio.pop(pin, None)
         if gpio is not None:
             gpio.direction = None

@@ -63,7 +63,19 @@ from ._constants import (
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, spi, stream, transaction
+from .commands import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pwm,
+    spi,
+    stream,
+    transaction,
+)
 from .commands import descriptions as _descriptions  # noqa: F401 (says requests in errors)
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403

@@ -1,10 +1,10 @@
 """The command table: every request, its reply and the events, one module per class tag.
 
 The modules mirror ``firmware/src`` (``misc``, ``gpio``, ``analog``, ``i2c``, ``pwm``,
-``counter``, ``stream``, ``failsafe``, ``transaction``, ``encoder``, ``spi``), each holding the frames its C
-counterpart handles or sends.  Importing this package fills the tables of ``_messages``
-(``REQUEST_TYPES``, ``REPLY_TYPES``, ``EVENT_TYPES``) that the decoder, the generated C
-header and the generated docs read; ``arduinoio_async.protocol`` re-exports every
+``counter``, ``stream``, ``failsafe``, ``transaction``, ``encoder``, ``spi``), each holding
+the frames its C counterpart handles or sends.  Importing this package fills the tables of
+``_messages`` (``REQUEST_TYPES``, ``REPLY_TYPES``, ``EVENT_TYPES``) that the decoder, the
+generated C header and the generated docs read; ``arduinoio_async.protocol`` re-exports every
 module's ``__all__``, which is where users import the messages from.
 
 Descriptor tags of the paper are kept; requests marked *extension* go beyond the paper.

@@ -11,7 +11,16 @@ from collections.abc import Callable
 from typing import Any
 
 from ...errors import set_request_words
-from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
+from .._constants import (
+    DUTY_FULL,
+    Edge,
+    Framing,
+    GpioFlags,
+    I2CSpeed,
+    SafeKind,
+    SpiClock,
+    StreamFlags,
+)
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
 from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, spi, stream, transaction
@@ -150,7 +159,7 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
     ),
     spi.SpiConfig: lambda rq: (
         f"take D11-D13 and {_pin(rq.cs)} (chip select) for SPI mode {rq.mode} "
-        f"at {rq.clock.hz / 1e6:g} MHz"
+        f"at {SpiClock(rq.clock).hz / 1e6:g} MHz"
     ),
     spi.SpiTransfer: lambda rq: f"exchange {_bytes(len(rq.data))} over SPI",
     stream.StreamStart: _stream_start,

@@ -43,7 +43,8 @@ class SpiConfig(_Config, Request[SpiConfigReply]):
 
 @reply_frame(ClassTag.SPI, 0x02)
 class SpiTransferReply(Reply):
-    data: Annotated[bytes, Blob(MAX_BLOB)]
+    #: The bytes clocked in on MISO, one per byte sent.
+    received: Annotated[bytes, Blob(MAX_BLOB)]
 
 
 # Not idempotent: a device may act on what it is sent (a write, a FIFO read).
@@ -57,5 +58,5 @@ class SpiTransfer(Request[SpiTransferReply]):
         return (
             Request.matches(self, reply)
             and isinstance(reply, SpiTransferReply)
-            and len(reply.data) == len(self.data)
+            and len(reply.received) == len(self.data)
         )
