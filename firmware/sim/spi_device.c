@@ -129,10 +129,20 @@ static void spi_out_hook(avr_irq_t *irq, uint32_t value, void *param)
 	avr_raise_irq(spi_irq + SPI_IRQ_INPUT, miso);
 }
 
-static void cs_hook(avr_irq_t *irq, uint32_t value, void *param)
+/* The chip select as the device sees it: the pin's PORT level while it is an
+ * output, high otherwise (the 10 k pull-up the wiring in docs/sensors.md puts on
+ * CS, so a released or not yet configured pin deselects the part).  `ddr` is the
+ * port's direction register when the caller has it fresher than the data space. */
+static void cs_update(int ddr)
 {
-	int pin = (int)(intptr_t)param, low = !(value & 1);
-	if (pin != cs_pin || low == cs_low)
+	if (cs_pin < 0)
+		return;
+	int portb = cs_pin >= 8, bit = cs_pin & 7;
+	if (ddr < 0)
+		ddr = avr->data[portb ? 0x24 : 0x2A];
+	int out = (ddr >> bit) & 1, level = (avr->data[portb ? 0x25 : 0x2B] >> bit) & 1;
+	int low = out && !level;
+	if (low == cs_low)
 		return;
 	cs_low = low;
 	bit_index = -1;
@@ -145,6 +155,19 @@ static void cs_hook(avr_irq_t *irq, uint32_t value, void *param)
 	} else {
 		cs_rises++;
 	}
+}
+
+static void cs_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	if ((int)(intptr_t)param == cs_pin)
+		cs_update(-1);
+}
+
+static void ddr_hook(avr_irq_t *irq, uint32_t value, void *param)
+{
+	int portb = (int)(intptr_t)param;
+	if (cs_pin >= 0 && (cs_pin >= 8) == portb)
+		cs_update((int)(value & 0xFF));
 }
 
 void spi_device_attach(void)
@@ -163,6 +186,10 @@ void spi_device_attach(void)
 		avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), pin < 8 ? pin : pin - 8);
 		avr_irq_register_notify(irq, cs_hook, (void *)(intptr_t)pin);
 	}
+	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), IOPORT_IRQ_DIRECTION_ALL), ddr_hook,
+				(void *)(intptr_t)0);
+	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('B'), IOPORT_IRQ_DIRECTION_ALL), ddr_hook,
+				(void *)(intptr_t)1);
 }
 
 /* {"cmd": "spi_device", "cs": 10, "vref": 5.0, "ch0": 1.25, ...}: an MCP3008 with
@@ -179,12 +206,7 @@ void cmd_spi_device(struct jobj *o, struct sbuf *r)
 		}
 		cs_pin = (int)v;
 		cs_low = 0;
-		if (cs_pin >= 0) {
-			char port = cs_pin < 8 ? 'D' : 'B';
-			avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), cs_pin < 8 ? cs_pin : cs_pin - 8);
-			/* selected only while driven low as an output (DDRD 0x2A, DDRB 0x24) */
-			cs_low = !(irq->value & 1) && (avr->data[cs_pin < 8 ? 0x2A : 0x24] >> (cs_pin & 7) & 1);
-		}
+		cs_update(-1);
 		cs_falls = cs_rises = bytes_total = bytes_outside_cs = conversions = 0;
 		frame_next = frames_total = 0;
 		memset(frames, 0, sizeof frames);

@@ -35,6 +35,16 @@
 static uint8_t cs = NO_PIN; /* NO_PIN: the bridge is off */
 static uint8_t settings;    /* mode | clock << 2 | order << 5: for a mode fault's restore */
 
+/* The chip select becomes an input without a low glitch: hal_pin_mode(HAL_IN)
+ * clears PORT before DDR, which would drive it low for a moment and select the
+ * device (the harness's MCP3008 saw that extra CS fall).  Through the pull-up
+ * state first, the pin goes from driven high to input high, then loses the pull-up. */
+static void cs_off(uint8_t pin)
+{
+    hal_pin_mode(pin, HAL_IN_PULLUP);
+    hal_pin_mode(pin, HAL_IN);
+}
+
 void spi_init(void)
 {
     cs = NO_PIN;
@@ -53,7 +63,7 @@ void spi_release(uint8_t pin)
     hal_pin_mode(PIN_MOSI, HAL_IN);
     hal_pin_mode(PIN_MISO, HAL_IN);
     hal_pin_mode(PIN_SCK, HAL_IN);
-    hal_pin_mode(old, HAL_IN);
+    cs_off(old);
 }
 
 /* The pin is free or already the bridge's. */
@@ -76,7 +86,7 @@ static uint8_t configure(const uint8_t *d)
         return AIO_ERR_PIN_BUSY;
     if (cs != NO_PIN && cs != pin) {
         pins_role[cs] = ROLE_FREE; /* a new chip select: the old one is released */
-        hal_pin_mode(cs, HAL_IN);
+        cs_off(cs);
     }
     pins_role[PIN_MOSI] = pins_role[PIN_MISO] = pins_role[PIN_SCK] = pins_role[pin] = ROLE_SPI;
     hal_pin_mode(pin, HAL_OUT_HIGH); /* the chip select idles high */

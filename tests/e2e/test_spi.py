@@ -7,12 +7,17 @@ byte; never the library's own answer.
 
 from __future__ import annotations
 
-import anyio
-import pytest
+import io
 
-from arduinoio_async import A0, A1, A2, A3, D4, D9, D10, D11, D12, D13
+import anyio
+import anyio.to_thread
+import pytest
+from rich.console import Console
+
+from arduinoio_async import A0, A1, A2, A3, D4, D9, D10, D11, D12, D13, blocking
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.devices import MCP3008
 from arduinoio_async.errors import (
     FirmwareFeatureError,
@@ -181,3 +186,38 @@ async def test_d9_servo_and_spi_together(virtual_uno_factory: VirtualUnoFactory)
         await board.servo(D9)
         adc = await MCP3008.open(board, cs=D10)
         assert abs(await adc.read_channel(4) - VOLTS[4]) <= LSB
+
+
+async def test_cli_and_blocking_api(
+    virtual_uno_factory: VirtualUnoFactory, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``arduinoio spi --cs D10 transfer 01 80 00`` prints what the model answered (its own
+    record) and frees the pins; the blocking twin reads a channel; bad hex is one line."""
+    uno = await sensing(virtual_uno_factory)
+    buffer = io.StringIO()
+    target = ["--port", uno.port, "--baud", str(uno.baud)]
+    argv = ["spi", "--cs", "D10", *target, "transfer", "01", "B0", "00"]
+    code = await anyio.to_thread.run_sync(
+        lambda: cli_main(argv, console=Console(file=buffer, width=200))
+    )
+    out = buffer.getvalue()
+    assert code == 0, out
+    truth = await uno.spi_device_status()
+    assert truth.cs_falls == truth.cs_rises == 1
+    assert f"received {truth.frames[-1].miso.hex(' ')}" in out
+
+    bad = io.StringIO()
+    argv = ["spi", *target, "transfer", "zz"]
+    code = await anyio.to_thread.run_sync(lambda: cli_main(argv, console=Console(file=bad)))
+    error = bad.getvalue() + capsys.readouterr().err
+    assert code != 0 and "not hex bytes" in error and "Traceback" not in error
+
+    def script() -> bytes:
+        with blocking.open_board(uno.port, baudrate=uno.baud) as board:
+            bus = board.spi(D10)  # the CLI released the pins
+            reply = bus.transfer(MCP3008.request_bytes(5))
+            bus.release()
+            return reply
+
+    reply = await anyio.to_thread.run_sync(script)
+    assert abs(((reply[1] & 3) << 8 | reply[2]) * 5.0 / 1024 - VOLTS[5]) <= LSB
