@@ -156,6 +156,14 @@
       i2cResult.textContent = r.ok ? `wrote ${r.data} bytes` : "";
     });
 
+    const spi = root.querySelector("form.spi");
+    spi.querySelector(".spi-add").addEventListener("click", () =>
+      control(view, "spi", { cs: spi.cs.value.trim().toUpperCase(), mode: Number(spi.mode.value), clock_hz: Number(spi.clock.value) },
+        () => `SPI on ${spi.cs.value}`));
+    spi.querySelector(".spi-transfer").addEventListener("click", () =>
+      control(view, "spi_transfer", { data: spi.data.value }, (received) => `SPI received ${received}`));
+    spi.querySelector(".spi-release").addEventListener("click", () =>
+      control(view, "spi_release", {}, () => "SPI released"));
     const encoders = root.querySelector("form.encoders");
     encoders.querySelector(".encoder-add").addEventListener("click", () =>
       control(view, "encoder",
@@ -213,6 +221,24 @@
     renderChanges(view, snapshot.changes);
     for (const pin of snapshot.pins) renderPin(view, pin);
     renderEncoders(view, snapshot.encoders);
+    renderSpi(view, snapshot.spi);
+  }
+
+  // SPI: the bus's settings and the last transfer made from the page.
+  function renderSpi(view, spi) {
+    const form = view.root.querySelector("form.spi");
+    const list = form.querySelector(".spi-rows");
+    form.dataset.supported = spi && spi.supported ? "true" : "false";
+    if (!spi || !spi.supported) {
+      list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "not in this firmware" }));
+      return;
+    }
+    list.replaceChildren(...spi.rows.map((b) => {
+      const li = document.createElement("li");
+      const last = b.sent ? ` · sent ${b.sent} · received ${b.received}` : "";
+      li.textContent = `CS ${b.cs} · mode ${b.mode} · ${b.clock_hz / 1e6} MHz${b.lsb_first ? " · LSB first" : ""}${last}`;
+      return li;
+    }));
   }
 
   // Encoders: count, velocity (counts/s from the board's edge times), invalid transitions.
