@@ -159,11 +159,13 @@ async def test_bridge_works_while_a_1khz_stream_runs(
         async with board.stream(analog=[A0, A1, A2, A3], period_ms=1) as stream:
             samples = 0
             reads = 0
+            times: list[int] = []
             async with anyio.create_task_group() as tg:
 
                 async def consume() -> None:
                     nonlocal samples
-                    async for _sample in stream:
+                    async for sample in stream:
+                        times.append(sample.board_time_us)
                         samples += 1
                         if samples >= 500:
                             return
@@ -174,6 +176,10 @@ async def test_bridge_works_while_a_1khz_stream_runs(
                     assert abs(await adc.read_channel(channel) - VOLTS[channel]) <= LSB
                     reads += 1
             assert stream.gaps == 0 and stream.dropped == 0
+        # the board's clock (Timer2's tick) keeps time while MOSI toggles D11 (OC2A): the
+        # samples' board times step by the period (the harness runs the AVR exactly)
+        steps = [(b - a) & 0xFFFFFFFF for a, b in zip(times, times[1:], strict=False)]
+        assert all(abs(step - 1000) <= 50 for step in steps), sorted(steps)[:: len(steps) // 8]
         assert reads >= 20
         truth = await uno.spi_device_status()
         assert truth.conversions == reads and truth.cs_falls == reads
