@@ -8,6 +8,7 @@ byte; never the library's own answer.
 from __future__ import annotations
 
 import io
+import itertools
 
 import anyio
 import anyio.to_thread
@@ -178,7 +179,7 @@ async def test_bridge_works_while_a_1khz_stream_runs(
             assert stream.gaps == 0 and stream.dropped == 0
         # the board's clock (Timer2's tick) keeps time while MOSI toggles D11 (OC2A): the
         # samples' board times step by the period (the harness runs the AVR exactly)
-        steps = [(b - a) & 0xFFFFFFFF for a, b in zip(times, times[1:], strict=False)]
+        steps = [(b - a) & 0xFFFFFFFF for a, b in itertools.pairwise(times)]
         assert all(abs(step - 1000) <= 50 for step in steps), sorted(steps)[:: len(steps) // 8]
         assert reads >= 20
         truth = await uno.spi_device_status()
