@@ -223,6 +223,8 @@ _REFUSAL_REASONS = {
     "EEPROM_FAILED": "its EEPROM did not keep the value",
     "STEPPER_MOVING": "the stepper is moving",
     "NOT_IN_IMAGE": "its firmware image leaves this kind of command out",
+    "SPI_NOT_CONFIGURED": "the SPI bridge is off",
+    "SPI_MODE_FAULT": "the SPI unit left master mode (D10, the AVR's SS, went low as an input)",
 }
 
 #: What a refusal means and what to do about it, by error code name.
@@ -242,6 +244,8 @@ _REFUSAL_HINTS = {
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",
     "STEPPER_MOVING": "stop it and wait until it rests (await stepper.stop(); "
     "await stepper.wait())",
+    "SPI_NOT_CONFIGURED": "set the SPI bridge up first (board.spi(cs=...))",
+    "SPI_MODE_FAULT": "make D10 the chip select or an output while SPI is in use",
 }
 
 

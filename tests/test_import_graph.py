@@ -37,7 +37,9 @@ LAYERS: list[tuple[str, ...]] = [
     ("_event_queue",),  # bounded queues of pushed events, shared by the board's watches
     ("testing",),  # FakeBoard: a board in memory, on the transport's stream interface
     ("board",),  # Board over BoardCore; handles, changes, streams, transactions, failsafe
-    ("_supervisor",),  # one board's life on one link: attach, keepalive, restore, retry
+    # one board's life on one link: attach, keepalive, restore, retry; device drivers on
+    # the board's bridges (the MCP3008 on SPI)
+    ("_supervisor", "devices"),
     ("manager", "sim"),  # boards by ID (discovery, restore); virtual Unos and their demo
     ("scan_options",),  # the options every command that looks for boards shares
     ("network",),  # boards served over Zenoh and the client

@@ -50,10 +50,19 @@ from anyio.from_thread import start_blocking_portal
 from .. import protocol as p
 from ..board import Board
 from ..board.encoders import ModeName
+from ..board.spi import BitOrderName
 from ..board.streaming import SampleStream
 from ..errors import BoardDisconnectedError
 from ..opener import open_board as open_any_board
-from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, DutyPwmPin, ServoPin, SoftPwmPin
+from ..protocol.pins import (
+    AnalogPin,
+    CounterPin,
+    DigitalPin,
+    DutyPwmPin,
+    ServoPin,
+    SoftPwmPin,
+    SpiCsPin,
+)
 from ._encoders import BlockingEncoder
 from ._handles import (
     BlockingAnalogInput,
@@ -69,6 +78,7 @@ from ._handles import (
     Runner,
     _Blocking,
 )
+from ._spi import BlockingSpiBus
 from ._stepper import BlockingStepper
 
 _log = logging.getLogger(__name__)
@@ -201,6 +211,20 @@ class BlockingBoard(_Blocking):
         """A quadrature encoder on any two digital pins (see ``Board.encoder``)."""
         handle = self._runner.call(lambda: self.handle.encoder(a, b, mode=mode, slot=slot))
         return BlockingEncoder(self._runner, handle)
+
+    def spi(
+        self,
+        cs: SpiCsPin,
+        *,
+        mode: int = 0,
+        clock_hz: int = 1_000_000,
+        bit_order: BitOrderName = "msb",
+    ) -> BlockingSpiBus:
+        """The SPI bridge on D11-D13 with chip select ``cs`` (see ``Board.spi``)."""
+        handle = self._runner.call(
+            lambda: self.handle.spi(cs, mode=mode, clock_hz=clock_hz, bit_order=bit_order)
+        )
+        return BlockingSpiBus(self._runner, handle)
 
     def i2c(self, speed: p.I2CSpeed = p.I2CSpeed.KHZ_100) -> BlockingI2CBus:
         """Turn on the I2C bridge on A4/A5 at ``speed`` (100 or 400 kHz)."""

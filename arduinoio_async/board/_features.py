@@ -10,7 +10,7 @@ feature, which is the one thing a user cannot guess.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from .. import protocol as p
 from ..errors import FirmwareFeatureError
@@ -19,7 +19,13 @@ from ..protocol.profiles import profiles_with
 if TYPE_CHECKING:
     from ._core import BoardCore
 
-__all__ = ["STREAM_FLAG_FEATURES", "has_feature", "require_feature", "require_stream_features"]
+__all__ = [
+    "STREAM_FLAG_FEATURES",
+    "FeatureMethods",
+    "has_feature",
+    "require_feature",
+    "require_stream_features",
+]
 
 #: The stream flags an optional class adds: the feature that carries each, in words.
 STREAM_FLAG_FEATURES: dict[p.StreamFlags, tuple[p.Feature, str]] = {
@@ -48,3 +54,13 @@ def require_stream_features(board: BoardCore, flags: p.StreamFlags) -> None:
     for flag, (feature, what) in STREAM_FLAG_FEATURES.items():
         if flags & flag:
             require_feature(board, feature, f"{what} in the stream")
+
+
+class FeatureMethods:
+    """``board.require_feature()``, mixed into :class:`~arduinoio_async.board.Board`."""
+
+    def require_feature(self, feature: p.Feature, what: str) -> None:
+        """Raise :class:`~arduinoio_async.errors.FirmwareFeatureError`, before anything is
+        sent, unless this board's firmware announced ``feature`` (``what`` names it in
+        words); the message names the firmware images that have it."""
+        require_feature(cast("BoardCore", self), feature, what)

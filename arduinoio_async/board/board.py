@@ -43,8 +43,9 @@ from ..transport import (
     tick_holding_bridge,
 )
 from ._encoder_methods import EncoderMethods
-from ._features import require_feature, require_stream_features
+from ._features import FeatureMethods, require_stream_features
 from ._motor_methods import MotorMethods
+from ._spi_methods import SpiMethods
 from ._stepper_methods import StepperMethods
 from .boot import (
     READY_TIMEOUT,
@@ -73,7 +74,7 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(MotorMethods, StepperMethods, EncoderMethods):
+class Board(FeatureMethods, MotorMethods, StepperMethods, EncoderMethods, SpiMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -289,16 +290,15 @@ class Board(MotorMethods, StepperMethods, EncoderMethods):
         holder = getattr(handle, "encoder", None)  # ... and its pin A with B
         if holder is not None:
             self._roles.release(holder.pin)
+        owner = getattr(handle, "owner", None)  # an SPI pin: the whole bus goes
+        if owner is not None:
+            self._roles.release(owner.pin)
+            for other in owner.other_pins:
+                self._roles.release(other)
         gpio = self._gpio.pop(pin, None)
         if gpio is not None:
             gpio.direction = None
             gpio.released = True
-
-    def require_feature(self, feature: p.Feature, what: str) -> None:
-        """Raise :class:`~arduinoio_async.errors.FirmwareFeatureError`, before anything is
-        sent, unless this board's firmware announced ``feature`` (``what`` names it in
-        words); the message names the firmware images that have it."""
-        require_feature(self, feature, what)
 
     async def restore(self) -> None:
         """Replay every pin role, the I2C speed and the watches on a board that reset."""

@@ -23,6 +23,7 @@ from . import (
     _encoder_commands,
     _flash,
     _motor_commands,
+    _spi_commands,
     _stepper_commands,
 )
 from ._entry import make_console, run_command
@@ -40,6 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     _motor_commands.add_commands(sub)
     _stepper_commands.add_commands(sub)
     _encoder_commands.add_commands(sub)
+    _spi_commands.add_commands(sub)
     _flash.add_commands(sub)
     sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)
     sim.add_argument("rest", nargs=argparse.REMAINDER)

@@ -40,6 +40,7 @@ from ._counts import CountSource
 from ._devices import DeviceView, EncoderView, MotorView
 from ._elsewhere import RolesElsewhere
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
+from ._spi_view import SpiView
 from ._steppers import StepperView
 
 if TYPE_CHECKING:
@@ -141,11 +142,12 @@ class BoardPanel:
         self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         self.elsewhere = RolesElsewhere(board, on_change=self.changed)
-        #: Devices beyond one pin (encoders, motors, steppers): :mod:`._devices`.
+        #: Devices beyond one pin (encoders, motors, steppers, SPI): :mod:`._devices`.
         self.devices: list[DeviceView] = [
             EncoderView(board, on_change=self.changed),
             MotorView(board, on_change=self.changed),
             StepperView(board, on_change=self.changed),
+            SpiView(board, on_change=self.changed),
         ]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0

@@ -33,6 +33,7 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
         p.PwmConfig,
         p.CounterConfig,
         p.EncoderConfig,
+        p.SpiConfig,
         p.PinRelease,
         p.Transaction,
         p.StepperConfig,
@@ -73,6 +74,11 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     if isinstance(request, p.EncoderConfig):
         role = f"quadrature encoder D{request.pin_a}/D{request.pin_b} (slot {request.slot})"
         return [(request.pin_a, role), (request.pin_b, role), (-1 - request.slot, role)]
+    if isinstance(request, p.SpiConfig):
+        # the SPI bridge claims D11-D13 and its chip select in one role naming the chip
+        # select: another client's bus (another chip select) is refused on D11
+        role = f"SPI (chip select D{request.cs})"
+        return [(pin, role) for pin in (11, 12, 13, request.cs)]
     found = role_of(request)
     return [] if found is None else [found]
 

@@ -58,6 +58,8 @@ from ._constants import (
     GpioState,
     I2CSpeed,
     SafeKind,
+    SpiBitOrder,
+    SpiClock,
     StatusFlags,
     StepperDoneReason,
     StreamFlags,
@@ -74,6 +76,7 @@ from .commands import (
     i2c,
     misc,
     pwm,
+    spi,
     stepper,
     stream,
     transaction,
@@ -87,6 +90,7 @@ from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
+from .commands.spi import *  # noqa: F403
 from .commands.stepper import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
 from .commands.transaction import *  # noqa: F403
@@ -161,6 +165,8 @@ __all__ = [
     "Reply",
     "Request",
     "SafeKind",
+    "SpiBitOrder",
+    "SpiClock",
     "StatusFlags",
     "StepperDoneReason",
     "StreamFlags",
@@ -180,3 +186,4 @@ __all__ += encoder.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__
+__all__ += spi.__all__

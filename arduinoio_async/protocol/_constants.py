@@ -28,6 +28,7 @@ class ClassTag(IntEnum):
     FAILSAFE = 0x08  # extension
     STEPPER = 0x09  # extension (issue 26)
     ENCODER = 0x0A  # extension: quadrature encoders
+    SPI = 0x0D  # extension: the SPI master bridge
     EVENT = 0x40  # extension: frames the board sends without a request
 
 
@@ -58,6 +59,11 @@ class ErrorCode(IntEnum):
     STEPPER_MOVING = 0x11
     #: The class is known, but this firmware image's build profile leaves it out
     #: (protocol/profiles.py); the capabilities' features word says so beforehand.
+    #: An SPI transfer before SPI CONFIG (or after its pins were released).
+    SPI_NOT_CONFIGURED = 0x16
+    #: The SPI unit left master mode: D10 (the AVR's SS) was pulled low while it was an
+    #: input; the board restores master mode, the transfer did not happen.
+    SPI_MODE_FAULT = 0x17
     NOT_IN_IMAGE = 0x1A
 
 
@@ -133,6 +139,31 @@ class EncoderMode(IntEnum):
     X4 = 4
 
 
+class SpiClock(IntEnum):
+    """The SPI clock (extension): the system clock (16 MHz on a Uno) divided by 2**(n+1),
+    the dividers the AVR's SPI unit has (SPR1:0 and SPI2X)."""
+
+    MHZ_8 = 0
+    MHZ_4 = 1
+    MHZ_2 = 2
+    MHZ_1 = 3
+    KHZ_500 = 4
+    KHZ_250 = 5
+    KHZ_125 = 6
+
+    @property
+    def hz(self) -> int:
+        """The clock in Hz at the Uno's 16 MHz."""
+        return 16_000_000 >> (self.value + 1)
+
+
+class SpiBitOrder(IntEnum):
+    """Which bit of each byte goes out first on MOSI (extension)."""
+
+    MSB_FIRST = 0
+    LSB_FIRST = 1
+
+
 class SafeKind(IntEnum):
     """What the failsafe does to a pin when it fires (extension)."""
 
@@ -203,6 +234,8 @@ class Feature(IntFlag):
     #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
     #: in the stream and EncoderReport events (extension).
     ENCODER = 0x40000
+    #: SPI class: the hardware SPI master on D11-D13 with any chip select (extension).
+    SPI = 0x200000
 
 
 class Framing(IntEnum):

@@ -83,6 +83,8 @@ def render() -> str:
     out += _enum("AIO_STREAM", c.StreamFlags)
     out += _enum("AIO_SAFE", c.SafeKind)
     out += _enum("AIO_ENCODER", c.EncoderMode)
+    out += _enum("AIO_SPI_CLOCK", c.SpiClock)
+    out += _enum("AIO_SPI_ORDER", c.SpiBitOrder)
     out += _enum("AIO_STATUS", c.StatusFlags)
     out += _enum("AIO_STEPPER_DONE", c.StepperDoneReason)
     out += [f"#define AIO_FEATURE_{m.name} 0x{int(m):04X}u" for m in c.Feature if m.name]

@@ -43,6 +43,7 @@ __all__ = [
     "PwmPin",
     "ServoPin",
     "SoftPwmPin",
+    "SpiCsPin",
     "capable_pins",
     "pin_mask",
     "require",
@@ -113,6 +114,18 @@ CounterPin = Literal[DigitalPin.D2, DigitalPin.D3]
 #: Pins with a hardware timer's output compare unit free for duty-cycle PWM (D11's OC2A
 #: is not: its compare register sets the board tick's period; docs/motors.md).
 DutyPwmPin = Literal[DigitalPin.D3, DigitalPin.D5, DigitalPin.D6, DigitalPin.D9, DigitalPin.D10]
+#: Pins that can be an SPI chip select: every digital pin but D11-D13 (MOSI, MISO, SCK).
+SpiCsPin = Literal[
+    DigitalPin.D2,
+    DigitalPin.D3,
+    DigitalPin.D4,
+    DigitalPin.D5,
+    DigitalPin.D6,
+    DigitalPin.D7,
+    DigitalPin.D8,
+    DigitalPin.D9,
+    DigitalPin.D10,
+]
 
 
 class Function(Enum):
@@ -127,6 +140,8 @@ class Function(Enum):
     COUNTER = "event counter"
     DUTY_PWM = "duty-cycle PWM"
     ENCODER = "quadrature encoder"
+    SPI = "SPI"
+    SPI_CS = "SPI chip select"
 
 
 _DIGITAL = tuple(DigitalPin)
@@ -143,6 +158,10 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.DUTY_PWM: (D3, D5, D6, D9, D10),
     #: Pin-change interrupts on every digital pin (INT0/INT1 on D2/D3).
     Function.ENCODER: _DIGITAL,
+    #: The AVR's SPI unit: MOSI, MISO, SCK (extension).
+    Function.SPI: (D11, D12, D13),
+    #: Any digital pin the SPI unit does not use (extension).
+    Function.SPI_CS: (D2, D3, D4, D5, D6, D7, D8, D9, D10),
 }
 
 

@@ -11,6 +11,7 @@ faults, unplug/replug) through the harness's control socket.  See
 
 from ._demo import example_arguments, example_board, port_or_virtual_uno
 from ._quadrature import QuadratureGenerator
+from ._spi_device import SpiDeviceStatus, SpiFrame
 from .harness import (
     SimulatorError,
     SimulatorNotAvailable,
@@ -36,6 +37,8 @@ __all__ = [
     "QuadratureGenerator",
     "SimulatorError",
     "SimulatorNotAvailable",
+    "SpiDeviceStatus",
+    "SpiFrame",
     "UsbBridge",
     "VirtualUno",
     "example_arguments",

@@ -13,6 +13,7 @@ link failsafe.  :class:`Faults` makes it an unreliable peer.
 """
 
 from ._fake_board import FakeBoard
+from ._fake_spi import FakeMcp3008
 from ._faults import Faults
 
-__all__ = ["FakeBoard", "Faults"]
+__all__ = ["FakeBoard", "FakeMcp3008", "Faults"]

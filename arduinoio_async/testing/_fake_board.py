@@ -23,6 +23,7 @@ from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
+from ._fake_spi import SpiModels
 from ._fake_stepper import FakeSteppers
 from ._fake_wire import FakeWire
 from ._faults import Faults
@@ -46,7 +47,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(EncoderModels, FakeWire):
+class FakeBoard(SpiModels, EncoderModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -137,6 +138,7 @@ class FakeBoard(EncoderModels, FakeWire):
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
             **self._encoder_handlers(),
+            **self._spi_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -294,6 +296,7 @@ class FakeBoard(EncoderModels, FakeWire):
         self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
+        self.spi_config = None
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
             while True:  # events still in the transmit buffer never leave it

@@ -19,6 +19,7 @@
 #define AIO_CT_FAILSAFE 0x08u
 #define AIO_CT_STEPPER 0x09u
 #define AIO_CT_ENCODER 0x0Au
+#define AIO_CT_SPI 0x0Du
 #define AIO_CT_EVENT 0x40u
 #define AIO_ERROR_FLAG 0x80u
 
@@ -70,6 +71,8 @@
 #define AIO_DT_ENCODER_READ 0x02u
 #define AIO_DT_ENCODER_PRESET 0x03u
 #define AIO_DT_ENCODER_WATCH 0x04u
+#define AIO_DT_SPI_CONFIG 0x01u
+#define AIO_DT_SPI_TRANSFER 0x02u
 #define AIO_DT_EVENT_STREAM_SAMPLE 0x01u
 #define AIO_DT_EVENT_FAILSAFE_TRIPPED 0x02u
 #define AIO_DT_EVENT_GPIO_CHANGE 0x03u
@@ -96,6 +99,8 @@
 #define AIO_ERR_FAILSAFE_TRIPPED 0x0Fu
 #define AIO_ERR_EEPROM_FAILED 0x10u
 #define AIO_ERR_STEPPER_MOVING 0x11u
+#define AIO_ERR_SPI_NOT_CONFIGURED 0x16u
+#define AIO_ERR_SPI_MODE_FAULT 0x17u
 #define AIO_ERR_NOT_IN_IMAGE 0x1Au
 
 /* Flag bits. */
@@ -121,6 +126,15 @@
 #define AIO_ENCODER_X1 0x01u
 #define AIO_ENCODER_X2 0x02u
 #define AIO_ENCODER_X4 0x04u
+#define AIO_SPI_CLOCK_MHZ_8 0x00u
+#define AIO_SPI_CLOCK_MHZ_4 0x01u
+#define AIO_SPI_CLOCK_MHZ_2 0x02u
+#define AIO_SPI_CLOCK_MHZ_1 0x03u
+#define AIO_SPI_CLOCK_KHZ_500 0x04u
+#define AIO_SPI_CLOCK_KHZ_250 0x05u
+#define AIO_SPI_CLOCK_KHZ_125 0x06u
+#define AIO_SPI_ORDER_MSB_FIRST 0x00u
+#define AIO_SPI_ORDER_LSB_FIRST 0x01u
 #define AIO_STATUS_FAILSAFE_ARMED 0x01u
 #define AIO_STATUS_FAILSAFE_TRIPPED 0x02u
 #define AIO_STATUS_STREAMING 0x04u
@@ -148,6 +162,7 @@
 #define AIO_FEATURE_CRC16 0x10000u
 #define AIO_FEATURE_STEPPER 0x20000u
 #define AIO_FEATURE_ENCODER 0x40000u
+#define AIO_FEATURE_SPI 0x200000u
 
 /* Limits. */
 #define AIO_INTER_BYTE_GAP_MS 10u
@@ -189,6 +204,8 @@
 #define AIO_PINS_COUNTER 0x000Cu
 #define AIO_PINS_DUTY_PWM 0x0668u
 #define AIO_PINS_ENCODER 0x3FFCu
+#define AIO_PINS_SPI 0x3800u
+#define AIO_PINS_SPI_CS 0x07FCu
 
 /* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.
  * data_len: data bytes between DT and CS without the variable part;
@@ -241,7 +258,9 @@
     X(ENCODER, CONFIG, 0x0Au, 0x01u, 4, -1) \
     X(ENCODER, READ, 0x0Au, 0x02u, 1, -1) \
     X(ENCODER, PRESET, 0x0Au, 0x03u, 5, -1) \
-    X(ENCODER, WATCH, 0x0Au, 0x04u, 3, -1)
+    X(ENCODER, WATCH, 0x0Au, 0x04u, 3, -1) \
+    X(SPI, CONFIG, 0x0Du, 0x01u, 4, -1) \
+    X(SPI, TRANSFER, 0x0Du, 0x02u, 1, 0)
 
 /* Reply data bytes between DT and CS (fixed part, length byte included). */
 #define AIO_REPLY_LEN_MISC_RESET 0u
@@ -291,6 +310,8 @@
 #define AIO_REPLY_LEN_ENCODER_READ 11u
 #define AIO_REPLY_LEN_ENCODER_PRESET 15u
 #define AIO_REPLY_LEN_ENCODER_WATCH 3u
+#define AIO_REPLY_LEN_SPI_CONFIG 4u
+#define AIO_REPLY_LEN_SPI_TRANSFER 1u
 #define AIO_REPLY_LEN_EVENT_STREAM_SAMPLE 9u
 #define AIO_REPLY_LEN_EVENT_FAILSAFE_TRIPPED 0u
 #define AIO_REPLY_LEN_EVENT_GPIO_CHANGE 8u

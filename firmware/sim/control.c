@@ -31,6 +31,7 @@
 #include "stack.h"
 #include "steps.h"
 #include "quadrature.h"
+#include "spi_device.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -292,6 +293,8 @@ static const struct command commands[] = {
 	{"quadrature", 0, cmd_quadrature},
 	{"quadrature_status", 1, cmd_quadrature_status},
 	{"quadrature_stop", 0, cmd_quadrature_stop},
+	{"spi_device", 0, cmd_spi_device},
+	{"spi_device_status", 1, cmd_spi_device_status},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
 	{"step_log", 0, cmd_step_log},
 	{"steps", 1, cmd_steps},

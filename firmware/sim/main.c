@@ -31,6 +31,7 @@
 #include "control.h"
 #include "pacing.h"
 #include "pty.h"
+#include "spi_device.h"
 #include "trace.h"
 #include "wire.h"
 
@@ -358,6 +359,7 @@ int main(int argc, char **argv)
 	}
 
 	circuit_attach();
+	spi_device_attach();
 	wire_attach();
 
 	if (setup_control() < 0) return 2;

@@ -21,6 +21,7 @@
 
 #include "counter.h"
 #include "encoder.h"
+#include "spi.h"
 #include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -73,6 +74,7 @@ void app_init(void)
     stepper_init();
     counter_init();
     encoder_init();
+    spi_init();
     stream_init();
     analog_init();
     failsafe_init();

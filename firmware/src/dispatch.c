@@ -6,6 +6,7 @@
 #include "analog.h"
 #include "counter.h"
 #include "encoder.h"
+#include "spi.h"
 #include "failsafe.h"
 #include "gpio.h"
 #include "i2c.h"
@@ -52,6 +53,9 @@ static aio_handler_t handler(uint8_t ct)
 #endif
 #if AIO_WITH_ENCODER
     case AIO_CT_ENCODER: return encoder_handle;
+#endif
+#if AIO_WITH_SPI
+    case AIO_CT_SPI: return spi_handle;
 #endif
     default: return 0;
     }

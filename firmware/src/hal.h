@@ -79,6 +79,15 @@ uint16_t hal_adc_convert(uint8_t channel); /* blocking; channel 8 uses the 1.1 V
 #define HAL_ADC_SHIFT_FASTEST 4u
 void hal_adc_start(uint8_t channel, uint8_t clock_shift);
 
+/* ---- SPI master (D11 MOSI, D12 MISO, D13 SCK; spi.c drives the chip select) ---- */
+enum { HAL_SPI_OK = 0, HAL_SPI_MODE_FAULT = 1 };
+/* mode 0-3 (CPOL << 1 | CPHA), clock: 16 MHz / 2**(clock + 1), lsb_first: DORD. */
+void hal_spi_on(uint8_t mode, uint8_t clock, uint8_t lsb_first);
+void hal_spi_off(void);
+/* One byte out, the byte clocked in meanwhile into *in; MODE_FAULT if the unit
+ * is (or fell) out of master mode (SS low as an input). */
+uint8_t hal_spi_exchange(uint8_t out, uint8_t *in);
+
 /* ---- TWI master ---- */
 enum { HAL_TWI_OK = 0, HAL_TWI_NACK = 1, HAL_TWI_TIMEOUT = 2 };
 void hal_twi_init(uint8_t fast);      /* 0 = 100 kHz, 1 = 400 kHz */

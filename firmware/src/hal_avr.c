@@ -211,6 +211,33 @@ ISR(ADC_vect, ISR_NOBLOCK)
     analog_adc_done(v);
 }
 
+/* ---------------------------------------------------------------- SPI */
+#if AIO_WITH_SPI
+/* SPCR: SPE, MSTR, DORD, CPOL, CPHA, SPR1:0; SPSR: SPI2X.  clock n divides
+ * by 2**(n + 1): SPR = n >> 1 with SPI2X for even n (/2, /8, /32), and /128
+ * is SPR = 3 without SPI2X.  The pins' directions are spi.c's (hal_pin_mode). */
+void hal_spi_on(uint8_t mode, uint8_t clock, uint8_t lsb_first)
+{
+    uint8_t spr = clock >= 6u ? 3u : (uint8_t)(clock >> 1);
+    SPCR = (uint8_t)(_BV(SPE) | _BV(MSTR) | (lsb_first ? _BV(DORD) : 0u) | (uint8_t)(mode << CPHA) | spr);
+    SPSR = (clock < 6u && !(clock & 1u)) ? _BV(SPI2X) : 0u;
+}
+
+void hal_spi_off(void) { SPCR = 0; }
+
+uint8_t hal_spi_exchange(uint8_t out, uint8_t *in)
+{
+    if (!(SPCR & _BV(MSTR)))
+        return HAL_SPI_MODE_FAULT;
+    SPDR = out;
+    /* SPIF comes after 8 SPI clocks, or at once on a mode fault (MSTR cleared) */
+    while (!(SPSR & _BV(SPIF)))
+        ;
+    *in = SPDR;
+    return (SPCR & _BV(MSTR)) ? HAL_SPI_OK : HAL_SPI_MODE_FAULT;
+}
+#endif
+
 /* ---------------------------------------------------------------- Timer0 alarms */
 /*
  * Timer0 counts at 0.5 us while an alarm runs; an alarm is its compare unit

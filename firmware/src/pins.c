@@ -11,6 +11,7 @@
 #include "hal.h"
 #include "pwm.h"
 #include "stepper.h"
+#include "spi.h"
 
 uint8_t pins_role[PINS_COUNT];
 
@@ -56,6 +57,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_ENCODER:
         encoder_release(pin); /* and its other pin */
+        break;
+    case ROLE_SPI:
+        spi_release(pin); /* and the bridge's other three pins */
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

@@ -90,6 +90,8 @@ void fake_reset(void)
     memset(fake_i2c_mem, 0xFF, sizeof fake_i2c_mem);
     fake_i2c_stuck = false;
     fake_i2c_resets = 0;
+    fake_spi_on = fake_spi_fault = 0;
+    fake_spi_count = 0;
     fake_softpwm_port = 0;
     fake_edge_watch = 0;
     fake_fine_now = 0;
@@ -350,6 +352,30 @@ void hal_adc_start(uint8_t channel, uint8_t clock_shift)
 {
     fake_adc_pending = channel;
     fake_adc_shift = clock_shift;
+}
+
+/* SPI: MISO wired to MOSI (a loopback), so a transfer's reply is what it sent. */
+uint8_t fake_spi_on, fake_spi_mode, fake_spi_clock, fake_spi_lsb_first, fake_spi_fault;
+uint8_t fake_spi_out[64];
+uint8_t fake_spi_count;
+
+void hal_spi_on(uint8_t mode, uint8_t clock, uint8_t lsb_first)
+{
+    fake_spi_on = 1;
+    fake_spi_mode = mode;
+    fake_spi_clock = clock;
+    fake_spi_lsb_first = lsb_first;
+}
+
+void hal_spi_off(void) { fake_spi_on = 0; }
+
+uint8_t hal_spi_exchange(uint8_t out, uint8_t *in)
+{
+    if (!fake_spi_on || fake_spi_fault)
+        return HAL_SPI_MODE_FAULT;
+    fake_spi_out[fake_spi_count++ & 63u] = out;
+    *in = out;
+    return HAL_SPI_OK;
 }
 
 void hal_twi_init(uint8_t fast) { (void)fast; i2c_state = I2C_IDLE; }

@@ -28,6 +28,9 @@ extern uint16_t fake_servo_us[2];    /* D9, D10; 0xFFFF = detached */
 extern uint8_t fake_counter_enabled[2];
 extern uint8_t fake_counter_rising[2];
 extern uint8_t fake_encoder_int[2];   /* INT0/INT1 on any change for an encoder */
+extern uint8_t fake_spi_on, fake_spi_mode, fake_spi_clock, fake_spi_lsb_first, fake_spi_fault;
+extern uint8_t fake_spi_out[64];     /* the bytes sent on MOSI (MISO loops back) */
+extern uint8_t fake_spi_count;
 extern uint8_t fake_i2c_mem[256];    /* 24C02-like device at 0x50 */
 extern bool fake_i2c_stuck;          /* every step times out */
 extern uint8_t fake_i2c_resets;

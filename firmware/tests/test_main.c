@@ -20,6 +20,7 @@ int main(void)
     test_pwm();
     test_counter();
     test_encoder();
+    test_spi();
     test_stream();
     test_failsafe();
     test_stepper();

@@ -19,6 +19,10 @@ The conventions (also for whoever adds a block to a page):
   marker ``<!-- docs-test: skip: REASON -->`` on the line before its fence.  The marker is
   an HTML comment, invisible on the site; its reason is the test's skip reason, so every
   skipped block is listed, with why, in the test report (``pytest -rs``).
+* A block that needs another firmware image than the default (docs/firmware-profiles.md)
+  says which on the line before its fence: ``<!-- docs-test: profile: sensing -->``; its
+  virtual Uno runs that image, as the reader's board would after ``arduinoio flash
+  --profile sensing``.
 
 Every block runs in its own Python process, as a reader's script would, with
 ``/dev/ttyACM0`` replaced by the virtual Uno's port and ``127.0.0.1:8000`` (the monitor
@@ -44,6 +48,7 @@ FENCE = re.compile(
     re.DOTALL | re.MULTILINE,
 )
 SKIP = re.compile(r"^\s*<!--\s*docs-test:\s*skip\s*:\s*(?P<reason>.*?)\s*-->\s*$")
+PROFILE = re.compile(r"^\s*<!--\s*docs-test:\s*profile\s*:\s*(?P<name>[a-z]+)\s*-->\s*$")
 MARKER = re.compile(r"<!--\s*docs-test")
 INCLUDE = re.compile(r'^--8<--\s+"(?P<path>[^"]+)"$')
 #: What a fragment calls to open its own board; without one it gets ``board``.
@@ -67,6 +72,8 @@ class Block:
     code: str
     skip: str | None
     marker: str | None  # the raw marker line, for checking its form
+    #: The firmware image its virtual Uno runs (None: the default).
+    profile: str | None = None
 
     @property
     def name(self) -> str:
@@ -99,6 +106,7 @@ def blocks() -> list[Block]:
             before = text[: match.start()].rstrip("\n").splitlines()
             previous = before[-1] if before else ""
             skip = SKIP.match(previous)
+            profile = PROFILE.match(previous)
             found.append(
                 Block(
                     page=page,
@@ -106,6 +114,7 @@ def blocks() -> list[Block]:
                     code=textwrap.dedent(match["code"]),
                     skip=skip["reason"] if skip else None,
                     marker=previous if MARKER.search(previous) else None,
+                    profile=profile["name"] if profile else None,
                 )
             )
     return found

@@ -15,6 +15,7 @@ from pathlib import Path
 import anyio
 import pytest
 
+from arduinoio_async.protocol.profiles import DEFAULT_PROFILE, UNO_PROFILES
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -36,9 +37,11 @@ def test_the_pages_have_code_blocks() -> None:
 
 def test_every_skip_marker_is_well_formed_and_says_why() -> None:
     for block in BLOCKS:
-        if block.marker is not None:
+        if block.marker is not None and block.profile is None:
             assert block.skip, f"{block.name}: write <!-- docs-test: skip: REASON -->"
             assert len(block.skip.split()) >= 4, f"{block.name}: say why it cannot run"
+        if block.profile is not None:
+            assert block.profile in UNO_PROFILES, f"{block.name}: no image {block.profile!r}"
 
 
 async def play_the_world(uno: VirtualUno) -> None:
@@ -101,9 +104,10 @@ async def test_docs_block_runs(
         ran = re.search(r"\b\d+ passed\b", output) and "skipped" not in output
         assert returncode == 0 and ran, f"{block.name} failed:\n{block.code}\n{output}"
         return
-    unos = [await virtual_uno_factory(board_id=1)]
+    image = block.profile or DEFAULT_PROFILE
+    unos = [await virtual_uno_factory(board_id=1, profile=image)]
     if "BoardManager(" in block.code:
-        unos.append(await virtual_uno_factory(board_id=2))
+        unos.append(await virtual_uno_factory(board_id=2, profile=image))
     env["ARDUINOIO_PORTS"] = os.pathsep.join(uno.port for uno in unos)
     script = tmp_path / "docs_block.py"
     script.write_text(script_for(block, unos[0].port))

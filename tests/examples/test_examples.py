@@ -177,6 +177,20 @@ async def test_wheel_encoder(virtual_uno_factory: VirtualUnoFactory) -> None:
         assert "invalid" not in out
 
 
+async def test_spi_adc(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the voltages set on the harness's MCP3008 model, within 1 LSB."""
+    uno = await virtual_uno_factory(profile="sensing", baud=1_000_000)
+    volts = [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 4.9]
+    await uno.spi_device(cs=10, volts=volts)
+    out = await run_to_end("spi_adc", uno)
+    for channel, v in enumerate(volts):
+        line = next(x for x in out.splitlines() if x.startswith(f"CH{channel}:"))
+        assert abs(float(line.split()[1]) - v) <= 5 / 1024 + 0.0005, line
+    line = next(x for x in out.splitlines() if x.startswith("CH1 - CH0"))
+    assert abs(float(line.split()[3]) - 0.25) <= 5 / 1024 + 0.0005, line
+    assert (await uno.spi_device_status()).conversions == 9
+
+
 async def test_i2c_registers(virtual_uno_factory: VirtualUnoFactory) -> None:
     uno = await virtual_uno_factory()
     out = await run_to_end("i2c_registers", uno)

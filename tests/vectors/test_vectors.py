@@ -105,7 +105,7 @@ def image_for(vf: VectorFile) -> str | None:
 @pytest.mark.sim
 @pytest.mark.parametrize("vf", VECTORS, ids=[vf.name for vf in VECTORS])
 async def test_virtual_uno(vf: VectorFile, virtual_uno_factory: VirtualUnoFactory) -> None:
-    image = image_for(vf)
+    image = vf.profile or image_for(vf)
     if image is None:
         pytest.skip(f"no Uno image holds {sorted(optional_classes(vf))} at once")
     uno = await virtual_uno_factory(board_id=vf.board_id, baud=BAUD, profile=image)

@@ -165,6 +165,14 @@
       control(view, "motor", args, (index) => `motor ${index} set up`);
     });
 
+    const spi = root.querySelector("form.spi");
+    spi.querySelector(".spi-add").addEventListener("click", () =>
+      control(view, "spi", { cs: spi.cs.value.trim().toUpperCase(), mode: Number(spi.mode.value), clock_hz: Number(spi.clock.value) },
+        () => `SPI on ${spi.cs.value}`));
+    spi.querySelector(".spi-transfer").addEventListener("click", () =>
+      control(view, "spi_transfer", { data: spi.data.value }, (received) => `SPI received ${received}`));
+    spi.querySelector(".spi-release").addEventListener("click", () =>
+      control(view, "spi_release", {}, () => "SPI released"));
     const encoders = root.querySelector("form.encoders");
     encoders.querySelector(".encoder-add").addEventListener("click", () =>
       control(view, "encoder",
@@ -227,6 +235,7 @@
     for (const pin of snapshot.pins) renderPin(view, pin);
     renderEncoders(view, snapshot.encoders);
     renderMotors(view, snapshot.motors);
+    renderSpi(view, snapshot.spi);
   }
 
   // DC motors: a speed slider (-100..100 %), brake and coast; the state the board was given.
@@ -256,6 +265,23 @@
       const coast = Object.assign(document.createElement("button"), { type: "button", textContent: "Coast" });
       coast.addEventListener("click", () => { slider.value = 0; control(view, "motor_coast", { index: m.index }); });
       li.append(label, slider, state, brake, coast);
+      return li;
+    }));
+  }
+
+  // SPI: the bus's settings and the last transfer made from the page.
+  function renderSpi(view, spi) {
+    const form = view.root.querySelector("form.spi");
+    const list = form.querySelector(".spi-rows");
+    form.dataset.supported = spi && spi.supported ? "true" : "false";
+    if (!spi || !spi.supported) {
+      list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "not in this firmware" }));
+      return;
+    }
+    list.replaceChildren(...spi.rows.map((b) => {
+      const li = document.createElement("li");
+      const last = b.sent ? ` · sent ${b.sent} · received ${b.received}` : "";
+      li.textContent = `CS ${b.cs} · mode ${b.mode} · ${b.clock_hz / 1e6} MHz${b.lsb_first ? " · LSB first" : ""}${last}`;
       return li;
     }));
   }

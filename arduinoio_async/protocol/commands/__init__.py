@@ -1,8 +1,8 @@
 """The command table: every request, its reply and the events, one module per class tag.
 
 The modules mirror ``firmware/src`` (``misc``, ``gpio``, ``analog``, ``i2c``, ``pwm``,
-``counter``, ``stream``, ``failsafe``, ``stepper``, ``transaction``, ``encoder``), each
-holding the frames its C counterpart handles or sends.  Importing this package fills the
+``counter``, ``stream``, ``failsafe``, ``stepper``, ``transaction``, ``encoder``, ``spi``),
+each holding the frames its C counterpart handles or sends.  Importing this package fills the
 tables of ``_messages`` (``REQUEST_TYPES``, ``REPLY_TYPES``, ``EVENT_TYPES``) that the
 decoder, the generated C header and the generated docs read; ``arduinoio_async.protocol``
 re-exports every module's ``__all__``, which is where users import the messages from.
@@ -24,6 +24,7 @@ from . import (
     i2c,
     misc,
     pwm,
+    spi,
     stepper,
     stream,
     transaction,
@@ -44,6 +45,7 @@ MODULES = (
     stepper,
     transaction,
     encoder,
+    spi,
 )
 
 #: Requests that only read (docs/protocol.md, "Idempotency and retries"), in tag order.

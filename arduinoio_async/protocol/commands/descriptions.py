@@ -11,7 +11,16 @@ from collections.abc import Callable
 from typing import Any
 
 from ...errors import set_request_words
-from .._constants import DUTY_FULL, Edge, Framing, GpioFlags, I2CSpeed, SafeKind, StreamFlags
+from .._constants import (
+    DUTY_FULL,
+    Edge,
+    Framing,
+    GpioFlags,
+    I2CSpeed,
+    SafeKind,
+    SpiClock,
+    StreamFlags,
+)
 from .._messages import Request
 from ..pins import AnalogPin, DigitalPin, Function, pin_mask
 from . import (
@@ -23,6 +32,7 @@ from . import (
     i2c,
     misc,
     pwm,
+    spi,
     stepper,
     stream,
     transaction,
@@ -160,6 +170,11 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         if rq.every
         else f"stop reporting quadrature encoder {rq.slot}"
     ),
+    spi.SpiConfig: lambda rq: (
+        f"take D11-D13 and {_pin(rq.cs)} (chip select) for SPI mode {rq.mode} "
+        f"at {SpiClock(rq.clock).hz / 1e6:g} MHz"
+    ),
+    spi.SpiTransfer: lambda rq: f"exchange {_bytes(len(rq.data))} over SPI",
     stream.StreamStart: _stream_start,
     stream.StreamStop: lambda rq: "stop the stream",
     failsafe.FailsafeArm: lambda rq: f"arm the failsafe ({rq.timeout_ms} ms)",
