@@ -62,6 +62,13 @@ class Sample:
     #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
     #: includes encoders.
     encoders: tuple[int, ...] | None = None
+    #: The I2C blocks' bytes, one entry per block the stream reads (in the order given
+    #: to ``board.stream(i2c=...)``), ``None`` where that period's read failed; ``None``
+    #: if the stream reads no I2C blocks.
+    i2c: tuple[bytes | None, ...] | None = None
+    #: Per block: 0 if read, else the error code of the failed step (an
+    #: :class:`~arduinoio_async.protocol.ErrorCode`: NACK, timeout).
+    i2c_status: tuple[int, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -96,6 +103,12 @@ class Sample:
             encoders = tuple(
                 ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
             )
+        i2c = i2c_status = None
+        if frame.flags & p.StreamFlags.I2C:
+            # free slots (length 0, status 0) are left out: the blocks come in slot order
+            blocks = [b for b in p.split_i2c_blocks(data[pos:]) if b[1] or b[0]]
+            i2c = tuple(None if status else value for status, value in blocks)
+            i2c_status = tuple(status for status, _ in blocks)
         return cls(
             host_time,
             frame.timestamp_us,
@@ -106,6 +119,8 @@ class Sample:
             fell,
             counters,
             encoders,
+            i2c,
+            i2c_status,
         )
 
 

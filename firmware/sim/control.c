@@ -29,6 +29,7 @@
 #include "pacing.h"
 #include "pty.h"
 #include "quadrature.h"
+#include "mpu6050.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -290,6 +291,8 @@ static const struct command commands[] = {
 	{"quadrature_status", 1, cmd_quadrature_status},
 	{"quadrature_stop", 0, cmd_quadrature_stop},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
+	{"imu", 0, cmd_imu},
+	{"imu_reads", 1, cmd_imu_reads},
 };
 
 static const struct command *find_command(const char *name)

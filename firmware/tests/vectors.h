@@ -133,10 +133,9 @@ static const aio_vector_step_t aio_vectors_encoder[] = {
     {46, -1, 0, 6, {10, 4, 3, 0, 1, 12}, 4, {138, 4, 7, 137}},
     {47, -1, 0, 7, {7, 1, 0, 16, 39, 16, 33}, 7, {7, 1, 0, 16, 39, 16, 33}},
     {48, -1, 0, 3, {7, 2, 5}, 5, {7, 2, -1, -1, -1}},
-    {49, -1, 0, 7, {7, 1, 63, 16, 39, 16, 30}, 4, {135, 1, 9, 143}},
-    {50, -1, 0, 4, {2, 4, 12, 10}, 4, {2, 4, 12, 10}},
-    {51, -1, 0, 4, {10, 2, 1, 9}, 4, {138, 2, 7, 143}},
-    {52, -1, 0, 5, {2, 1, 4, 1, 6}, 5, {2, 1, 4, 1, 6}},
+    {49, -1, 0, 4, {2, 4, 12, 10}, 4, {2, 4, 12, 10}},
+    {50, -1, 0, 4, {10, 2, 1, 9}, 4, {138, 2, 7, 143}},
+    {51, -1, 0, 5, {2, 1, 4, 1, 6}, 5, {2, 1, 4, 1, 6}},
 };
 
 static const aio_vector_step_t aio_vectors_failsafe[] = {
@@ -287,7 +286,7 @@ static const aio_vector_file_t aio_vector_files[] = {
     {"analog", 0x0007, 13, aio_vectors_analog},
     {"counter", 0x0007, 23, aio_vectors_counter},
     {"duty", 0x0007, 24, aio_vectors_duty},
-    {"encoder", 0x000A, 47, aio_vectors_encoder},
+    {"encoder", 0x000A, 46, aio_vectors_encoder},
     {"failsafe", 0x0007, 14, aio_vectors_failsafe},
     {"framing", 0x0102, 14, aio_vectors_framing},
     {"gpio", 0x0007, 32, aio_vectors_gpio},
