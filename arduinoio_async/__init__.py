@@ -92,8 +92,10 @@ if TYPE_CHECKING:
         Servo,
         SoftPwm,
     )
+    from .board.i2c_blocks import I2CBlock
     from .board.motors import DutyPwm, Motor
     from .board.streaming import Sample, SampleStream
+    from .imu import MPU6050, ImuReading
     from .manager import BoardManager, ManagerEvent, ProbeResult
     from .opener import open_board
     from .protocol import I2CSpeed
@@ -110,6 +112,9 @@ _LAZY = {
     "DigitalOutput": ".board.handles",
     "Gpio": ".board.handles",
     "I2CBus": ".board.handles",
+    "I2CBlock": ".board.i2c_blocks",
+    "MPU6050": ".imu",
+    "ImuReading": ".imu",
     "PinState": ".board.handles",
     "PulseOutput": ".board.handles",
     "Servo": ".board.handles",
@@ -160,6 +165,7 @@ __all__ = [
     "D11",
     "D12",
     "D13",
+    "MPU6050",
     "AnalogInput",
     "AnalogPin",
     "ArduinoIOError",
@@ -179,9 +185,11 @@ __all__ = [
     "FailsafeTrippedError",
     "FakeBoard",
     "Gpio",
+    "I2CBlock",
     "I2CBus",
     "I2CError",
     "I2CSpeed",
+    "ImuReading",
     "LinkCapacityError",
     "LinkError",
     "LinkResyncError",

@@ -24,6 +24,7 @@ __all__ = ["STREAM_FLAG_FEATURES", "has_feature", "require_feature", "require_st
 #: The stream flags an optional class adds: the feature that carries each, in words.
 STREAM_FLAG_FEATURES: dict[p.StreamFlags, tuple[p.Feature, str]] = {
     p.StreamFlags.ENCODERS: (p.Feature.ENCODER, "quadrature encoders"),
+    p.StreamFlags.I2C: (p.Feature.I2C_STREAM, "I2C blocks"),
 }
 
 

@@ -31,6 +31,7 @@ from ..errors import (
     FailsafeTrippedError,
     LinkError,
     ProtocolError,
+    UsageError,
     ValueRangeError,
 )
 from ..protocol.pins import AnalogPin, DigitalPin, Function
@@ -58,6 +59,7 @@ from .handles import (
     Gpio,
     PinHandle,
 )
+from .i2c_blocks import I2CBlock, block_requests, blocks_bytes
 from .motors import Motor, check_stream
 from .roles import PinRoles, RoleHolder
 from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
@@ -421,6 +423,7 @@ class Board(MotorMethods, EncoderMethods):
         period_ms: float = 10.0,
         buffer: int = DEFAULT_BUFFER,
         encoders: bool = False,
+        i2c: Sequence[I2CBlock] = (),
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
@@ -428,10 +431,18 @@ class Board(MotorMethods, EncoderMethods):
         async for s in samples: ...``.  Commands keep working meanwhile.  A period the
         link cannot carry is refused by the board with :class:`LinkCapacityError`; see
         :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
+        ``i2c=[I2CBlock(0x68, 0x3B, 14)]`` adds register blocks the board reads each
+        period (:mod:`arduinoio_async.board.i2c_blocks`; set up the bus first).
         """
-        request = stream_request(analog, levels, edges, counters, period_ms, encoders)
+        blocks = block_requests(i2c) if i2c else []
+        i2c_bytes = blocks_bytes(i2c) if i2c else None
+        request = stream_request(analog, levels, edges, counters, period_ms, encoders, i2c_bytes)
         require_stream_features(self, p.StreamFlags(request.flags))
         check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
+        if blocks and self.roles.i2c is None:
+            raise UsageError("I2C blocks in the stream need the bus: await board.i2c() first")
+        for block in blocks:
+            await self.request(block)
         async with run_stream(self, request, buffer) as samples:
             yield samples
 

@@ -131,8 +131,10 @@ def stream_request(
     counters: bool,
     period_ms: float,
     encoders: bool = False,
+    i2c_bytes: int | None = None,
 ) -> p.StreamStart:
-    """Validate a stream's parameters and build its START request."""
+    """Validate a stream's parameters and build its START request (``i2c_bytes``: the
+    data bytes of the I2C blocks it reads, None for none)."""
     mask = 0
     for pin in analog:
         require(pin, Function.ANALOG_INPUT)
@@ -146,15 +148,18 @@ def stream_request(
         flags |= p.StreamFlags.COUNTERS
     if encoders:
         flags |= p.StreamFlags.ENCODERS
+    if i2c_bytes is not None:
+        flags |= p.StreamFlags.I2C
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    size = p.sample_payload_size(mask, flags)
+    size = p.sample_payload_size(mask, flags, i2c_bytes or 0)
     if size > p.STREAM_MAX_VALUES:
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
             f"at most {p.STREAM_MAX_VALUES} a sample (encoders take "
-            f"{4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, levels 2)",
+            f"{4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, levels 2, "
+            f"I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS})",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0

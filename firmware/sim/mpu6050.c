@@ -11,7 +11,7 @@
  *   accel (g):   x = 0.5 sin(2 pi t), y = 0.25 cos(2 pi t), z = 1.0
  *   temp (C):    25 + 2 sin(2 pi 0.1 t)   (raw = (C - 36.53) * 340)
  *   gyro (dps):  x = 100 sin(2 pi 0.5 t), y = -50, z = 200 cos(2 pi 0.5 t)
- * scaled by the configured ranges (16384 >> fs LSB/g, 131 / 2^fs LSB/dps) and
+ * scaled by the configured ranges (16384 >> fs LSB/g; 131, 65.5, 32.8, 16.4 LSB/dps) and
  * clipped to int16.  A read latches all 14 bytes at the instant the device is
  * addressed for reading (a consistent snapshot, as the part's shadow registers
  * give); a read starting at 0x3B is logged (simulated us and the 14 bytes) in a
@@ -74,7 +74,8 @@ static void put16(uint8_t *p, double v)
 static void sample_data(double t)
 {
 	double a_lsb = 16384.0 / (1 << ((m.reg[0x1C] >> 3) & 3));
-	double g_lsb = 131.0 / (1 << ((m.reg[0x1B] >> 3) & 3));
+	static const double gyro_lsb[4] = {131.0, 65.5, 32.8, 16.4}; /* datasheet, LSB per dps */
+	double g_lsb = gyro_lsb[(m.reg[0x1B] >> 3) & 3];
 	double w = 2 * M_PI;
 	double accel[3] = {0.5 * sin(w * t), 0.25 * cos(w * t), 1.0};
 	double gyro[3] = {100 * sin(w * 0.5 * t), -50, 200 * cos(w * 0.5 * t)};
