@@ -93,9 +93,9 @@ if TYPE_CHECKING:
         SoftPwm,
     )
     from .board.i2c_blocks import I2CBlock
+    from .board.imu import MPU6050, ImuReading
     from .board.motors import DutyPwm, Motor
     from .board.streaming import Sample, SampleStream
-    from .imu import MPU6050, ImuReading
     from .manager import BoardManager, ManagerEvent, ProbeResult
     from .opener import open_board
     from .protocol import I2CSpeed
@@ -113,8 +113,8 @@ _LAZY = {
     "Gpio": ".board.handles",
     "I2CBus": ".board.handles",
     "I2CBlock": ".board.i2c_blocks",
-    "MPU6050": ".imu",
-    "ImuReading": ".imu",
+    "MPU6050": ".board.imu",
+    "ImuReading": ".board.imu",
     "PinState": ".board.handles",
     "PulseOutput": ".board.handles",
     "Servo": ".board.handles",

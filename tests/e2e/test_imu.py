@@ -17,9 +17,9 @@ from arduinoio_async import A0, A1, A2, A3, I2CBlock, I2CSpeed
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.board.i2c_blocks import block_errors
+from arduinoio_async.board.imu import MPU6050, STANDARD_GRAVITY
 from arduinoio_async.board.streaming import Sample
 from arduinoio_async.errors import I2CError, UsageError
-from arduinoio_async.imu import MPU6050, STANDARD_GRAVITY
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 

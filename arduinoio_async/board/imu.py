@@ -16,9 +16,9 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from .board.handles import I2CBus
-from .board.i2c_blocks import I2CBlock
-from .errors import UsageError, ValueRangeError
+from ..errors import UsageError, ValueRangeError
+from .handles import I2CBus
+from .i2c_blocks import I2CBlock
 
 __all__ = [
     "ACCEL_RANGES_G",
