@@ -8,10 +8,14 @@ served on each read and the simulated time of the read (``imu_reads``), the NACK
 
 from __future__ import annotations
 
+import io
 import math
 from typing import Any
 
+import anyio
+import anyio.to_thread
 import pytest
+from rich.console import Console
 
 from arduinoio_async import A0, A1, A2, A3, I2CBlock, I2CSpeed
 from arduinoio_async import protocol as p
@@ -19,6 +23,7 @@ from arduinoio_async.board import Board
 from arduinoio_async.board.i2c_blocks import block_errors
 from arduinoio_async.board.imu import MPU6050, STANDARD_GRAVITY
 from arduinoio_async.board.streaming import Sample
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import I2CError, UsageError
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -151,3 +156,20 @@ async def test_bus_is_the_streams_and_bad_blocks_are_refused(
             assert caught.value.code == p.ErrorCode.I2C_STREAMING
             await collect(samples, 5)
         assert (await imu.read()).accel[2] > 9  # the bus is free again
+
+
+async def test_i2c_scan_finds_the_imu_and_the_eeprom(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """``arduinoio i2c scan`` lists the addresses that acknowledge: the fixture's 24C
+    EEPROM (0x50) and the MPU-6050 model (0x68); with the model off the bus only 0x50."""
+    uno = await virtual_uno_factory(baud=1_000_000, profile="sensing")
+    buffer = io.StringIO()
+    args = ["i2c", "scan", "--port", uno.port, "--baud", str(uno.baud)]
+    code = await anyio.to_thread.run_sync(
+        lambda: cli_main(args, console=Console(file=buffer, width=200))
+    )
+    assert code == 0 and buffer.getvalue().split() == ["0x50", "0x68"], buffer.getvalue()
+    await uno.command("imu", present=False)
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        assert await (await board.i2c()).scan() == [0x50]
