@@ -69,6 +69,7 @@ from ._handles import (
     Runner,
     _Blocking,
 )
+from ._imu import BlockingMPU6050
 
 _log = logging.getLogger(__name__)
 
@@ -81,6 +82,7 @@ __all__ = [
     "BlockingDutyPwm",
     "BlockingGpio",
     "BlockingI2CBus",
+    "BlockingMPU6050",
     "BlockingMotor",
     "BlockingPulseOutput",
     "BlockingSamples",

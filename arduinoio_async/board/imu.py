@@ -26,6 +26,8 @@ __all__ = [
     "GYRO_RANGES_DPS",
     "MPU6050",
     "STANDARD_GRAVITY",
+    "AccelRange",
+    "GyroRange",
     "ImuReading",
 ]
 

@@ -17,11 +17,12 @@ import anyio.to_thread
 import pytest
 from rich.console import Console
 
-from arduinoio_async import A0, A1, A2, A3, I2CBlock, I2CSpeed
+from arduinoio_async import A0, A1, A2, A3, I2CBlock, I2CSpeed, blocking
 from arduinoio_async import protocol as p
+from arduinoio_async.blocking import BlockingMPU6050
 from arduinoio_async.board import Board
 from arduinoio_async.board.i2c_blocks import block_errors
-from arduinoio_async.board.imu import MPU6050, STANDARD_GRAVITY
+from arduinoio_async.board.imu import MPU6050, STANDARD_GRAVITY, ImuReading
 from arduinoio_async.board.streaming import Sample
 from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import I2CError, UsageError
@@ -173,3 +174,31 @@ async def test_i2c_scan_finds_the_imu_and_the_eeprom(
     await uno.command("imu", present=False)
     async with Board.open(uno.port, baudrate=uno.baud) as board:
         assert await (await board.i2c()).scan() == [0x50]
+
+
+async def test_blocking_imu_streams_the_block(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The blocking twins: scan, configure, a stream of the IMU block decoded by the
+    blocking helper, each reading equal to the model's served bytes decoded."""
+    uno = await virtual_uno_factory(baud=1_000_000, profile="sensing")
+
+    def script() -> tuple[list[int], list[bytes | None], list[ImuReading]]:
+        with blocking.open_board(uno.port, baudrate=uno.baud) as board:
+            bus = board.i2c(I2CSpeed.KHZ_400)
+            found = bus.scan()
+            imu = BlockingMPU6050(bus)
+            imu.configure(accel_g=8, gyro_dps=1000)
+            blocks: list[bytes | None] = []
+            with board.stream(i2c=[imu.block], period_ms=2) as samples:
+                for sample in samples:
+                    assert sample.i2c is not None
+                    blocks.append(sample.i2c[0])
+                    if len(blocks) == 20:
+                        break
+            return found, blocks, [imu.decode(b) for b in blocks]
+
+    first = (await uno.command("imu"))["logged"]
+    found, blocks, readings = await anyio.to_thread.run_sync(script)
+    reads = await served(uno, first)
+    assert found == [0x50, 0x68]
+    assert blocks == [data for _, data in reads[:20]]
+    assert all(abs(r.accel[2] - STANDARD_GRAVITY) < 0.01 for r in readings)  # z = 1 g
