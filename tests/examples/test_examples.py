@@ -259,3 +259,13 @@ async def test_design_card_starts_its_own_virtual_uno() -> None:
     async with run_example("design_card") as run:
         out = await run.finish()
     assert "D2 high; D3 (jumpered to D2 on the test circuit) reads" in out
+
+
+async def test_imu_stream(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's MPU-6050 model (its served reads and its z axis, 1 g)."""
+    uno = await virtual_uno_factory(baud=1_000_000, profile="sensing", fixture="open")
+    first = (await uno.command("imu"))["logged"]
+    out = await run_to_end("imu_stream", uno, "--seconds", "0.5")
+    assert "samples: ok 500, failed reads 0 (board counted 0), gaps 0" in out, out
+    assert (await uno.command("imu"))["logged"] - first >= 501  # one-shot + 500 periods
+    assert out.count("+9.81 m/s^2") >= 2  # z is 1 g in every printed reading
