@@ -23,6 +23,7 @@ from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
+from ._fake_i2c_blocks import I2CBlockModels
 from ._fake_wire import FakeWire
 from ._faults import Faults
 from ._peripherals import (
@@ -45,7 +46,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(EncoderModels, FakeWire):
+class FakeBoard(I2CBlockModels, EncoderModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -135,6 +136,7 @@ class FakeBoard(EncoderModels, FakeWire):
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
             **self._encoder_handlers(),
+            **self._i2c_block_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -370,7 +372,9 @@ class FakeBoard(EncoderModels, FakeWire):
     # ---- extensions: stream and failsafe ----------------------------------------------------
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
-        error = self.stream.check(request, self.baud, self.i2c_speed is not None)
+        error = self.stream.check(
+            request, self.baud, self.i2c_speed is not None, self.i2c_block_bytes()
+        )
         if error is None and self._duty_timer_busy(Timer.TIMER0):
             error = E.PIN_BUSY  # duty PWM on D5/D6 holds the alarm timer
         if error is None and request.analog_mask and self._analog_watches:
@@ -406,8 +410,9 @@ class FakeBoard(EncoderModels, FakeWire):
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
         levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
+        i2c = self.i2c_block_payload() if request.flags & p.StreamFlags.I2C else b""
         return self.stream.sample(
-            request, self.analog, levels, self.counters, board_us, self.encoder_counts()
+            request, self.analog, levels, self.counters, board_us, self.encoder_counts(), i2c
         )
 
     def _failsafe_arm(self, request: p.FailsafeArm) -> p.Frame:
