@@ -77,7 +77,7 @@ async def test_fake_board(vf: VectorFile) -> None:
 @pytest.mark.sim
 @pytest.mark.parametrize("vf", VECTORS, ids=[vf.name for vf in VECTORS])
 async def test_virtual_uno(vf: VectorFile, virtual_uno_factory: VirtualUnoFactory) -> None:
-    uno = await virtual_uno_factory(board_id=vf.board_id, baud=BAUD)
+    uno = await virtual_uno_factory(board_id=vf.board_id, baud=BAUD, profile=vf.profile)
     stream = await open_serial_stream(uno.port, BAUD)
     try:
         link = RawLink(stream)

@@ -8,7 +8,9 @@ Format, one step a line (``#`` starts a comment):
   without their checksum, which the runners add; ``??`` matches any byte (a value that
   depends on the circuit, such as a temperature); ``error CODE`` stands for the error
   reply ``CT|0x80 DT code`` to the request's tags;
-* ``drive 7 1`` -- the circuit drives pin D7 high (or ``0`` low) from outside.
+* ``drive 7 1`` -- the circuit drives pin D7 high (or ``0`` low) from outside;
+* ``profile sensing`` -- the firmware image the virtual Uno runs the file on (a class
+  only some images hold; the host tests build every class, the FakeBoard models them all).
 
 Framing: a file starts in the paper's XOR framing; a SET_FRAMING step (``> 01 0B 01``)
 that succeeds switches it: its reply and every later frame, both ways, carry the
@@ -67,6 +69,7 @@ class VectorFile:
     name: str
     board_id: int
     steps: tuple[Step, ...]
+    profile: str = "standard"
 
 
 def _hex_bytes(text: str, line: int) -> list[int]:
@@ -97,6 +100,7 @@ SET_FRAMING = (0x01, 0x0B)
 
 def parse(name: str, text: str) -> VectorFile:
     board_id = 0xFFFF
+    profile = "standard"
     steps: list[Step] = []
     crc = False
     for number, raw in enumerate(text.splitlines(), start=1):
@@ -105,6 +109,8 @@ def parse(name: str, text: str) -> VectorFile:
             continue
         if line.startswith("id "):
             board_id = int(line[3:], 0)
+        elif line.startswith("profile "):
+            profile = line.split()[1]
         elif line.startswith("drive "):
             _, pin, level = line.split()
             steps.append(Drive(number, int(pin), level == "1"))
@@ -125,7 +131,7 @@ def parse(name: str, text: str) -> VectorFile:
             steps.append(Exchange(number, framed_request, _with_checksum(reply, crc), crc))
         else:
             raise ValueError(f"{name} line {number}: cannot read {raw!r}")
-    return VectorFile(name, board_id, tuple(steps))
+    return VectorFile(name, board_id, tuple(steps), profile)
 
 
 def load_all() -> list[VectorFile]:
