@@ -17,7 +17,14 @@ from collections.abc import Sequence
 from rich.console import Console
 
 from ..transport import run as run_event_loop  # uvloop when installed
-from . import _board_commands, _discovery, _encoder_commands, _flash, _motor_commands
+from . import (
+    _board_commands,
+    _discovery,
+    _encoder_commands,
+    _flash,
+    _motor_commands,
+    _stream_commands,
+)
 from ._entry import make_console, run_command
 
 __all__ = ["main", "run"]
@@ -32,6 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     _board_commands.add_commands(sub)
     _motor_commands.add_commands(sub)
     _encoder_commands.add_commands(sub)
+    _stream_commands.add_commands(sub)
     _flash.add_commands(sub)
     sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)
     sim.add_argument("rest", nargs=argparse.REMAINDER)

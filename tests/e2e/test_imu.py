@@ -202,3 +202,21 @@ async def test_blocking_imu_streams_the_block(virtual_uno_factory: VirtualUnoFac
     assert found == [0x50, 0x68]
     assert blocks == [data for _, data in reads[:20]]
     assert all(abs(r.accel[2] - STANDARD_GRAVITY) < 0.01 for r in readings)  # z = 1 g
+
+
+async def test_cli_stream_prints_the_imu_block(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """``arduinoio stream --imu --i2c ...``: the IMU in SI units and a second block (the
+    fixture's EEPROM, whose bytes the test wrote) in hex, with the counts."""
+    uno = await virtual_uno_factory(baud=1_000_000, profile="sensing")
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        await (await board.i2c()).write(0x50, 0x20, b"\xca\xfe")
+    buffer = io.StringIO()
+    args = ["stream", "--imu", "--i2c", "0x50:0x20:2", "--period-ms", "2", "--seconds", "0.5"]
+    args += ["--every", "50", "--port", uno.port, "--baud", str(uno.baud)]
+    code = await anyio.to_thread.run_sync(
+        lambda: cli_main(args, console=Console(file=buffer, width=300))
+    )
+    out = buffer.getvalue()
+    assert code == 0, out
+    assert "block1=cafe" in out and "+9.81) m/s^2" in out, out
+    assert "gaps 0, dropped 0, failed block reads 0" in out, out
