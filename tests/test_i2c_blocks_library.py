@@ -8,8 +8,12 @@ into the fake device.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+import textwrap
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 
 import pytest
 
@@ -106,3 +110,28 @@ async def test_imu_helper_checks_its_arguments_and_the_device() -> None:
         with pytest.raises(ValueError, match="14 bytes"):
             imu.decode(None)
         assert await bus.scan() == [0x50, 0x68]
+
+
+def test_mypy_refuses_ranges_the_part_does_not_have(tmp_path: Path) -> None:
+    """The ranges are Literal types: a range the MPU-6050 lacks is a type error."""
+    snippet = tmp_path / "misuse.py"
+    snippet.write_text(
+        textwrap.dedent(
+            """
+            from arduinoio_async import MPU6050
+
+            async def main(imu: MPU6050) -> None:
+                await imu.configure(accel_g=4, gyro_dps=500)
+                await imu.configure(accel_g=3)
+                await imu.configure(gyro_dps=300)
+            """
+        )
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(snippet)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    errors = [line for line in result.stdout.splitlines() if ": error:" in line]
+    assert [e.split(":")[1] for e in errors] == ["6", "7"], result.stdout
