@@ -39,6 +39,7 @@ from ._changes import ChangeSource
 from ._counts import CountSource
 from ._devices import DeviceView, EncoderView
 from ._elsewhere import RolesElsewhere
+from ._imu_view import ImuView
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
 
 if TYPE_CHECKING:
@@ -141,7 +142,10 @@ class BoardPanel:
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         self.elsewhere = RolesElsewhere(board, on_change=self.changed)
         #: Devices beyond one pin (encoders, ...): their rows and controls (:mod:`._devices`).
-        self.devices: list[DeviceView] = [EncoderView(board, on_change=self.changed)]
+        self.devices: list[DeviceView] = [
+            EncoderView(board, on_change=self.changed),
+            ImuView(board, on_change=self.changed),
+        ]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
         self.known = 0
