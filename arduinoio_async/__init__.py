@@ -92,6 +92,8 @@ if TYPE_CHECKING:
         Servo,
         SoftPwm,
     )
+    from .board.i2c_blocks import I2CBlock
+    from .board.imu import MPU6050, ImuReading
     from .board.motors import DutyPwm, Motor
     from .board.steppers import LimitSwitch, Stepper, StepperState
     from .board.streaming import Sample, SampleStream
@@ -111,6 +113,9 @@ _LAZY = {
     "DigitalOutput": ".board.handles",
     "Gpio": ".board.handles",
     "I2CBus": ".board.handles",
+    "I2CBlock": ".board.i2c_blocks",
+    "MPU6050": ".board.imu",
+    "ImuReading": ".board.imu",
     "PinState": ".board.handles",
     "PulseOutput": ".board.handles",
     "Servo": ".board.handles",
@@ -164,6 +169,7 @@ __all__ = [
     "D11",
     "D12",
     "D13",
+    "MPU6050",
     "AnalogInput",
     "AnalogPin",
     "ArduinoIOError",
@@ -183,9 +189,11 @@ __all__ = [
     "FailsafeTrippedError",
     "FakeBoard",
     "Gpio",
+    "I2CBlock",
     "I2CBus",
     "I2CError",
     "I2CSpeed",
+    "ImuReading",
     "LimitSwitch",
     "LinkCapacityError",
     "LinkError",

@@ -217,6 +217,7 @@ _REFUSAL_REASONS = {
     "I2C_NACK_ADDRESS": "no I2C device answered at that address",
     "I2C_NACK_DATA": "the I2C device refused a data byte",
     "I2C_TIMEOUT": "the I2C bus timed out",
+    "I2C_STREAMING": "the running stream reads I2C blocks: the bus is the stream's",
     "I2C_NOT_CONFIGURED": "the I2C bus is off",
     "LINK_CAPACITY": "too much for the link",
     "FAILSAFE_TRIPPED": "the failsafe has tripped",
@@ -239,6 +240,7 @@ _REFUSAL_HINTS = {
     "(board.rearm_failsafe()) or clear it with `arduinoio failsafe --clear`",
     "I2C_NACK_ADDRESS": "is a device at that address, and powered?",
     "I2C_TIMEOUT": "SDA/SCL held low? pull-ups?",
+    "I2C_STREAMING": "read the device through the stream's blocks, or stop the stream first",
     "NOT_IN_IMAGE": "each Uno image is built for a job (docs: firmware profiles); "
     "flash one that has it with `arduinoio flash --profile NAME`",
     "I2C_NOT_CONFIGURED": "configure the I2C bus first (board.i2c())",

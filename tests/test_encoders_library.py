@@ -30,6 +30,7 @@ from arduinoio_async import (
     D11,
     D12,
     D13,
+    I2CBlock,
 )
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
@@ -129,8 +130,17 @@ async def test_stream_and_restore_replay_one_setup() -> None:
                 break
         setups = board.roles.setups()
         assert setups.count(p.EncoderConfig(2, 8, 9, p.EncoderMode.X4)) == 1
+        # 6 channels, levels, edges, counters and encoders (42 bytes) fit the 48 a sample
+        # holds; 16 bytes of I2C blocks and their headers more do not
         with pytest.raises(ValueRangeError, match="stream content"):
-            async with board.stream(analog=[A0, A1, A2, A3, A4, A5], encoders=True):
+            async with board.stream(
+                analog=[A0, A1, A2, A3, A4, A5],
+                levels=True,
+                edges=True,
+                counters=True,
+                encoders=True,
+                i2c=[I2CBlock(0x68, 0x3B, 16)],
+            ):
                 pass
         assert await enc.count() == -7
 

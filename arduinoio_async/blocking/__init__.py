@@ -78,6 +78,7 @@ from ._handles import (
     Runner,
     _Blocking,
 )
+from ._imu import BlockingMPU6050
 from ._spi import BlockingSpiBus
 from ._stepper import BlockingStepper
 
@@ -92,6 +93,7 @@ __all__ = [
     "BlockingDutyPwm",
     "BlockingGpio",
     "BlockingI2CBus",
+    "BlockingMPU6050",
     "BlockingMotor",
     "BlockingPulseOutput",
     "BlockingSamples",

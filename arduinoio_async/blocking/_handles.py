@@ -225,6 +225,10 @@ class BlockingI2CBus(_Blocking):
         raises I2CError on a NACK or a bus timeout."""
         self._runner.call(self.handle.write, address, register, data)
 
+    def scan(self) -> list[int]:
+        """The addresses 0x08-0x77 a device acknowledges (``arduinoio i2c scan``)."""
+        return self._runner.call(self.handle.scan)
+
 
 class BlockingSamples(_Blocking):
     """The samples of a running stream as a plain iterator (``for s in samples``)."""

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import random
-from collections.abc import AsyncIterator, Callable, Mapping, Sequence
+from collections.abc import AsyncIterator, Callable, Mapping
 from contextlib import asynccontextmanager
 from typing import Any, TypeVar
 
@@ -33,7 +33,7 @@ from ..errors import (
     ProtocolError,
     ValueRangeError,
 )
-from ..protocol.pins import AnalogPin, DigitalPin, Function
+from ..protocol.pins import DigitalPin, Function
 from ..protocol.pins import require as require_capable
 from ..transport import (
     DEFAULT_TIMEOUT,
@@ -43,10 +43,11 @@ from ..transport import (
     tick_holding_bridge,
 )
 from ._encoder_methods import EncoderMethods
-from ._features import FeatureMethods, require_stream_features
+from ._features import FeatureMethods
 from ._motor_methods import MotorMethods
 from ._spi_methods import SpiMethods
 from ._stepper_methods import StepperMethods
+from ._stream_methods import StreamMethods
 from .boot import (
     READY_TIMEOUT,
     check_same_board,
@@ -60,9 +61,8 @@ from .handles import (
     Gpio,
     PinHandle,
 )
-from .motors import Motor, check_stream
+from .motors import Motor
 from .roles import PinRoles, RoleHolder
-from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 from .transactions import Transaction
 from .watches import Watches
 
@@ -74,7 +74,9 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(FeatureMethods, MotorMethods, StepperMethods, EncoderMethods, SpiMethods):
+class Board(
+    FeatureMethods, StreamMethods, MotorMethods, StepperMethods, EncoderMethods, SpiMethods
+):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):
@@ -408,35 +410,6 @@ class Board(FeatureMethods, MotorMethods, StepperMethods, EncoderMethods, SpiMet
         link = self.link
         await wait_new_boot(link, self.session, deadline=deadline, who=repr(self))
         await self._handshake(link)
-
-    # ---- streaming (extension) ---------------------------------------------------------------
-
-    @asynccontextmanager
-    async def stream(
-        self,
-        *,
-        analog: Sequence[AnalogPin] = (),
-        levels: bool = False,
-        edges: bool = False,
-        counters: bool = False,
-        period_ms: float = 10.0,
-        buffer: int = DEFAULT_BUFFER,
-        steppers: bool = False,
-        encoders: bool = False,
-    ) -> AsyncIterator[SampleStream]:
-        """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
-
-        ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
-        async for s in samples: ...``.  Commands keep working meanwhile.  A period the
-        link cannot carry is refused by the board with :class:`LinkCapacityError`;
-        ``steppers=True`` carries every stepper slot's position (``Sample.steppers``); see
-        :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
-        """
-        request = stream_request(analog, levels, edges, counters, period_ms, steppers, encoders)
-        require_stream_features(self, p.StreamFlags(request.flags))
-        check_stream(self)  # duty PWM on D5/D6 holds the timer the samples need
-        async with run_stream(self, request, buffer) as samples:
-            yield samples
 
     # ---- failsafe and keepalive (extension; :mod:`arduinoio_async.board.failsafe`) ---------
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 from .. import protocol as p
-from ..errors import StaleHandleError, ValueRangeError
+from ..errors import I2CError, StaleHandleError, ValueRangeError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from .changes import (
     DEFAULT_CHANGE_BUFFER,
@@ -423,3 +423,18 @@ class I2CBus:
         if len(data) > p.I2C_MAX_LENGTH:
             raise ValueRangeError("I2C write length", len(data), f"0-{p.I2C_MAX_LENGTH}")
         await self.board.request(p.I2CWrite(address, register, bytes(data)))
+
+    async def scan(self) -> list[int]:
+        """The 7-bit addresses 0x08-0x77 a device acknowledges (the reserved ones left
+        out), found by addressing each with an empty write (it sets no register's value;
+        at most the register pointer of the device, to 0)."""
+        found = []
+        for address in range(0x08, 0x78):
+            try:
+                await self.board.request(p.I2CWrite(address, 0, b""))
+            except I2CError as exc:
+                if exc.code != p.ErrorCode.I2C_NACK_ADDRESS:
+                    raise
+            else:
+                found.append(address)
+        return found

@@ -65,6 +65,13 @@ class Sample:
     #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
     #: includes encoders.
     encoders: tuple[int, ...] | None = None
+    #: The I2C blocks' bytes, one entry per block the stream reads (in the order given
+    #: to ``board.stream(i2c=...)``), ``None`` where that period's read failed; ``None``
+    #: if the stream reads no I2C blocks.
+    i2c: tuple[bytes | None, ...] | None = None
+    #: Per block: 0 if read, else the error code of the failed step (an
+    #: :class:`~arduinoio_async.protocol.ErrorCode`: NACK, timeout).
+    i2c_status: tuple[int, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -102,6 +109,12 @@ class Sample:
             encoders = tuple(
                 ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
             )
+        i2c = i2c_status = None
+        if frame.flags & p.StreamFlags.I2C:
+            # free slots (length 0, status 0) are left out: the blocks come in slot order
+            blocks = [b for b in p.split_i2c_blocks(data[pos:]) if b[1] or b[0]]
+            i2c = tuple(None if status else value for status, value in blocks)
+            i2c_status = tuple(status for status, _ in blocks)
         return cls(
             host_time,
             frame.timestamp_us,
@@ -113,6 +126,8 @@ class Sample:
             counters,
             steppers,
             encoders,
+            i2c,
+            i2c_status,
         )
 
 
@@ -124,8 +139,10 @@ def stream_request(
     period_ms: float,
     steppers: bool = False,
     encoders: bool = False,
+    i2c_bytes: int | None = None,
 ) -> p.StreamStart:
-    """Validate a stream's parameters and build its START request."""
+    """Validate a stream's parameters and build its START request (``i2c_bytes``: the
+    data bytes of the I2C blocks it reads, None for none)."""
     mask = 0
     for pin in analog:
         require(pin, Function.ANALOG_INPUT)
@@ -141,16 +158,18 @@ def stream_request(
         flags |= p.StreamFlags.STEPPERS
     if encoders:
         flags |= p.StreamFlags.ENCODERS
+    if i2c_bytes is not None:
+        flags |= p.StreamFlags.I2C
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    size = p.sample_payload_size(mask, flags)
+    size = p.sample_payload_size(mask, flags, i2c_bytes or 0)
     if size > p.STREAM_MAX_VALUES:
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
             f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
             f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
-            "levels 2)",
+            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS})",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0

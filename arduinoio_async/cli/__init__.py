@@ -25,6 +25,7 @@ from . import (
     _motor_commands,
     _spi_commands,
     _stepper_commands,
+    _stream_commands,
 )
 from ._entry import make_console, run_command
 
@@ -42,6 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     _stepper_commands.add_commands(sub)
     _encoder_commands.add_commands(sub)
     _spi_commands.add_commands(sub)
+    _stream_commands.add_commands(sub)
     _flash.add_commands(sub)
     sim = sub.add_parser("sim", help="run virtual Unos (simavr) until interrupted", add_help=False)
     sim.add_argument("rest", nargs=argparse.REMAINDER)

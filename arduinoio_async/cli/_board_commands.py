@@ -62,11 +62,11 @@ def add_commands(sub: Any) -> None:
     analog = sub.add_parser("analog", help="read one analog input or all six")
     analog.add_argument("pin", type=analog_pin, nargs="?")
     analog.set_defaults(handler=read_analog)
-    i2c = sub.add_parser("i2c", help="I2C register read or write")
-    i2c.add_argument("action", choices=["read", "write"])
-    i2c.add_argument("address", type=byte_value)
-    i2c.add_argument("register", type=byte_value)
-    i2c.add_argument("values", type=byte_value, nargs="+", help="read: length; write: bytes")
+    i2c = sub.add_parser("i2c", help="I2C register read or write, or scan the bus")
+    i2c.add_argument("action", choices=["read", "write", "scan"])
+    i2c.add_argument("address", type=byte_value, nargs="?")
+    i2c.add_argument("register", type=byte_value, nargs="?")
+    i2c.add_argument("values", type=byte_value, nargs="*", help="read: length; write: bytes")
     i2c.add_argument("--speed", type=int, choices=[100, 400], default=100)
     i2c.set_defaults(handler=i2c_transfer)
     release = sub.add_parser(
@@ -163,6 +163,14 @@ async def i2c_transfer(args: argparse.Namespace, console: Console) -> int:
     async with target_board(args) as target:
         board = target.board
         bus = await board.i2c(speed)
+        if args.action == "scan":
+            if args.address is not None:
+                raise UsageError("i2c scan takes no address (it tries 0x08-0x77)")
+            found = await bus.scan()
+            console.print(" ".join(f"0x{a:02X}" for a in found) or "no device answered")
+            return 0
+        if args.address is None or args.register is None or not args.values:
+            raise UsageError(f"i2c {args.action} takes an address, a register and values")
         if args.action == "read":
             if len(args.values) != 1:
                 raise UsageError("i2c read takes one length")

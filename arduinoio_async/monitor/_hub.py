@@ -17,7 +17,8 @@ import anyio
 from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
 
 from ..errors import ArduinoIOError, UsageError
-from ._panel import BoardPanel, describe_error
+from ._args import describe_error
+from ._panel import BoardPanel
 
 if TYPE_CHECKING:
     from ..board import Board

@@ -33,12 +33,14 @@ from .. import protocol as p
 from ..board.handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, PulseOutput
 from ..board.motors import DutyPwm, Motor
 from ..board.roles import RoleHolder
-from ..errors import ArduinoIOError, PinRoleError, UsageError
+from ..errors import PinRoleError, UsageError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ._args import pin_arg
 from ._changes import ChangeSource
 from ._counts import CountSource
 from ._devices import DeviceView, EncoderView, MotorView
 from ._elsewhere import RolesElsewhere
+from ._imu_view import ImuView
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
 from ._spi_view import SpiView
 from ._steppers import StepperView
@@ -142,12 +144,13 @@ class BoardPanel:
         self.counts = CountSource(board, self.counter_pins, on_change=self.changed)
         self.sources: list[ActivitySource] = [self.stream, self.changes, self.counts]
         self.elsewhere = RolesElsewhere(board, on_change=self.changed)
-        #: Devices beyond one pin (encoders, motors, steppers, SPI): :mod:`._devices`.
+        #: Devices beyond one pin (encoders, motors, steppers, SPI, IMU): :mod:`._devices`.
         self.devices: list[DeviceView] = [
             EncoderView(board, on_change=self.changed),
             MotorView(board, on_change=self.changed),
             StepperView(board, on_change=self.changed),
             SpiView(board, on_change=self.changed),
+            ImuView(board, on_change=self.changed),
         ]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0
@@ -375,7 +378,7 @@ class BoardPanel:
         sources' own check would notice within SUPERVISE_INTERVAL)."""
         inputs, counters = self.inputs(), self.counter_pins()
         try:
-            await self._change_role(_pin(args), str(args["role"]))
+            await self._change_role(pin_arg(args), str(args["role"]))
         finally:
             if self.inputs() != inputs:
                 self.changes.restart()
@@ -406,23 +409,23 @@ class BoardPanel:
             await board.counter(pin, edge=edge)  # type: ignore[arg-type]
 
     async def _write(self, args: Mapping[str, Any]) -> None:
-        pin = _pin(args)
+        pin = pin_arg(args)
         handle = self._handle(pin, (DigitalOutput, Gpio), "digital output")
         await handle.write(bool(int(args["value"])))
 
     async def _pulse(self, args: Mapping[str, Any]) -> None:
-        pin = _pin(args)
+        pin = pin_arg(args)
         handle: PulseOutput = self._handle(pin, (PulseOutput,), "servo or software PWM")
         await handle.set_pulse(int(args["us"]))
 
     async def _duty(self, args: Mapping[str, Any]) -> None:
         """The duty slider: ``permille`` 0-1000 of the period."""
-        pin = _pin(args)
+        pin = pin_arg(args)
         handle: DutyPwm = self._handle(pin, (DutyPwm,), "duty-cycle PWM")
         await handle.set_duty(int(args["permille"]) / 1000)
 
     async def _counter_reset(self, args: Mapping[str, Any]) -> int:
-        pin = _pin(args)
+        pin = pin_arg(args)
         counter: Counter = self._handle(pin, (Counter,), "event counter")
         count = await counter.reset()
         self.counters[pin] = 0  # until the next report or sample
@@ -480,20 +483,3 @@ class BoardPanel:
         if self.board.failsafe is None:
             raise UsageError("the failsafe is not armed: arm it first")
         await self.board.rearm_failsafe(restore=True)
-
-
-def _pin(args: Mapping[str, Any]) -> DigitalPin:
-    name = str(args.get("pin", ""))
-    try:
-        return DigitalPin[name.upper()]
-    except KeyError:
-        raise UsageError(f"{name!r} is not a digital pin (D2-D13)") from None
-
-
-def describe_error(exc: BaseException) -> str:
-    """What the page shows for a refused control."""
-    if isinstance(exc, ArduinoIOError):
-        return str(exc)
-    if isinstance(exc, KeyError):
-        return f"missing field {exc}"
-    return f"{type(exc).__name__}: {exc}"

@@ -34,12 +34,17 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
         p.CounterConfig,
         p.EncoderConfig,
         p.SpiConfig,
+        p.I2CBlock,
         p.PinRelease,
         p.Transaction,
         p.StepperConfig,
         p.StepperLimit,
     }
 )
+
+#: The claim key of I2C block slot ``s`` is ``I2C_BLOCK_KEY - s`` (below the encoder
+#: slots' -1..-ENCODER_SLOTS): the blocks a stream reads are one client's.
+I2C_BLOCK_KEY = -32
 
 
 def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
@@ -79,6 +84,14 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
         # select: another client's bus (another chip select) is refused on D11
         role = f"SPI (chip select D{request.cs})"
         return [(pin, role) for pin in (11, 12, 13, request.cs)]
+    if isinstance(request, p.I2CBlock):
+        if not request.length:  # freeing the slot releases it
+            return [(I2C_BLOCK_KEY - request.slot, "")]
+        role = (
+            f"I2C stream block {request.length} bytes at 0x{request.register:02X} of "
+            f"0x{request.address:02X} (slot {request.slot})"
+        )
+        return [(I2C_BLOCK_KEY - request.slot, role)]
     found = role_of(request)
     return [] if found is None else [found]
 
@@ -131,7 +144,12 @@ class PinHolders:
         held = self.pins.get(pin)
         if held is None or not held.clients - {client} or held.role == role:
             return None
-        name = f"D{pin}" if pin >= 0 else f"encoder slot {-1 - pin}"
+        if pin >= 0:
+            name = f"D{pin}"
+        elif pin <= I2C_BLOCK_KEY:
+            name = f"I2C block slot {I2C_BLOCK_KEY - pin}"
+        else:
+            name = f"encoder slot {-1 - pin}"
         return f"{name} is a {held.role} of another client"
 
     def _take(self, client: str, pin: int, role: str) -> None:

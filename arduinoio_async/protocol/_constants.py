@@ -57,6 +57,9 @@ class ErrorCode(IntEnum):
     EEPROM_FAILED = 0x10
     #: The request needs a stopped stepper (SET_POSITION while it moves).
     STEPPER_MOVING = 0x11
+    #: The stream reads I2C blocks: the bus is the stream's until it stops (a one-shot
+    #: read or write would collide with the stream's reads).
+    I2C_STREAMING = 0x18
     #: The class is known, but this firmware image's build profile leaves it out
     #: (protocol/profiles.py); the capabilities' features word says so beforehand.
     #: An SPI transfer before SPI CONFIG (or after its pins were released).
@@ -124,6 +127,10 @@ class StreamFlags(IntFlag):
     #: One i32 count per encoder slot (ENCODER_SLOTS of them, slot 0 first; a free
     #: slot reads 0).
     ENCODERS = 0x10
+    #: The I2C register blocks (I2C_BLOCK_SLOTS of them, slot 0 first): per slot a u8
+    #: length (0: a free slot), a u8 status (0: read this period; else the error code of
+    #: the failed step) and that many bytes.
+    I2C = 0x80
 
 
 class EncoderMode(IntEnum):
@@ -236,6 +243,9 @@ class Feature(IntFlag):
     ENCODER = 0x40000
     #: SPI class: the hardware SPI master on D11-D13 with any chip select (extension).
     SPI = 0x200000
+    #: I2C BLOCK: register blocks the board reads from I2C devices every stream period,
+    #: interrupt-driven, in the stream (extension).
+    I2C_STREAM = 0x400000
 
 
 class Framing(IntEnum):
@@ -316,10 +326,17 @@ STREAM_PERIOD_STEP_US: Final = 50
 STREAM_FRAME_OVERHEAD: Final = 12
 #: Value bytes a sample may carry: the board's largest frame (MAX_BLOB + 7 bytes) less the
 #: sample's 11 header bytes and a CRC-16 (with every analog channel, levels, edges and
-#: counters a sample has 26; encoders add 4 bytes a slot).
-STREAM_MAX_VALUES: Final = 26
+#: counters a sample has 26; encoders add 4 bytes a slot).  48 carries 4 analog channels,
+#: 4 encoders, a 14-byte IMU block (with the blocks' 4 header bytes) and 4 more bytes; the
+#: board's sample buffer is this plus 13 bytes (61 B of RAM, 20 more than before).
+STREAM_MAX_VALUES: Final = 48
 STREAM_LINK_SHARE_NUM: Final = 3
 STREAM_LINK_SHARE_DEN: Final = 4
+
+#: I2C register blocks the stream can read each period (I2C BLOCK's slot is 0 to this - 1)
+#: and the bytes all of them may hold together (the board's read buffer).
+I2C_BLOCK_SLOTS: Final = 2
+I2C_BLOCK_BYTES: Final = 16
 
 #: Quadrature encoders the board decodes at once (ENCODER CONFIG's slot is 0 to this - 1).
 ENCODER_SLOTS: Final = 4

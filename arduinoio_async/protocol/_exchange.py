@@ -24,6 +24,7 @@ _ERROR_CLASSES: dict[ErrorCode, type[BoardError]] = {
     ErrorCode.I2C_NACK_ADDRESS: I2CError,
     ErrorCode.I2C_NACK_DATA: I2CError,
     ErrorCode.I2C_TIMEOUT: I2CError,
+    ErrorCode.I2C_STREAMING: I2CError,
     ErrorCode.I2C_NOT_CONFIGURED: I2CError,
     ErrorCode.LINK_CAPACITY: LinkCapacityError,
     ErrorCode.FAILSAFE_TRIPPED: FailsafeTrippedError,

@@ -110,6 +110,8 @@ def render() -> str:
         "STREAM_LINK_SHARE_NUM",
         "STREAM_LINK_SHARE_DEN",
         "ENCODER_SLOTS",
+        "I2C_BLOCK_SLOTS",
+        "I2C_BLOCK_BYTES",
         "FAILSAFE_MIN_TIMEOUT_MS",
         "FAILSAFE_MAX_TIMEOUT_MS",
         "EEPROM_ID_ADDRESS",

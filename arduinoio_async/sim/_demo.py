@@ -55,7 +55,8 @@ async def example_board(
     board_id: int = 1,
     profile: str = DEFAULT_PROFILE,
 ) -> AsyncIterator[Board]:
-    """The board of an example run with ``args`` (from :func:`example_arguments`)."""
+    """The board of an example run with ``args`` (from :func:`example_arguments`); without
+    ``--port`` a virtual Uno running firmware image ``profile``."""
     async with (
         port_or_virtual_uno(
             args.port, baud=args.baud, fixture=fixture, board_id=board_id, profile=profile

@@ -23,8 +23,10 @@ from .. import protocol as p
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
+from ._fake_i2c_blocks import I2CBlockModels
 from ._fake_spi import SpiModels
 from ._fake_stepper import FakeSteppers
+from ._fake_transaction import split_items
 from ._fake_wire import FakeWire
 from ._faults import Faults
 from ._peripherals import (
@@ -47,7 +49,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(SpiModels, EncoderModels, FakeWire):
+class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -139,6 +141,7 @@ class FakeBoard(SpiModels, EncoderModels, FakeWire):
             p.CounterWatch: self._counter_watch,
             **self._encoder_handlers(),
             **self._spi_handlers(),
+            **self._i2c_block_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
             p.FailsafeArm: self._failsafe_arm,
@@ -360,7 +363,7 @@ class FakeBoard(SpiModels, EncoderModels, FakeWire):
 
     def _transaction(self, request: p.Transaction) -> p.Frame:
         """The firmware's order: check the whole list, then run the items one by one."""
-        items = _split_items(request.items)
+        items = split_items(request.items)
         if items is None:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         results = bytearray()
@@ -378,7 +381,9 @@ class FakeBoard(SpiModels, EncoderModels, FakeWire):
     # ---- extensions: stream and failsafe ----------------------------------------------------
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
-        error = self.stream.check(request, self.baud, self.i2c_speed is not None)
+        error = self.stream.check(
+            request, self.baud, self.i2c_speed is not None, self.i2c_block_bytes()
+        )
         if error is None and self._duty_timer_busy(Timer.TIMER0):
             error = E.PIN_BUSY  # duty PWM on D5/D6 holds the alarm timer
         if error is None and request.analog_mask and self._analog_watches:
@@ -414,8 +419,9 @@ class FakeBoard(SpiModels, EncoderModels, FakeWire):
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
         levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
+        i2c = self.i2c_block_payload() if request.flags & p.StreamFlags.I2C else b""
         return self.stream.sample(
-            request, self.analog, levels, self.counters, board_us, self.encoder_counts()
+            request, self.analog, levels, self.counters, board_us, self.encoder_counts(), i2c
         )
 
     def _failsafe_arm(self, request: p.FailsafeArm) -> p.Frame:
@@ -465,34 +471,3 @@ class FakeBoard(SpiModels, EncoderModels, FakeWire):
         self.failsafe.armed, self.failsafe.tripped = False, True
         with contextlib.suppress(anyio.BrokenResourceError, anyio.ClosedResourceError):
             await self._send(self._board_stream, p.FailsafeTripped().encode())
-
-
-def _split_items(items: bytes) -> list[bytes] | None:
-    """The items of a transaction, or None when the board refuses the list as a whole
-    (unknown tags, a cut item, RESET or TRANSACTION inside, results over MAX_BLOB)."""
-    out: list[bytes] = []
-    pos = need = 0
-    while pos < len(items):
-        if len(items) - pos < 2:
-            return None
-        cls = p.REQUEST_TYPES.get((items[pos], items[pos + 1]))
-        if cls is None or cls in (p.Reset, p.Transaction, p.SetFraming):
-            return None
-        layout = cls.LAYOUT
-        size = layout.base_size - 1
-        if layout.length_offset >= 0:
-            if (
-                pos + layout.length_offset >= len(items)
-                or items[pos + layout.length_offset] > p.MAX_BLOB
-            ):
-                return None
-            size += items[pos + layout.length_offset]
-        if pos + size > len(items):
-            return None
-        result = cls.REPLY.LAYOUT.base_size - 1
-        if cls is p.I2CRead:
-            result += min(items[pos + 4], p.MAX_BLOB + 1)
-        need += max(result, p.ErrorReply.SIZE - 1)
-        out.append(items[pos : pos + size])
-        pos += size
-    return out if out and need <= p.MAX_BLOB else None

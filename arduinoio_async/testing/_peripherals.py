@@ -77,6 +77,9 @@ class PeripheralModels:
     def _i2c_device(self, request: p.I2CRead | p.I2CWrite) -> bytearray | p.ErrorReply:
         if self.i2c_speed is None:
             return self._error(request, E.I2C_NOT_CONFIGURED)
+        stream = getattr(self, "stream", None)
+        if stream is not None and stream.running and stream.request.flags & p.StreamFlags.I2C:
+            return self._error(request, E.I2C_STREAMING)  # the stream's reads own the bus
         if request.address > 0x7F:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         device = self.i2c_devices.get(request.address)

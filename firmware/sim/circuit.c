@@ -22,6 +22,7 @@
 #include "steps.h"
 
 #include "i2c_eeprom.h"
+#include "mpu6050.h"
 
 #define NEDGE 32
 
@@ -350,6 +351,7 @@ void circuit_attach(void)
 	for (int p = 0; p < NPINS; p++) drive_level[p] = -1;
 	i2c_eeprom_init(avr, &i2c_ee, 0xA0, 0x01, NULL, 256);
 	i2c_eeprom_attach(avr, &i2c_ee, AVR_IOCTL_TWI_GETIRQ(0));
+	mpu6050_attach();
 	adc_irq_base = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, 0);
 	for (int pi = 0; pi < 3; pi++) {
 		avr_irq_t *base = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port_names[pi]), 0);

@@ -32,6 +32,7 @@
 #include "steps.h"
 #include "quadrature.h"
 #include "spi_device.h"
+#include "mpu6050.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -301,6 +302,8 @@ static const struct command commands[] = {
 	{"limit_at", 0, cmd_limit_at},
 	{"stack_paint", 1, cmd_stack_paint},
 	{"stack_low", 1, cmd_stack_low},
+	{"imu", 0, cmd_imu},
+	{"imu_reads", 1, cmd_imu_reads},
 };
 
 static const struct command *find_command(const char *name)

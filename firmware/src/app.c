@@ -28,6 +28,7 @@
 #include "gpio.h"
 #include "hal.h"
 #include "i2c.h"
+#include "i2cblock.h"
 #include "misc.h"
 #include "parser.h"
 #include "pins.h"
@@ -69,6 +70,7 @@ void app_init(void)
     pins_init();
     gpio_init();
     i2c_init();
+    i2cblock_init();
     pwm_init();
     duty_init();
     stepper_init();

@@ -95,6 +95,11 @@ uint8_t hal_twi_start(void);          /* START or repeated START */
 uint8_t hal_twi_write(uint8_t byte);  /* SLA+R/W or data; OK on ACK */
 uint8_t hal_twi_read(bool ack, uint8_t *byte);
 void hal_twi_stop(void);
+/* Interrupt-driven TWI (i2cblock.c): one step, whose end raises the TWI interrupt
+ * (i2cblock_twi) except STOP and RESET, which end at once.  WRITE sends `arg`; READ
+ * acknowledges the byte if `arg` is nonzero. */
+enum { HAL_TWI_GO_START, HAL_TWI_GO_WRITE, HAL_TWI_GO_READ, HAL_TWI_GO_STOP, HAL_TWI_GO_RESET };
+void hal_twi_go(uint8_t action, uint8_t arg);
 void hal_twi_reset(void);             /* after a timeout: disable and re-enable the unit */
 
 /* ---- Timer1 servo PWM on D9 (OC1A) / D10 (OC1B) ---- */

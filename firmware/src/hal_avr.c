@@ -16,6 +16,7 @@
 #include "analog.h"
 #include "counter.h"
 #include "encoder.h"
+#include "i2cblock.h"
 #include "gpio.h"
 #include "aio_protocol.h"
 #include "hal.h"
@@ -236,6 +237,37 @@ uint8_t hal_spi_exchange(uint8_t out, uint8_t *in)
     *in = SPDR;
     return (SPCR & _BV(MSTR)) ? HAL_SPI_OK : HAL_SPI_MODE_FAULT;
 }
+#endif
+
+#if AIO_WITH_I2C_STREAM
+void hal_twi_go(uint8_t action, uint8_t arg)
+{
+    uint8_t n = 0;
+    switch (action) {
+    case HAL_TWI_GO_START:
+        TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN) | _BV(TWIE);
+        break;
+    case HAL_TWI_GO_WRITE:
+        TWDR = arg;
+        TWCR = _BV(TWINT) | _BV(TWEN) | _BV(TWIE);
+        break;
+    case HAL_TWI_GO_READ:
+        TWCR = (uint8_t)(_BV(TWINT) | _BV(TWEN) | _BV(TWIE) | (arg ? _BV(TWEA) : 0));
+        break;
+    case HAL_TWI_GO_STOP:
+        TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN);
+        while ((TWCR & _BV(TWSTO)) && ++n) /* a STOP takes 5-10 us; bounded */
+            ;
+        if (TWCR & _BV(TWSTO))
+            hal_twi_reset();
+        break;
+    default:
+        hal_twi_reset();
+        break;
+    }
+}
+
+ISR(TWI_vect) { i2cblock_twi((uint8_t)(TWSR & 0xF8u), TWDR); }
 #endif
 
 /* ---------------------------------------------------------------- Timer0 alarms */

@@ -9,6 +9,7 @@
 #include "i2c.h"
 
 #include "hal.h"
+#include "i2cblock.h"
 
 static uint8_t enabled;
 
@@ -47,8 +48,17 @@ uint8_t i2c_handle(const aio_request_t *rq, aio_reply_t *rp)
     uint8_t addr = rq->data[0], reg = rq->data[1], len = rq->data[2];
     uint8_t i, st, err;
 
+#if AIO_WITH_I2C_STREAM
+    if (rq->dt == AIO_DT_I2C_BLOCK || rq->dt == AIO_DT_I2C_BLOCK_STATUS)
+        return i2cblock_handle(rq, rp);
+#else
+    if (rq->dt == AIO_DT_I2C_BLOCK || rq->dt == AIO_DT_I2C_BLOCK_STATUS)
+        return AIO_ERR_NOT_IN_IMAGE; /* this build profile leaves the I2C stream out */
+#endif
     if (rq->dt != AIO_DT_I2C_CONFIG && rq->dt != AIO_DT_I2C_READ && rq->dt != AIO_DT_I2C_WRITE)
         return AIO_ERR_UNKNOWN_DESCRIPTOR;
+    if (i2cblock_active())
+        return AIO_ERR_I2C_STREAMING; /* the stream's interrupt-driven reads own the bus */
     if (rq->dt == AIO_DT_I2C_CONFIG) {
         if (rq->data[0] > AIO_I2C_KHZ_400)
             return AIO_ERR_VALUE_OUT_OF_RANGE;

@@ -30,6 +30,7 @@
 #include "parser.h"
 #include "i2c.h"
 #include "stepper.h"
+#include "i2cblock.h"
 
 #ifndef BAUD
 #define BAUD 115200UL
@@ -41,7 +42,8 @@
  * build profile holds the class (protocol/profiles.py); START refuses the others. */
 #define STREAM_FLAGS                                                                     \
     (AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS |                        \
-     (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u))
+     (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u) | \
+     (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
@@ -56,11 +58,11 @@ static uint8_t channels[AIO_ANALOG_CHANNELS]; /* the mask's channels, in order *
 static uint8_t channel_count;
 static uint8_t channel;              /* index in channels[] of the next conversion */
 static uint8_t pos;                  /* next analog value position in frame */
-/* A sample: CT DT mask flags seq(2) instant(4) len, up to AIO_STREAM_MAX_VALUES
- * value bytes (START refuses more: stepper positions and encoder counts take 16
- * each), the check. */
-#define SAMPLE_HEADER 11u
-static uint8_t frame[SAMPLE_HEADER + AIO_STREAM_MAX_VALUES + AIO_CHECK_MAX];
+static volatile uint8_t waiting;     /* WAIT_* parts of the sample still being filled */
+/* a sample frame: header, values, check bytes */
+static uint8_t frame[HDR + AIO_STREAM_MAX_VALUES + AIO_CHECK_MAX];
+
+enum { WAIT_CHAIN = 1, WAIT_I2C = 2 };
 static uint8_t frame_len;
 
 void stream_init(void)
@@ -92,6 +94,10 @@ static uint8_t value_bytes(uint8_t m, uint8_t f)
     if (f & AIO_STREAM_ENCODERS)
         n += 4u * AIO_ENCODER_SLOTS;
 #endif
+#if AIO_WITH_I2C_STREAM
+    if (f & AIO_STREAM_I2C)
+        n += i2cblock_bytes();
+#endif
     return n;
 }
 
@@ -110,10 +116,30 @@ static void finish(void)
     busy = 0;
 }
 
+/* A part of the sample (the ADC chain, the I2C reads) is complete: the last one
+ * sends the frame.  The ADC interrupt runs with interrupts enabled, so the TWI
+ * interrupt may end its part meanwhile: the test-and-clear is atomic. */
+static void part_done(uint8_t part)
+{
+    uint8_t s = hal_irq_save(), left;
+    left = waiting = (uint8_t)(waiting & ~part);
+    hal_irq_restore(s);
+    if (!left)
+        finish();
+}
+
+uint8_t stream_reads_i2c(void) { return (flags & AIO_STREAM_I2C) != 0; }
+
+void stream_i2c_done(void)
+{
+    if (busy)
+        part_done(WAIT_I2C);
+}
+
 static void next_channel(void)
 {
     if (channel >= channel_count)
-        finish();
+        part_done(WAIT_CHAIN);
     else
         hal_adc_start(channels[channel], adc_shift);
 }
@@ -165,8 +191,13 @@ static void sample(void)
         for (r = 0; r < AIO_ENCODER_SLOTS; r++)
             p = aio_put32(p, (uint32_t)encoder_peek((uint8_t)r));
 #endif
-    frame_len = (uint8_t)(p - frame + 1u);
+    frame_len = (uint8_t)(HDR + len + 1u);
     busy = 1;
+    waiting = WAIT_CHAIN | WAIT_I2C;
+    /* the blocks' bytes are the payload's last; the read overlaps the ADC chain (it
+     * may end before i2cblock_begin returns: a first step refused at once) */
+    if (!(flags & AIO_STREAM_I2C) || !i2cblock_begin(p))
+        waiting = WAIT_CHAIN;
     channel = 0;
     if (main_owns)
         pending = 1;
@@ -179,6 +210,8 @@ void stream_alarm(void)
     if (!running)
         return;
     instant += stream_period;
+    if (busy && waiting == WAIT_I2C)
+        i2cblock_abort(); /* the read outlasted its period: the sample goes, marked */
     if (busy)
         seq++; /* the previous sample is still converting: drop this one */
     else
@@ -238,6 +271,7 @@ static void stop(void)
     uint8_t s = hal_irq_save();
     hal_stream_timer_stop();
     running = 0;
+    i2cblock_cancel();
     if (busy) {
         busy = 0; /* cancel the sample being assembled: it was never sent */
         pending = 0;
@@ -270,6 +304,8 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     if (i2c_enabled() && (m & AIO_PINS_I2C))
         return AIO_ERR_PIN_BUSY;
+    if ((f & AIO_STREAM_I2C) && !i2c_enabled())
+        return AIO_ERR_I2C_NOT_CONFIGURED;
     if (duty_timer_busy(DUTY_TIMER0))
         return AIO_ERR_PIN_BUSY; /* duty PWM on D5/D6 holds the alarm timer */
     if (m && analog_watched())

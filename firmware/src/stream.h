@@ -22,6 +22,10 @@ void stream_adc_release(void);
  * `channels` ends within 7/8 of the period (0: none). */
 uint8_t stream_adc_clock(uint8_t channels, uint16_t period_us);
 /* Bytes per second a stream needs vs the link: nonzero if admitted. */
+/* The stream carries I2C blocks (i2cblock.c reads them while it runs). */
+uint8_t stream_reads_i2c(void);
+/* i2cblock.c (TWI interrupt): the sample's blocks are read or marked. */
+void stream_i2c_done(void);
 uint8_t stream_admit(uint8_t value_bytes, uint16_t period_us, uint32_t baud);
 
 #endif

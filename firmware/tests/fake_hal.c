@@ -426,6 +426,15 @@ uint8_t hal_twi_read(bool ack, uint8_t *byte)
 
 void hal_twi_stop(void) { i2c_state = I2C_IDLE; }
 void hal_twi_reset(void) { fake_i2c_resets++; i2c_state = I2C_IDLE; }
+/* Interrupt-driven steps (i2cblock.c): recorded; a test answers with i2cblock_twi(). */
+uint8_t fake_twi_action = 0xFFu, fake_twi_arg;
+unsigned fake_twi_steps;
+void hal_twi_go(uint8_t action, uint8_t arg)
+{
+    fake_twi_action = action;
+    fake_twi_arg = arg;
+    fake_twi_steps++;
+}
 
 void hal_duty_timer(uint8_t timer, uint8_t cs, uint16_t top)
 {

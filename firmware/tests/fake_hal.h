@@ -34,6 +34,8 @@ extern uint8_t fake_spi_count;
 extern uint8_t fake_i2c_mem[256];    /* 24C02-like device at 0x50 */
 extern bool fake_i2c_stuck;          /* every step times out */
 extern uint8_t fake_i2c_resets;
+extern uint8_t fake_twi_action, fake_twi_arg;
+extern unsigned fake_twi_steps;
 extern uint8_t fake_softpwm_port;    /* PORTD bits driven by software PWM */
 extern uint16_t fake_edge_watch;
 extern uint64_t fake_fine_now;          /* Timer0 counts (0.5 us) since start */

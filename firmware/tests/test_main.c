@@ -21,6 +21,7 @@ int main(void)
     test_counter();
     test_encoder();
     test_spi();
+    test_i2cblock();
     test_stream();
     test_failsafe();
     test_stepper();

@@ -13,7 +13,7 @@ void test_stream(void)
     board();
     CHECK(B(7, 1, 0, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* empty */
     CHECK(B(7, 1, 0x40, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
-    CHECK(B(7, 1, 1, 0x80, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(7, 1, 1, 0x20, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* no such flag */
     CHECK(B(7, 1, 1, 0, 0x03, 0xE7), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
     CHECK(B(7, 1, 1, 0, 0x00, 0xF9), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 249 */
     CHECK(B(7, 1, 1, 0, 0x01, 0x13), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 275 */
@@ -101,15 +101,14 @@ void test_stream(void)
     CHECK(B(7, 2), B(7, 2, 0, 3));
     CHECK(B(4, 1, 0), B(4, 1, 0));
     CHECK(B(7, 1, 0x10, 0, 0x27, 0x10), B(0x87, 1, AIO_ERR_PIN_BUSY));
-    /* 28 value bytes (edges, counters, stepper positions) are over AIO_STREAM_MAX_VALUES */
-    CHECK(B(7, 1, 0, 0x0E, 0x27, 0x10), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
-    /* a full sample, 26 value bytes (levels, counters, stepper positions): 11 + 26 + check */
-    CHECK(B(7, 1, 0, 0x0D, 0x27, 0x10), B(7, 1, 0, 0x0D, 0x27, 0x10));
+    /* 54 value bytes (A0-A3, levels, edges, counters, steppers, encoders) are over
+     * AIO_STREAM_MAX_VALUES (48) */
+    CHECK(B(7, 1, 0x0F, 0x1F, 0x27, 0x10), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
+    /* every flag's values, 46 bytes (levels, edges, counters, steppers, encoders; a full
+     * 48 with I2C blocks: test_i2cblock.c): 11 + 46 + check */
+    CHECK(B(7, 1, 0, 0x1F, 0x27, 0x10), B(7, 1, 0, 0x1F, 0x27, 0x10));
     fake_advance(100);
     take();
-    EXPECT(outn == 11 + AIO_STREAM_MAX_VALUES + 1 && out[0] == AIO_CT_EVENT &&
-           out[10] == AIO_STREAM_MAX_VALUES);
+    EXPECT(outn == 11 + 46 + 1 && out[0] == AIO_CT_EVENT && out[10] == 46);
     CHECK(B(7, 2), B(7, 2, 0, 1));
-    /* steppers and encoders together: 32 value bytes, refused */
-    CHECK(B(7, 1, 0, 0x18, 0x27, 0x10), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
 }

@@ -286,3 +286,13 @@ async def test_stepper_homing(virtual_uno_factory: VirtualUnoFactory) -> None:
     assert "homed after 800 steps: position 0" in out and "at 2000" in out and "at 500" in out
     steps = await uno.command("steps", pin="D2", **{"from": 1 << 30})
     assert steps["count"] == 800 + 2000 + 1500, steps
+
+
+async def test_imu_stream(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's MPU-6050 model (its served reads and its z axis, 1 g)."""
+    uno = await virtual_uno_factory(baud=1_000_000, profile="sensing", fixture="open")
+    first = (await uno.command("imu"))["logged"]
+    out = await run_to_end("imu_stream", uno, "--seconds", "0.5")
+    assert "samples: ok 500, failed reads 0 (board counted 0), gaps 0" in out, out
+    assert (await uno.command("imu"))["logged"] - first >= 501  # one-shot + 500 periods
+    assert out.count("+9.81 m/s^2") >= 2  # z is 1 g in every printed reading

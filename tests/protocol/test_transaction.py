@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from arduinoio_async import protocol as p
 from arduinoio_async.protocol.commands.transaction import NOT_IN_TRANSACTIONS
-from arduinoio_async.testing._fake_board import _split_items
+from arduinoio_async.testing._fake_transaction import split_items as _split_items
 
 from .strategies import message
 

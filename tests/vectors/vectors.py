@@ -9,8 +9,8 @@ Format, one step a line (``#`` starts a comment):
   depends on the circuit, such as a temperature); ``error CODE`` stands for the error
   reply ``CT|0x80 DT code`` to the request's tags;
 * ``drive 7 1`` -- the circuit drives pin D7 high (or ``0`` low) from outside;
-* ``profile sensing`` -- the firmware image the virtual Uno runs for the file (default
-  ``standard``; the host tests build every class, the FakeBoard models every class).
+* ``profile sensing`` -- the firmware image the virtual Uno runs the file on (a class
+  only some images hold; the host tests build every class, the FakeBoard models them all).
 
 Framing: a file starts in the paper's XOR framing; a SET_FRAMING step (``> 01 0B 01``)
 that succeeds switches it: its reply and every later frame, both ways, carry the

@@ -179,6 +179,12 @@
         { a: encoders.a.value.trim().toUpperCase(), b: encoders.b.value.trim().toUpperCase(), mode: encoders.mode.value },
         (slot) => `encoder ${encoders.a.value}/${encoders.b.value} in slot ${slot}`));
 
+    const imu = root.querySelector("form.imu");
+    imu.querySelector(".imu-add").addEventListener("click", () =>
+      control(view, "imu",
+        { address: Number(imu.address.value), accel_g: Number(imu.accel_g.value), gyro_dps: Number(imu.gyro_dps.value) },
+        (what) => what));
+
     createPlot(view, snapshot.analog_pins);
     return view;
   }
@@ -236,6 +242,7 @@
     renderEncoders(view, snapshot.encoders);
     renderMotors(view, snapshot.motors);
     renderSpi(view, snapshot.spi);
+    renderImu(view, snapshot.imu);
   }
 
   // DC motors: a speed slider (-100..100 %), brake and coast; the state the board was given.
@@ -284,6 +291,33 @@
       li.textContent = `CS ${b.cs} · mode ${b.mode} · ${b.clock_hz / 1e6} MHz${b.lsb_first ? " · LSB first" : ""}${last}`;
       return li;
     }));
+  }
+
+  // IMU: the three accel (m/s^2) and three gyro (rad/s) traces, read every 0.2 s.
+  const IMU_POINTS = 300;
+  function renderImu(view, imu) {
+    const form = view.root.querySelector("form.imu");
+    const out = form.querySelector(".imu-reading");
+    if (!imu || !imu.rows.length) return;
+    const r = imu.rows[0];
+    out.textContent = `accel ${r.accel.map((a) => a.toFixed(2)).join(" ")} m/s² · ` +
+      `gyro ${r.gyro.map((w) => w.toFixed(3)).join(" ")} rad/s · ${r.temperature_c} °C`;
+    if (!view.imuPlot) {
+      const names = ["ax", "ay", "az", "gx", "gy", "gz"];
+      view.imuData = [[], ...names.map(() => [])];
+      view.imuPlot = new uPlot({
+        width: Math.max(320, form.clientWidth || 520), height: 180, legend: { show: true },
+        series: [{}, ...names.map((label, i) => ({
+          label, stroke: COLORS[i % COLORS.length], width: 1.5, scale: i < 3 ? "accel" : "gyro",
+        }))],
+        axes: [{}, { scale: "accel", size: 45 }, { scale: "gyro", side: 1, size: 45 }],
+      }, view.imuData, form.querySelector(".imu-plot"));
+    }
+    const values = [...r.accel, ...r.gyro];
+    view.imuData[0].push(Date.now() / 1000);
+    values.forEach((v, i) => view.imuData[i + 1].push(v));
+    if (view.imuData[0].length > IMU_POINTS) view.imuData.forEach((s) => s.shift());
+    view.imuPlot.setData(view.imuData);
   }
 
   // Encoders: count, velocity (counts/s from the board's edge times), invalid transitions.

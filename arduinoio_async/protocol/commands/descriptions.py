@@ -162,6 +162,13 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         f"{rq.slot} (x{int(rq.mode)})"
     ),
     encoder.EncoderRead: lambda rq: f"read quadrature encoder {rq.slot}",
+    i2c.I2CBlock: lambda rq: (
+        f"free I2C stream block {rq.slot}"
+        if not rq.length
+        else f"read {rq.length} bytes at register 0x{rq.register:02X} of I2C device "
+        f"0x{rq.address:02X} every stream period (block {rq.slot})"
+    ),
+    i2c.I2CBlockStatus: lambda rq: f"read the bus errors of I2C stream block {rq.slot}",
     encoder.EncoderPreset: lambda rq: (
         f"set the count of quadrature encoder {rq.slot} to {rq.value}"
     ),

@@ -11,11 +11,12 @@ from typing import Annotated
 
 from .._constants import (
     ENCODER_SLOTS,
-    MAX_BLOB,
+    I2C_BLOCK_SLOTS,
     STEPPER_COUNT,
     STREAM_FRAME_OVERHEAD,
     STREAM_LINK_SHARE_DEN,
     STREAM_LINK_SHARE_NUM,
+    STREAM_MAX_VALUES,
     STREAM_MIN_PERIOD_US,
     STREAM_PERIOD_STEP_US,
     ClassTag,
@@ -31,6 +32,7 @@ __all__ = [
     "StreamStop",
     "StreamStopReply",
     "sample_payload_size",
+    "split_i2c_blocks",
     "stream_fits_link",
     "stream_min_period_us",
 ]
@@ -78,20 +80,43 @@ class StreamSample(_Sampled, Event):
     LEVELS: u16 levels of D0-D15 (bit n = Dn), if EDGES: u16 rose, u16 fell (latched since
     the previous sample), if COUNTERS: u32 count of D2, u32 count of D3, if STEPPERS: i32
     position of each stepper slot 0-3 (0 for a slot without a stepper), if ENCODERS: one
-    i32 count per encoder slot (ENCODER_SLOTS, slot 0 first; a free slot reads 0).
+    i32 count per encoder slot (ENCODER_SLOTS, slot 0 first; a free slot reads 0), if
+    I2C: per I2C block slot (I2C_BLOCK_SLOTS, slot 0 first) u8 length, u8 status and that
+    many bytes (:func:`split_i2c_blocks`).
     """
 
     sequence: Annotated[int, U16]
     timestamp_us: Annotated[int, U32]
-    payload: Annotated[bytes, Blob(MAX_BLOB)]
+    payload: Annotated[bytes, Blob(STREAM_MAX_VALUES)]
 
     def __post_init__(self) -> None:
-        if len(self.payload) != sample_payload_size(self.analog_mask, self.flags):
+        fixed = sample_payload_size(self.analog_mask, self.flags & ~StreamFlags.I2C)
+        if self.flags & StreamFlags.I2C:
+            split_i2c_blocks(self.payload[fixed:])  # raises ValueError if malformed
+        elif len(self.payload) != fixed:
             raise ValueError("stream sample payload does not match its mask and flags")
 
 
-def sample_payload_size(analog_mask: int, flags: StreamFlags) -> int:
-    """Bytes of values a sample with this channel mask and these flags carries."""
+def split_i2c_blocks(data: bytes) -> list[tuple[int, bytes]]:
+    """The I2C part of a sample: ``(status, bytes)`` per block slot (slot 0 first); the
+    part is self-describing (each slot's length precedes it), so the host needs no copy of
+    the blocks' configuration to decode it."""
+    blocks: list[tuple[int, bytes]] = []
+    pos = 0
+    for _ in range(I2C_BLOCK_SLOTS):
+        if pos + 2 > len(data):
+            raise ValueError("stream sample's I2C blocks are cut short")
+        length, status = data[pos], data[pos + 1]
+        blocks.append((status, bytes(data[pos + 2 : pos + 2 + length])))
+        pos += 2 + length
+    if pos != len(data):
+        raise ValueError("stream sample's I2C blocks do not match their lengths")
+    return blocks
+
+
+def sample_payload_size(analog_mask: int, flags: StreamFlags, i2c_bytes: int = 0) -> int:
+    """Bytes of values a sample with this channel mask and these flags carries
+    (``i2c_bytes``: the configured I2C blocks' lengths added up, if the flags hold I2C)."""
     size = 2 * (analog_mask & 0x3F).bit_count()
     if flags & StreamFlags.LEVELS:
         size += 2
@@ -103,6 +128,8 @@ def sample_payload_size(analog_mask: int, flags: StreamFlags) -> int:
         size += 4 * STEPPER_COUNT
     if flags & StreamFlags.ENCODERS:
         size += 4 * ENCODER_SLOTS
+    if flags & StreamFlags.I2C:
+        size += 2 * I2C_BLOCK_SLOTS + i2c_bytes
     return size
 
 
@@ -112,9 +139,11 @@ def stream_fits_link(frame_bytes: int, period_us: int, baud: int) -> bool:
     return needed <= STREAM_LINK_SHARE_NUM * period_us * baud
 
 
-def stream_min_period_us(analog_mask: int, flags: StreamFlags, baud: int) -> int:
+def stream_min_period_us(
+    analog_mask: int, flags: StreamFlags, baud: int, i2c_bytes: int = 0
+) -> int:
     """Shortest period the board accepts for this sample layout at ``baud``."""
-    frame_bytes = STREAM_FRAME_OVERHEAD + sample_payload_size(analog_mask, flags)
+    frame_bytes = STREAM_FRAME_OVERHEAD + sample_payload_size(analog_mask, flags, i2c_bytes)
     period = STREAM_MIN_PERIOD_US
     while not stream_fits_link(frame_bytes, period, baud):
         period += STREAM_PERIOD_STEP_US

@@ -1,0 +1,69 @@
+"""The board's stream method, mixed into :class:`~arduinoio_async.board.Board`.
+
+Kept apart from ``board.py`` by idea: it turns the caller's choice of channels, flags and
+I2C blocks into one STREAM START (:func:`~.streaming.stream_request`), checks the firmware
+image holds every class it names and that no duty PWM holds the timer the samples need,
+sets up the I2C blocks, then runs the stream (:mod:`arduinoio_async.board.streaming`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator, Sequence
+from contextlib import asynccontextmanager
+from typing import TYPE_CHECKING, cast
+
+from .. import protocol as p
+from ..errors import UsageError
+from ..protocol.pins import AnalogPin
+from ._features import require_stream_features
+from .i2c_blocks import I2CBlock, block_requests, blocks_bytes
+from .motors import check_stream
+from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
+
+if TYPE_CHECKING:
+    from ._core import BoardCore
+
+__all__ = ["StreamMethods"]
+
+
+class StreamMethods:
+    """``board.stream()``: samples taken by the board's timer."""
+
+    @asynccontextmanager
+    async def stream(
+        self,
+        *,
+        analog: Sequence[AnalogPin] = (),
+        levels: bool = False,
+        edges: bool = False,
+        counters: bool = False,
+        period_ms: float = 10.0,
+        buffer: int = DEFAULT_BUFFER,
+        steppers: bool = False,
+        encoders: bool = False,
+        i2c: Sequence[I2CBlock] = (),
+    ) -> AsyncIterator[SampleStream]:
+        """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
+
+        ``async with board.stream(analog=[A0, A1], period_ms=1) as samples:
+        async for s in samples: ...``.  Commands keep working meanwhile.  A period the
+        link cannot carry is refused by the board with :class:`LinkCapacityError`;
+        ``steppers=True`` carries every stepper slot's position (``Sample.steppers``); see
+        :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
+        ``i2c=[I2CBlock(0x68, 0x3B, 14)]`` adds register blocks the board reads each
+        period (:mod:`arduinoio_async.board.i2c_blocks`; set up the bus first).
+        """
+        board = cast("BoardCore", self)
+        blocks = block_requests(i2c) if i2c else []
+        i2c_bytes = blocks_bytes(i2c) if i2c else None
+        request = stream_request(
+            analog, levels, edges, counters, period_ms, steppers, encoders, i2c_bytes
+        )
+        require_stream_features(board, p.StreamFlags(request.flags))
+        check_stream(board)  # duty PWM on D5/D6 holds the timer the samples need
+        if blocks and board.roles.i2c is None:
+            raise UsageError("I2C blocks in the stream need the bus: await board.i2c() first")
+        for block in blocks:
+            await board.request(block)
+        async with run_stream(board, request, buffer) as samples:
+            yield samples

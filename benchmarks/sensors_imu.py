@@ -1,0 +1,138 @@
+"""IMU in the stream on the virtual Uno: ``imu_stream_hz`` and ``imu_stream_lost``.
+
+The sensing image at 1 Mbaud streams A0-A3 and an MPU-6050's 14 data bytes (one I2C
+block read by the board at 400 kHz every period) at 1 kHz for ``--seconds`` of simulated
+time (60 by default: 60,000 samples).  The oracle is the harness's MPU-6050 model
+(firmware/sim/mpu6050.c): the bytes it served on each read, fetched while the stream runs
+(its log ring holds 16,384 reads).  A sample is *lost* if it never arrived (a sequence
+gap, a buffer drop), if its block is invalid (a bus error), or if its bytes differ from
+the model's read of that period.  ``imu_stream_hz`` is samples per second of board time
+(the samples' own timestamps).  Goal: 1,000 Hz with 0 lost.  Merged into
+``sensors.json`` (keys ``imu``, ``imu_stream_hz``, ``imu_stream_lost``), the other keys
+left as they are.
+
+    .venv/bin/python -m benchmarks.sensors_imu --json benchmarks/results/sensors.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+from pathlib import Path
+from typing import Any
+
+import anyio
+
+from arduinoio_async import A0, A1, A2, A3, I2CSpeed
+from arduinoio_async.board import Board
+from arduinoio_async.board.i2c_blocks import block_errors
+from arduinoio_async.board.imu import MPU6050
+from arduinoio_async.sim import VirtualUno
+
+from ._results import command_line, merge_result
+
+GOAL_HZ = 1000
+BATCH = 1000
+
+
+async def served(uno: VirtualUno, first: int, count: int) -> list[bytes]:
+    """``count`` reads the model logged from index ``first`` (waits until it has them)."""
+    out: list[bytes] = []
+    while len(out) < count:
+        reply = await uno.command("imu_reads", **{"from": first + len(out), "count": 500})
+        if reply["from"] != first + len(out):
+            raise RuntimeError("the model's log ring overran: fetch more often")
+        out += [bytes(data) for _, data in reply["reads"]][: count - len(out)]
+        if len(out) < count:
+            await anyio.sleep(0.05)
+    return out
+
+
+async def measure(baud: int, seconds: float) -> dict[str, Any]:
+    total = round(seconds * GOAL_HZ)
+    async with (
+        VirtualUno(board_id=1, baud=baud, profile="sensing") as uno,
+        Board.open(uno.port, baudrate=baud) as board,
+    ):
+        imu = MPU6050(await board.i2c(I2CSpeed.KHZ_400))
+        await imu.configure(accel_g=4, gyro_dps=500)
+        first = (await uno.command("imu"))["logged"]
+        received = mismatched = invalid = 0
+        t_first = t_last = 0
+        wraps = 0
+        async with board.stream(
+            analog=[A0, A1, A2, A3], i2c=[imu.block], period_ms=1, buffer=10 * BATCH
+        ) as samples:
+            batch: list[bytes | None] = []
+            async for sample in samples:
+                if received == 0:
+                    t_first = sample.board_time_us
+                elif sample.board_time_us < t_last:
+                    wraps += 1
+                t_last = sample.board_time_us
+                received += 1
+                block = sample.i2c[0] if sample.i2c else None
+                batch.append(block)
+                if len(batch) == BATCH or received == total:
+                    truth = await served(uno, first + received - len(batch), len(batch))
+                    invalid += sum(b is None for b in batch)
+                    mismatched += sum(
+                        b is not None and b != t for b, t in zip(batch, truth, strict=True)
+                    )
+                    batch = []
+                if received == total:
+                    break
+        gaps, dropped = samples.gaps, samples.dropped
+        errors = await block_errors(board, 0)
+    span_us = (t_last + wraps * 2**32 - t_first) or 1
+    lost = gaps + dropped + invalid + mismatched
+    return {
+        "imu_stream_hz": round((received - 1) / span_us * 1e6, 3),
+        "imu_stream_lost": lost,
+        "imu_goal_hz": GOAL_HZ,
+        "imu_goal_met": lost == 0 and (received - 1) / span_us * 1e6 >= GOAL_HZ * 0.999,
+        "samples": received,
+        "gaps": gaps,
+        "dropped": dropped,
+        "invalid_blocks": invalid,
+        "mismatched_blocks": mismatched,
+        "board_bus_errors": errors,
+        "board_seconds": round(span_us / 1e6, 3),
+        "clock": "board time (the samples' timestamps); the harness runs in simulated time",
+    }
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baud", type=int, default=1_000_000)
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    load = os.getloadavg()[0]
+    result = anyio.run(measure, args.baud, args.seconds)
+    result = {
+        "command": command_line(),
+        "machine": platform.node(),
+        "load_avg_at_start": load,
+        "baud": args.baud,
+        "load": "1 kHz stream: A0-A3 + one 14-byte MPU-6050 block at 400 kHz I2C (sensing image)",
+        **result,
+    }
+    print(
+        f"imu_stream_hz: {result['imu_stream_hz']}, imu_stream_lost: {result['imu_stream_lost']} "
+        f"(goal {GOAL_HZ} Hz with 0 lost, met: {result['imu_goal_met']})"
+    )
+    if args.json:
+
+        def update(data: dict[str, Any]) -> None:
+            data["imu"] = result
+            data["imu_stream_hz"] = result["imu_stream_hz"]
+            data["imu_stream_lost"] = result["imu_stream_lost"]
+
+        merge_result(args.json, update)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
