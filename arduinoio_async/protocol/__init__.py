@@ -26,6 +26,7 @@ from ._constants import (
     MAX_BLOB,
     PAPER_BAUD,
     PROTOCOL_VERSION,
+    PULSE_IN_SLOTS,
     PULSE_MAX_US,
     PULSE_MIN_US,
     RX_FIFO_SIZE,
@@ -61,7 +62,19 @@ from ._constants import (
 from ._decoder import Decoded, Decoder, Garbage, InvalidValues
 from ._layout import Frame, checksum, crc16, crc_framed
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES, ErrorReply, Event, Reply, Request
-from .commands import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from .commands import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pulse_in,
+    pwm,
+    stream,
+    transaction,
+)
 from .commands import descriptions as _descriptions  # noqa: F401 (says requests in errors)
 from .commands.analog import *  # noqa: F403
 from .commands.counter import *  # noqa: F403
@@ -70,6 +83,7 @@ from .commands.failsafe import *  # noqa: F403
 from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
+from .commands.pulse_in import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
 from .commands.transaction import *  # noqa: F403
@@ -101,6 +115,7 @@ __all__ = [
     "MAX_BLOB",
     "PAPER_BAUD",
     "PROTOCOL_VERSION",
+    "PULSE_IN_SLOTS",
     "PULSE_MAX_US",
     "PULSE_MIN_US",
     "REPLY_TYPES",
@@ -155,6 +170,7 @@ __all__ += i2c.__all__
 __all__ += pwm.__all__
 __all__ += counter.__all__
 __all__ += encoder.__all__
+__all__ += pulse_in.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

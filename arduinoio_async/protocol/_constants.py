@@ -27,6 +27,7 @@ class ClassTag(IntEnum):
     STREAM = 0x07  # extension
     FAILSAFE = 0x08  # extension
     ENCODER = 0x0A  # extension: quadrature encoders
+    PULSE_IN = 0x0C  # extension: pulse-width inputs (RC receiver channels)
     EVENT = 0x40  # extension: frames the board sends without a request
 
 
@@ -181,6 +182,9 @@ class Feature(IntFlag):
     #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
     #: in the stream and EncoderReport events (extension).
     ENCODER = 0x40000
+    #: PULSE_IN class: high-pulse widths on any digital pin (RC receiver channels), signal
+    #: loss events (extension).
+    PULSE_IN = 0x100000
 
 
 class Framing(IntEnum):
@@ -262,6 +266,8 @@ STREAM_LINK_SHARE_DEN: Final = 4
 
 #: Quadrature encoders the board decodes at once (ENCODER CONFIG's slot is 0 to this - 1).
 ENCODER_SLOTS: Final = 4
+#: Pulse-width inputs the board times at once (PULSE_IN CONFIG's slot is 0 to this - 1).
+PULSE_IN_SLOTS: Final = 6
 
 FAILSAFE_MIN_TIMEOUT_MS: Final = 20
 FAILSAFE_MAX_TIMEOUT_MS: Final = 10000

@@ -107,6 +107,7 @@ def render() -> str:
         "STREAM_LINK_SHARE_NUM",
         "STREAM_LINK_SHARE_DEN",
         "ENCODER_SLOTS",
+        "PULSE_IN_SLOTS",
         "FAILSAFE_MIN_TIMEOUT_MS",
         "FAILSAFE_MAX_TIMEOUT_MS",
         "EEPROM_ID_ADDRESS",

@@ -127,6 +127,7 @@ class Function(Enum):
     COUNTER = "event counter"
     DUTY_PWM = "duty-cycle PWM"
     ENCODER = "quadrature encoder"
+    PULSE_IN = "pulse-width input"
 
 
 _DIGITAL = tuple(DigitalPin)
@@ -143,6 +144,8 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.DUTY_PWM: (D3, D5, D6, D9, D10),
     #: Pin-change interrupts on every digital pin (INT0/INT1 on D2/D3).
     Function.ENCODER: _DIGITAL,
+    #: Pin-change interrupts on every digital pin.
+    Function.PULSE_IN: _DIGITAL,
 }
 
 

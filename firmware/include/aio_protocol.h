@@ -18,6 +18,7 @@
 #define AIO_CT_STREAM 0x07u
 #define AIO_CT_FAILSAFE 0x08u
 #define AIO_CT_ENCODER 0x0Au
+#define AIO_CT_PULSE_IN 0x0Cu
 #define AIO_CT_EVENT 0x40u
 #define AIO_ERROR_FLAG 0x80u
 
@@ -61,12 +62,15 @@
 #define AIO_DT_ENCODER_READ 0x02u
 #define AIO_DT_ENCODER_PRESET 0x03u
 #define AIO_DT_ENCODER_WATCH 0x04u
+#define AIO_DT_PULSE_IN_CONFIG 0x01u
+#define AIO_DT_PULSE_IN_READ 0x02u
 #define AIO_DT_EVENT_STREAM_SAMPLE 0x01u
 #define AIO_DT_EVENT_FAILSAFE_TRIPPED 0x02u
 #define AIO_DT_EVENT_GPIO_CHANGE 0x03u
 #define AIO_DT_EVENT_COUNTER_REPORT 0x04u
 #define AIO_DT_EVENT_ANALOG_CHANGE 0x05u
 #define AIO_DT_EVENT_ENCODER_REPORT 0x07u
+#define AIO_DT_EVENT_PULSE_IN_SIGNAL 0x09u
 
 /* Error codes of an error reply: CT|0x80 DT code CS. */
 #define AIO_ERR_BAD_CHECKSUM 0x01u
@@ -130,6 +134,7 @@
 #define AIO_FEATURE_DUTY_PWM 0x8000u
 #define AIO_FEATURE_CRC16 0x10000u
 #define AIO_FEATURE_ENCODER 0x40000u
+#define AIO_FEATURE_PULSE_IN 0x100000u
 
 /* Limits. */
 #define AIO_INTER_BYTE_GAP_MS 10u
@@ -152,6 +157,7 @@
 #define AIO_STREAM_LINK_SHARE_NUM 3u
 #define AIO_STREAM_LINK_SHARE_DEN 4u
 #define AIO_ENCODER_SLOTS 4u
+#define AIO_PULSE_IN_SLOTS 6u
 #define AIO_FAILSAFE_MIN_TIMEOUT_MS 20u
 #define AIO_FAILSAFE_MAX_TIMEOUT_MS 10000u
 #define AIO_EEPROM_ID_ADDRESS 0u
@@ -168,6 +174,7 @@
 #define AIO_PINS_COUNTER 0x000Cu
 #define AIO_PINS_DUTY_PWM 0x0668u
 #define AIO_PINS_ENCODER 0x3FFCu
+#define AIO_PINS_PULSE_IN 0x3FFCu
 
 /* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.
  * data_len: data bytes between DT and CS without the variable part;
@@ -212,7 +219,9 @@
     X(ENCODER, CONFIG, 0x0Au, 0x01u, 4, -1) \
     X(ENCODER, READ, 0x0Au, 0x02u, 1, -1) \
     X(ENCODER, PRESET, 0x0Au, 0x03u, 5, -1) \
-    X(ENCODER, WATCH, 0x0Au, 0x04u, 3, -1)
+    X(ENCODER, WATCH, 0x0Au, 0x04u, 3, -1) \
+    X(PULSE_IN, CONFIG, 0x0Cu, 0x01u, 4, -1) \
+    X(PULSE_IN, READ, 0x0Cu, 0x02u, 1, -1)
 
 /* Reply data bytes between DT and CS (fixed part, length byte included). */
 #define AIO_REPLY_LEN_MISC_RESET 0u
@@ -254,12 +263,15 @@
 #define AIO_REPLY_LEN_ENCODER_READ 11u
 #define AIO_REPLY_LEN_ENCODER_PRESET 15u
 #define AIO_REPLY_LEN_ENCODER_WATCH 3u
+#define AIO_REPLY_LEN_PULSE_IN_CONFIG 4u
+#define AIO_REPLY_LEN_PULSE_IN_READ 6u
 #define AIO_REPLY_LEN_EVENT_STREAM_SAMPLE 9u
 #define AIO_REPLY_LEN_EVENT_FAILSAFE_TRIPPED 0u
 #define AIO_REPLY_LEN_EVENT_GPIO_CHANGE 8u
 #define AIO_REPLY_LEN_EVENT_COUNTER_REPORT 9u
 #define AIO_REPLY_LEN_EVENT_ANALOG_CHANGE 9u
 #define AIO_REPLY_LEN_EVENT_ENCODER_REPORT 11u
+#define AIO_REPLY_LEN_EVENT_PULSE_IN_SIGNAL 6u
 
 /* Build profiles (arduinoio_async/protocol/profiles.py): the Makefile names one with
  * -DAIO_PROFILE_<NAME>; AIO_WITH_<FEATURE> says whether that image holds an optional

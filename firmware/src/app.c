@@ -21,6 +21,7 @@
 
 #include "counter.h"
 #include "encoder.h"
+#include "pulse_in.h"
 #include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -71,6 +72,7 @@ void app_init(void)
     duty_init();
     counter_init();
     encoder_init();
+    pulse_in_init();
     stream_init();
     analog_init();
     failsafe_init();
@@ -144,6 +146,7 @@ uint8_t app_step(void)
 
     failsafe_poll();
     encoder_poll();
+    pulse_in_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

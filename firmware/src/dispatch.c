@@ -6,6 +6,7 @@
 #include "analog.h"
 #include "counter.h"
 #include "encoder.h"
+#include "pulse_in.h"
 #include "failsafe.h"
 #include "gpio.h"
 #include "i2c.h"
@@ -46,6 +47,9 @@ static aio_handler_t handler(uint8_t ct)
     case AIO_CT_FAILSAFE: return failsafe_handle;
 #if AIO_WITH_ENCODER
     case AIO_CT_ENCODER: return encoder_handle;
+#endif
+#if AIO_WITH_PULSE_IN
+    case AIO_CT_PULSE_IN: return pulse_in_handle;
 #endif
     default: return 0;
     }

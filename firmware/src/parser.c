@@ -35,7 +35,7 @@ uint8_t parser_seal(uint8_t *frame, uint8_t len)
  * Column 0 (no request has DT 0) marks a known class.  A CT or DT outside the
  * table is a compile error in the initializer. */
 #define FR_KNOWN 0x80u
-#define FR_ROWS 11u
+#define FR_ROWS 13u /* class tags up to PULSE_IN 0x0C */
 #define FR_COLS 12u
 #define FR_ENC(data_len, lpos) ((uint8_t)(FR_KNOWN | (data_len) | (uint8_t)((lpos) + 1) << 4))
 

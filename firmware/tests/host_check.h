@@ -55,6 +55,7 @@ void test_i2c(void);
 void test_pwm(void);
 void test_counter(void);
 void test_encoder(void);
+void test_pulse_in(void);
 void test_stream(void);
 void test_failsafe(void);
 void test_unknown_descriptors(void);

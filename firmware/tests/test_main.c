@@ -20,6 +20,7 @@ int main(void)
     test_pwm();
     test_counter();
     test_encoder();
+    test_pulse_in();
     test_stream();
     test_failsafe();
     test_unknown_descriptors();

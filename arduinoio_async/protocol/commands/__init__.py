@@ -15,12 +15,24 @@ from __future__ import annotations
 from typing import Any
 
 from .._messages import REQUEST_TYPES, Request
-from . import analog, counter, encoder, failsafe, gpio, i2c, misc, pwm, stream, transaction
+from . import (
+    analog,
+    counter,
+    encoder,
+    failsafe,
+    gpio,
+    i2c,
+    misc,
+    pulse_in,
+    pwm,
+    stream,
+    transaction,
+)
 
 __all__ = ["IDEMPOTENT_WRITES", "MODULES", "READ_ONLY_REQUESTS"]
 
 #: Every command module, in class tag order; importing them filled the command table.
-MODULES = (misc, gpio, analog, i2c, pwm, counter, stream, failsafe, transaction, encoder)
+MODULES = (misc, gpio, analog, i2c, pwm, counter, stream, failsafe, transaction, encoder, pulse_in)
 
 #: Requests that only read (docs/protocol.md, "Idempotency and retries"), in tag order.
 READ_ONLY_REQUESTS: tuple[type[Request[Any]], ...] = tuple(
