@@ -29,6 +29,7 @@
 #include "pacing.h"
 #include "pty.h"
 #include "quadrature.h"
+#include "rcpulse.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -289,6 +290,9 @@ static const struct command commands[] = {
 	{"quadrature", 0, cmd_quadrature},
 	{"quadrature_status", 1, cmd_quadrature_status},
 	{"quadrature_stop", 0, cmd_quadrature_stop},
+	{"rcpulse", 0, cmd_rcpulse},
+	{"rcpulse_status", 1, cmd_rcpulse_status},
+	{"rcpulse_stop", 0, cmd_rcpulse_stop},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
 };
 
