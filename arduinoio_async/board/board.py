@@ -45,6 +45,7 @@ from ..transport import (
 from ._encoder_methods import EncoderMethods
 from ._features import require_feature, require_stream_features
 from ._motor_methods import MotorMethods
+from ._pulse_in_methods import PulseInMethods
 from .boot import (
     READY_TIMEOUT,
     check_same_board,
@@ -72,7 +73,7 @@ R = TypeVar("R", bound=p.Reply)
 H = TypeVar("H", bound=PinHandle)
 
 
-class Board(MotorMethods, EncoderMethods):
+class Board(MotorMethods, EncoderMethods, PulseInMethods):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
     def __init__(self, link: Transport, board_id: int, capabilities: p.ReadCapabilitiesReply):

@@ -10,9 +10,10 @@ from __future__ import annotations
 import anyio
 import pytest
 
+from arduinoio_async import D4, D5, D8
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.errors import BoardError
+from arduinoio_async.errors import BoardError, PinRoleError
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -77,3 +78,34 @@ async def test_a_pulse_input_refuses_a_pin_another_role_holds(
         with pytest.raises(BoardError) as busy:
             await board.request(p.PulseInConfig(slot=0, pin=5, timeout_ms=100))
         assert busy.value.code == p.ErrorCode.PIN_BUSY
+
+
+async def test_the_typed_handle_reads_positions_and_refuses_a_held_pin_by_name(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """board.pulse_input(): the width the source drives, as -1..1 and 0..1 by the end
+    points; None while the signal is lost; a pin another role holds is refused before
+    anything is sent, naming that role."""
+    uno = await virtual_uno_factory(profile="sensing")
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        rc = await board.pulse_input(D8, timeout_ms=60, low_us=1100, centre_us=1500, high_us=1900)
+        assert rc.slot == 0
+        assert await rc.position() is None  # no pulse yet: lost
+        await uno.rcpulse("D8", width_us=1700)
+        with anyio.fail_after(10):
+            while True:
+                state = await rc.read()
+                if not state.lost:
+                    break
+                await anyio.sleep(0.005)
+        truth = (await uno.rcpulse_status())[0]
+        assert abs(state.width_us - truth.last_width_us) <= 2
+        position = await rc.position()
+        throttle = await rc.throttle()
+        assert position is not None and abs(position - 0.5) <= 2 / 400
+        assert throttle is not None and abs(throttle - 0.75) <= 2 / 800
+        await board.encoder(D4, D5)
+        with pytest.raises(PinRoleError, match="quadrature encoder"):
+            await board.pulse_input(D5)
+        await rc.release()
+        await board.pulse_input(D8)  # free again
