@@ -4,7 +4,9 @@ Four pulse inputs (D4, D7, D8, D12) read four RC sources of the harness
 (firmware/sim/rcpulse.c) at 50 Hz, their widths stepped together through 1,000-2,000 us
 (each channel offset, so the four edges do not coincide), while an encoder on D2/D3 turns
 at 5,000 edges/s by default (``--encoder-rate``; its INT0/INT1 interrupts delay the
-pulses' edges: the stamp is taken when the pin-change vector runs, not at the edge).
+pulses' edges: the stamp is taken when the pin-change vector runs, not at the edge, so
+a few microseconds of interrupt latency remain; a one-tick (100 us) error was the clock race
+clock.c's tick vector now closes).
 For each step, once every source has completed two pulses at the new width, each input is
 read; the error is the board's width minus the width the source held the pin high
 (``rcpulse_status``'s ``last_width_us``, measured in CPU cycles).  The maximum over every
