@@ -14,6 +14,7 @@ from contextlib import asynccontextmanager
 
 from .. import protocol as p
 from ..board import Board
+from ..protocol.profiles import DEFAULT_PROFILE
 from .virtual_uno import Fixture, VirtualUno
 
 __all__ = ["example_arguments", "example_board", "port_or_virtual_uno"]
@@ -34,23 +35,32 @@ async def port_or_virtual_uno(
     baud: int = p.DEFAULT_BAUD,
     fixture: Fixture = "loopback",
     board_id: int = 1,
+    profile: str = DEFAULT_PROFILE,
 ) -> AsyncIterator[str]:
-    """``port`` itself, or the port of a virtual Uno that runs until the block ends."""
+    """``port`` itself, or the port of a virtual Uno (running the firmware image of
+    ``profile``) that runs until the block ends."""
     if port:
         yield port
         return
-    async with VirtualUno(board_id=board_id, fixture=fixture, baud=baud) as uno:
+    async with VirtualUno(board_id=board_id, fixture=fixture, baud=baud, profile=profile) as uno:
         print(f"(no --port given: a virtual Uno on {uno.port})", file=sys.stderr)
         yield uno.port
 
 
 @asynccontextmanager
 async def example_board(
-    args: argparse.Namespace, *, fixture: Fixture = "loopback", board_id: int = 1
+    args: argparse.Namespace,
+    *,
+    fixture: Fixture = "loopback",
+    board_id: int = 1,
+    profile: str = DEFAULT_PROFILE,
 ) -> AsyncIterator[Board]:
-    """The board of an example run with ``args`` (from :func:`example_arguments`)."""
+    """The board of an example run with ``args`` (from :func:`example_arguments`); without
+    ``--port``, a virtual Uno running the firmware image of ``profile``."""
     async with (
-        port_or_virtual_uno(args.port, baud=args.baud, fixture=fixture, board_id=board_id) as port,
+        port_or_virtual_uno(
+            args.port, baud=args.baud, fixture=fixture, board_id=board_id, profile=profile
+        ) as port,
         Board.open(port, baudrate=args.baud) as board,
     ):
         yield board

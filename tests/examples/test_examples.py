@@ -259,3 +259,17 @@ async def test_design_card_starts_its_own_virtual_uno() -> None:
     async with run_example("design_card") as run:
         out = await run.finish()
     assert "D2 high; D3 (jumpered to D2 on the test circuit) reads" in out
+
+
+async def test_rc_receiver(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's RC sources (the widths they drive)."""
+    uno = await virtual_uno_factory(profile="sensing")
+    async with run_example("rc_receiver", "--port", uno.port, "--seconds", "1.5") as run:
+        await run.wait_for("ready")
+        await uno.rcpulse("D4", width_us=1750)
+        await uno.rcpulse("D7", width_us=1250)
+        out = await run.finish()
+    assert "steering +0.50   throttle 0.25" in out, out
+    truth = {s.pin: s for s in await uno.rcpulse_status()}
+    assert abs(truth[4].last_width_us - 1750) < 0.1
+    assert "last steering pulse: 175" in out, out  # 1749-1751 us
