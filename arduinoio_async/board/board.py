@@ -45,6 +45,7 @@ from ..transport import (
 from ._encoder_methods import EncoderMethods
 from ._features import FeatureMethods
 from ._motor_methods import MotorMethods
+from ._pulse_in_methods import PulseInMethods
 from ._spi_methods import SpiMethods
 from ._stepper_methods import StepperMethods
 from ._stream_methods import StreamMethods
@@ -75,7 +76,13 @@ H = TypeVar("H", bound=PinHandle)
 
 
 class Board(
-    FeatureMethods, StreamMethods, MotorMethods, StepperMethods, EncoderMethods, SpiMethods
+    FeatureMethods,
+    StreamMethods,
+    MotorMethods,
+    StepperMethods,
+    EncoderMethods,
+    SpiMethods,
+    PulseInMethods,
 ):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 

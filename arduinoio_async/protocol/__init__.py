@@ -28,6 +28,7 @@ from ._constants import (
     MAX_BLOB,
     PAPER_BAUD,
     PROTOCOL_VERSION,
+    PULSE_IN_SLOTS,
     PULSE_MAX_US,
     PULSE_MIN_US,
     RX_FIFO_SIZE,
@@ -77,6 +78,7 @@ from .commands import (
     gpio,
     i2c,
     misc,
+    pulse_in,
     pwm,
     spi,
     stepper,
@@ -91,6 +93,7 @@ from .commands.failsafe import *  # noqa: F403
 from .commands.gpio import *  # noqa: F403
 from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
+from .commands.pulse_in import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
 from .commands.spi import *  # noqa: F403
 from .commands.stepper import *  # noqa: F403
@@ -126,6 +129,7 @@ __all__ = [
     "MAX_BLOB",
     "PAPER_BAUD",
     "PROTOCOL_VERSION",
+    "PULSE_IN_SLOTS",
     "PULSE_MAX_US",
     "PULSE_MIN_US",
     "REPLY_TYPES",
@@ -187,6 +191,7 @@ __all__ += pwm.__all__
 __all__ += counter.__all__
 __all__ += stepper.__all__
 __all__ += encoder.__all__
+__all__ += pulse_in.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

@@ -28,6 +28,7 @@ class ClassTag(IntEnum):
     FAILSAFE = 0x08  # extension
     STEPPER = 0x09  # extension (issue 26)
     ENCODER = 0x0A  # extension: quadrature encoders
+    PULSE_IN = 0x0C  # extension: pulse-width inputs (RC receiver channels)
     SPI = 0x0D  # extension: the SPI master bridge
     EVENT = 0x40  # extension: frames the board sends without a request
 
@@ -241,6 +242,9 @@ class Feature(IntFlag):
     #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
     #: in the stream and EncoderReport events (extension).
     ENCODER = 0x40000
+    #: PULSE_IN class: high-pulse widths on any digital pin (RC receiver channels), signal
+    #: loss events (extension).
+    PULSE_IN = 0x100000
     #: SPI class: the hardware SPI master on D11-D13 with any chip select (extension).
     SPI = 0x200000
     #: I2C BLOCK: register blocks the board reads from I2C devices every stream period,
@@ -340,6 +344,8 @@ I2C_BLOCK_BYTES: Final = 16
 
 #: Quadrature encoders the board decodes at once (ENCODER CONFIG's slot is 0 to this - 1).
 ENCODER_SLOTS: Final = 4
+#: Pulse-width inputs the board times at once (PULSE_IN CONFIG's slot is 0 to this - 1).
+PULSE_IN_SLOTS: Final = 6
 
 FAILSAFE_MIN_TIMEOUT_MS: Final = 20
 FAILSAFE_MAX_TIMEOUT_MS: Final = 10000

@@ -112,6 +112,7 @@ def render() -> str:
         "ENCODER_SLOTS",
         "I2C_BLOCK_SLOTS",
         "I2C_BLOCK_BYTES",
+        "PULSE_IN_SLOTS",
         "FAILSAFE_MIN_TIMEOUT_MS",
         "FAILSAFE_MAX_TIMEOUT_MS",
         "EEPROM_ID_ADDRESS",

@@ -142,6 +142,7 @@ class Function(Enum):
     ENCODER = "quadrature encoder"
     SPI = "SPI"
     SPI_CS = "SPI chip select"
+    PULSE_IN = "pulse-width input"
 
 
 _DIGITAL = tuple(DigitalPin)
@@ -162,6 +163,8 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.SPI: (D11, D12, D13),
     #: Any digital pin the SPI unit does not use (extension).
     Function.SPI_CS: (D2, D3, D4, D5, D6, D7, D8, D9, D10),
+    #: Pin-change interrupts on every digital pin.
+    Function.PULSE_IN: _DIGITAL,
 }
 
 

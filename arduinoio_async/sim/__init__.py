@@ -11,6 +11,7 @@ faults, unplug/replug) through the harness's control socket.  See
 
 from ._demo import example_arguments, example_board, port_or_virtual_uno
 from ._quadrature import QuadratureGenerator
+from ._rcpulse import RcPulseSource
 from ._spi_device import SpiDeviceStatus, SpiFrame
 from .harness import (
     SimulatorError,
@@ -35,6 +36,7 @@ __all__ = [
     "Fixture",
     "PulseStats",
     "QuadratureGenerator",
+    "RcPulseSource",
     "SimulatorError",
     "SimulatorNotAvailable",
     "SpiDeviceStatus",

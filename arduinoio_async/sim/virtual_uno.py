@@ -28,6 +28,7 @@ from anyio.streams.buffered import BufferedByteReceiveStream
 from ..protocol import DEFAULT_BAUD
 from ..protocol.profiles import DEFAULT_PROFILE
 from ._quadrature import QuadratureMethods
+from ._rcpulse import RcPulseMethods
 from ._spi_device import SpiDeviceMethods
 from .harness import (
     INSTALL_HINT,
@@ -111,7 +112,7 @@ def _pin_arg(pin: PinName) -> PinName:
     return pin
 
 
-class VirtualUno(QuadratureMethods, SpiDeviceMethods):
+class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods):
     """One simulated Uno: starts the harness process and wraps its control commands.
 
     Use as ``async with VirtualUno(board_id=1) as uno:`` and open ``uno.port`` with pyserial.

@@ -19,6 +19,7 @@
 #define AIO_CT_FAILSAFE 0x08u
 #define AIO_CT_STEPPER 0x09u
 #define AIO_CT_ENCODER 0x0Au
+#define AIO_CT_PULSE_IN 0x0Cu
 #define AIO_CT_SPI 0x0Du
 #define AIO_CT_EVENT 0x40u
 #define AIO_ERROR_FLAG 0x80u
@@ -73,6 +74,8 @@
 #define AIO_DT_ENCODER_READ 0x02u
 #define AIO_DT_ENCODER_PRESET 0x03u
 #define AIO_DT_ENCODER_WATCH 0x04u
+#define AIO_DT_PULSE_IN_CONFIG 0x01u
+#define AIO_DT_PULSE_IN_READ 0x02u
 #define AIO_DT_SPI_CONFIG 0x01u
 #define AIO_DT_SPI_TRANSFER 0x02u
 #define AIO_DT_EVENT_STREAM_SAMPLE 0x01u
@@ -82,6 +85,7 @@
 #define AIO_DT_EVENT_ANALOG_CHANGE 0x05u
 #define AIO_DT_EVENT_STEPPER_DONE 0x06u
 #define AIO_DT_EVENT_ENCODER_REPORT 0x07u
+#define AIO_DT_EVENT_PULSE_IN_SIGNAL 0x09u
 
 /* Error codes of an error reply: CT|0x80 DT code CS. */
 #define AIO_ERR_BAD_CHECKSUM 0x01u
@@ -166,6 +170,7 @@
 #define AIO_FEATURE_CRC16 0x10000u
 #define AIO_FEATURE_STEPPER 0x20000u
 #define AIO_FEATURE_ENCODER 0x40000u
+#define AIO_FEATURE_PULSE_IN 0x100000u
 #define AIO_FEATURE_SPI 0x200000u
 #define AIO_FEATURE_I2C_STREAM 0x400000u
 
@@ -192,6 +197,7 @@
 #define AIO_ENCODER_SLOTS 4u
 #define AIO_I2C_BLOCK_SLOTS 2u
 #define AIO_I2C_BLOCK_BYTES 16u
+#define AIO_PULSE_IN_SLOTS 6u
 #define AIO_FAILSAFE_MIN_TIMEOUT_MS 20u
 #define AIO_FAILSAFE_MAX_TIMEOUT_MS 10000u
 #define AIO_EEPROM_ID_ADDRESS 0u
@@ -213,6 +219,7 @@
 #define AIO_PINS_ENCODER 0x3FFCu
 #define AIO_PINS_SPI 0x3800u
 #define AIO_PINS_SPI_CS 0x07FCu
+#define AIO_PINS_PULSE_IN 0x3FFCu
 
 /* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.
  * data_len: data bytes between DT and CS without the variable part;
@@ -268,6 +275,8 @@
     X(ENCODER, READ, 0x0Au, 0x02u, 1, -1) \
     X(ENCODER, PRESET, 0x0Au, 0x03u, 5, -1) \
     X(ENCODER, WATCH, 0x0Au, 0x04u, 3, -1) \
+    X(PULSE_IN, CONFIG, 0x0Cu, 0x01u, 4, -1) \
+    X(PULSE_IN, READ, 0x0Cu, 0x02u, 1, -1) \
     X(SPI, CONFIG, 0x0Du, 0x01u, 4, -1) \
     X(SPI, TRANSFER, 0x0Du, 0x02u, 1, 0)
 
@@ -321,6 +330,8 @@
 #define AIO_REPLY_LEN_ENCODER_READ 11u
 #define AIO_REPLY_LEN_ENCODER_PRESET 15u
 #define AIO_REPLY_LEN_ENCODER_WATCH 3u
+#define AIO_REPLY_LEN_PULSE_IN_CONFIG 4u
+#define AIO_REPLY_LEN_PULSE_IN_READ 6u
 #define AIO_REPLY_LEN_SPI_CONFIG 4u
 #define AIO_REPLY_LEN_SPI_TRANSFER 1u
 #define AIO_REPLY_LEN_EVENT_STREAM_SAMPLE 9u
@@ -330,6 +341,7 @@
 #define AIO_REPLY_LEN_EVENT_ANALOG_CHANGE 9u
 #define AIO_REPLY_LEN_EVENT_STEPPER_DONE 10u
 #define AIO_REPLY_LEN_EVENT_ENCODER_REPORT 11u
+#define AIO_REPLY_LEN_EVENT_PULSE_IN_SIGNAL 6u
 
 /* Build profiles (arduinoio_async/protocol/profiles.py): the Makefile names one with
  * -DAIO_PROFILE_<NAME>; AIO_WITH_<FEATURE> says whether that image holds an optional

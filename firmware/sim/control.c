@@ -33,6 +33,7 @@
 #include "quadrature.h"
 #include "spi_device.h"
 #include "mpu6050.h"
+#include "rcpulse.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -296,6 +297,9 @@ static const struct command commands[] = {
 	{"quadrature_stop", 0, cmd_quadrature_stop},
 	{"spi_device", 0, cmd_spi_device},
 	{"spi_device_status", 1, cmd_spi_device_status},
+	{"rcpulse", 0, cmd_rcpulse},
+	{"rcpulse_status", 1, cmd_rcpulse_status},
+	{"rcpulse_stop", 0, cmd_rcpulse_stop},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
 	{"step_log", 0, cmd_step_log},
 	{"steps", 1, cmd_steps},

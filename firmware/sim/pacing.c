@@ -35,6 +35,7 @@
 #include "pacing.h"
 #include "pty.h"
 #include "quadrature.h"
+#include "rcpulse.h"
 #include "trace.h"
 #include "wire.h"
 
@@ -122,7 +123,7 @@ static int link_quiet(int (*wire)(void))
 	/* and the receiver on: while the firmware boots, a host byte must meet the
 	 * receiver-off window in wall time, as on a real board (no run-ahead) */
 	return avr && (avr->data[UCSR0B_ADDR] & RXEN0_BIT) && wire() && !pulses_running() &&
-	       !quadrature_running() && !pty_holding_reset();
+	       !quadrature_running() && !rcpulse_running() && !pty_holding_reset();
 }
 
 static int link_idle(void)
@@ -231,6 +232,7 @@ void recompute_next_event(void)
 	wire_schedule_events();
 	schedule_pulses();
 	schedule_quadrature();
+	schedule_rcpulse();
 }
 
 void run_events(void)
@@ -241,6 +243,7 @@ void run_events(void)
 		progress = wire_run_events(now);
 		progress |= run_pulses(now);
 		progress |= run_quadrature(now);
+		progress |= run_rcpulse(now);
 	}
 	recompute_next_event();
 	wire_events_done();

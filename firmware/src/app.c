@@ -22,6 +22,7 @@
 #include "counter.h"
 #include "encoder.h"
 #include "spi.h"
+#include "pulse_in.h"
 #include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -77,6 +78,7 @@ void app_init(void)
     counter_init();
     encoder_init();
     spi_init();
+    pulse_in_init();
     stream_init();
     analog_init();
     failsafe_init();
@@ -151,6 +153,7 @@ uint8_t app_step(void)
     failsafe_poll();
     stepper_poll();
     encoder_poll();
+    pulse_in_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

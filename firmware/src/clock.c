@@ -99,19 +99,21 @@ __asm__(".section .text.clock_step_call,\"ax\",@progbits\n"
 #endif
 
 /* Hand-written, ~40 cycles a tick (the compiled one took ~75): interrupts
- * are enabled from the first instruction, so a software PWM edge never waits
- * for it; no other TIMER2_COMPA can come within 100 us.  Interrupt handlers
- * read the tick count too (hal_micros stamps change events and counter
- * reports), so the count must never be seen half carried: the low byte's
- * overflow (once in 256 ticks, every 25.6 ms) stores it and carries into the
- * upper bytes with interrupts off, about 20 cycles; every other tick stores
- * one byte, which is atomic.  millis and ms_div are read by the main loop
+ * are enabled as soon as the tick is counted (11 cycles in), so a software PWM
+ * edge waits at most that; no other TIMER2_COMPA can come within 100 us.
+ * Interrupt handlers read the tick count too (hal_micros, hal_stamp: change
+ * events, counter reports, encoder and pulse edges), and the hardware clears
+ * OCF2A on entry, so an interrupt nested before the count was stored would
+ * read the old count with no pending flag to correct it: 100 us early (seen as
+ * +100 us RC pulse widths under encoder load, benchmarks/sensors_pulse.py).
+ * Hence the count is stored before sei.  The low byte's overflow (once in 256
+ * ticks, every 25.6 ms) carries into the upper bytes with interrupts still
+ * off, about 20 cycles; every other tick stores one byte, which is atomic.  millis and ms_div are read by the main loop
  * only.  r1 is cleared only for the C call (an interrupted MUL may leave it
  * nonzero). */
 ISR(TIMER2_COMPA_vect, ISR_NAKED)
 {
     __asm__ volatile(
-        "sei\n\t"
         "push r24\n\t"
         "in r24, __SREG__\n\t"
         "push r24\n\t"
@@ -119,9 +121,9 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "subi r24, 0xFF\n\t"
         "breq 6f\n\t"
         "sts %[t0], r24\n\t"
+        "sei\n\t"
         "rjmp 1f\n\t"
         "6:\n\t"
-        "cli\n\t"
         "sts %[t0], r24\n\t"
         "lds r24, %[t0]+1\n\t"
         "subi r24, 0xFF\n\t"

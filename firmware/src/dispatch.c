@@ -7,6 +7,7 @@
 #include "counter.h"
 #include "encoder.h"
 #include "spi.h"
+#include "pulse_in.h"
 #include "failsafe.h"
 #include "gpio.h"
 #include "i2c.h"
@@ -56,6 +57,9 @@ static aio_handler_t handler(uint8_t ct)
 #endif
 #if AIO_WITH_SPI
     case AIO_CT_SPI: return spi_handle;
+#endif
+#if AIO_WITH_PULSE_IN
+    case AIO_CT_PULSE_IN: return pulse_in_handle;
 #endif
     default: return 0;
     }

@@ -36,6 +36,7 @@
 #include "gpio.h"
 #include "parser.h"
 #include "pins.h"
+#include "pulse.h"
 
 #if AIO_WITH_ENCODER /* the class is in this image (protocol/profiles.py) */
 
@@ -201,7 +202,7 @@ static void route(void)
     st = hal_irq_save();
     encoder_pc_slots = pcs;
     pc_mask = mask;
-    hal_edge_watch((uint16_t)(gpio_watch_mask() | mask));
+    hal_edge_watch((uint16_t)(gpio_watch_mask() | mask | pulse_pcint_mask()));
     for (s = 0; s < 2; s++) {
         /* only on a change: a counter may own the other external interrupt */
         if ((encoder_int_slot[s] != NO_SLOT) != (ints[s] != NO_SLOT))

@@ -18,6 +18,7 @@
 #include "hal.h"
 #include "parser.h"
 #include "pins.h"
+#include "pulse.h"
 
 volatile uint16_t gpio_watch; /* GPIO inputs (the pin-change vector calls gpio_pin_change only for them) */
 static volatile uint16_t last_levels;
@@ -93,7 +94,7 @@ static void set_watch(uint8_t pin, uint8_t on)
     fell &= (uint16_t)~bit;
     s_rose &= (uint16_t)~bit;
     s_fell &= (uint16_t)~bit;
-    hal_edge_watch((uint16_t)(gpio_watch | encoder_pcint_mask()));
+    hal_edge_watch((uint16_t)(gpio_watch | encoder_pcint_mask() | pulse_pcint_mask()));
     hal_irq_restore(s);
 }
 

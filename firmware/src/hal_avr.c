@@ -17,6 +17,7 @@
 #include "counter.h"
 #include "encoder.h"
 #include "i2cblock.h"
+#include "pulse.h"
 #include "gpio.h"
 #include "aio_protocol.h"
 #include "hal.h"
@@ -132,6 +133,11 @@ void hal_edge_watch(uint16_t mask)
 void isr_gpio(void) __attribute__((used, externally_visible, noinline));
 void isr_gpio(void) { gpio_pin_change(hal_pin_levels()); }
 ISR_TRAMPOLINE(isr_gpio_call, isr_gpio);
+#if AIO_WITH_PULSE_IN
+void isr_pulse(void) __attribute__((used, externally_visible, noinline));
+void isr_pulse(void) { pulse_edges(hal_pin_levels()); }
+ISR_TRAMPOLINE(isr_pulse_call, isr_pulse);
+#endif
 
 /* Both users of the vectors: the encoders (first: their next edge may be
  * close) and the GPIO watches, each on its own pins.  (The watches read the
@@ -139,6 +145,10 @@ ISR_TRAMPOLINE(isr_gpio_call, isr_gpio);
 ISR(PCINT0_vect)
 {
     encoder_pin_change(hal_pin_levels());
+#if AIO_WITH_PULSE_IN
+    if (pulse_active) /* pulse.h: a call only while a pulse input is in use */
+        ISR_CALL(isr_pulse_call);
+#endif
     if (gpio_watch)
         ISR_CALL(isr_gpio_call);
 }

@@ -7,6 +7,7 @@
 #include "counter.h"
 #include "duty.h"
 #include "encoder.h"
+#include "pulse_in.h"
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
@@ -60,6 +61,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_SPI:
         spi_release(pin); /* and the bridge's other three pins */
+        break;
+    case ROLE_PULSE_IN:
+        pulse_in_release(pin);
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

@@ -10,6 +10,7 @@
 #include "app.h"
 #include "counter.h"
 #include "encoder.h"
+#include "pulse.h"
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
@@ -201,6 +202,10 @@ void fake_drive(uint8_t pin, uint8_t level)
     fake_driven[pin] = 1;
     if (fake_edge_watch >> pin & 1u) { /* hal_avr.c's pin-change interrupt */
         encoder_pin_change(hal_pin_levels());
+#if AIO_WITH_PULSE_IN
+        if (pulse_active)
+            pulse_edges(hal_pin_levels());
+#endif
         gpio_pin_change(hal_pin_levels());
     }
     if (changed && (pin == 2 || pin == 3) && fake_encoder_int[pin - 2])

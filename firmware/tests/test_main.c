@@ -22,6 +22,7 @@ int main(void)
     test_encoder();
     test_spi();
     test_i2cblock();
+    test_pulse_in();
     test_stream();
     test_failsafe();
     test_stepper();

@@ -296,3 +296,17 @@ async def test_imu_stream(virtual_uno_factory: VirtualUnoFactory) -> None:
     assert "samples: ok 500, failed reads 0 (board counted 0), gaps 0" in out, out
     assert (await uno.command("imu"))["logged"] - first >= 501  # one-shot + 500 periods
     assert out.count("+9.81 m/s^2") >= 2  # z is 1 g in every printed reading
+
+
+async def test_rc_receiver(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's RC sources (the widths they drive)."""
+    uno = await virtual_uno_factory(profile="sensing")
+    async with run_example("rc_receiver", "--port", uno.port, "--seconds", "1.5") as run:
+        await run.wait_for("ready")
+        await uno.rcpulse("D4", width_us=1750)
+        await uno.rcpulse("D7", width_us=1250)
+        out = await run.finish()
+    assert "steering +0.50   throttle 0.25" in out, out
+    truth = {s.pin: s for s in await uno.rcpulse_status()}
+    assert abs(truth[4].last_width_us - 1750) < 0.1
+    assert "last steering pulse: 175" in out, out  # 1749-1751 us

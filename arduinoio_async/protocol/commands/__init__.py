@@ -23,6 +23,7 @@ from . import (
     gpio,
     i2c,
     misc,
+    pulse_in,
     pwm,
     spi,
     stepper,
@@ -46,6 +47,7 @@ MODULES = (
     transaction,
     encoder,
     spi,
+    pulse_in,
 )
 
 #: Requests that only read (docs/protocol.md, "Idempotency and retries"), in tag order.

@@ -31,6 +31,7 @@ from . import (
     gpio,
     i2c,
     misc,
+    pulse_in,
     pwm,
     spi,
     stepper,
@@ -182,6 +183,10 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         f"at {SpiClock(rq.clock).hz / 1e6:g} MHz"
     ),
     spi.SpiTransfer: lambda rq: f"exchange {_bytes(len(rq.data))} over SPI",
+    pulse_in.PulseInConfig: lambda rq: (
+        f"make {_pin(rq.pin)} pulse-width input {rq.slot} (signal lost after {rq.timeout_ms} ms)"
+    ),
+    pulse_in.PulseInRead: lambda rq: f"read pulse-width input {rq.slot}",
     stream.StreamStart: _stream_start,
     stream.StreamStop: lambda rq: "stop the stream",
     failsafe.FailsafeArm: lambda rq: f"arm the failsafe ({rq.timeout_ms} ms)",

@@ -1,0 +1,85 @@
+"""The board's pulse-input method, mixed into :class:`~arduinoio_async.board.Board`.
+
+Kept apart from ``board.py`` by idea: it combines the pin-role machinery (the pin is
+claimed before anything is sent, refused with :class:`PinRoleError` naming the pin's other
+user) with :mod:`arduinoio_async.board.pulse_inputs`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, cast
+
+from .. import protocol as p
+from ..errors import UsageError, ValueRangeError
+from ..protocol.pins import DigitalPin, Function
+from ..protocol.pins import require as require_capable
+from .pulse_inputs import DEFAULT_CENTRE_US, DEFAULT_HIGH_US, DEFAULT_LOW_US, PulseInput
+
+if TYPE_CHECKING:
+    from ._core import BoardCore
+
+__all__ = ["PulseInMethods"]
+
+
+def _slots_in_use(board: BoardCore) -> set[int]:
+    return {
+        claim.handle.slot
+        for claim in board.roles.values()
+        if isinstance(claim.handle, PulseInput) and not claim.handle.released
+    }
+
+
+class PulseInMethods:
+    """``board.pulse_input()``: high-pulse widths timed by the board (RC receivers)."""
+
+    async def pulse_input(
+        self,
+        pin: DigitalPin,
+        *,
+        timeout_ms: int = 100,
+        slot: int | None = None,
+        low_us: int = DEFAULT_LOW_US,
+        centre_us: int = DEFAULT_CENTRE_US,
+        high_us: int = DEFAULT_HIGH_US,
+    ) -> PulseInput:
+        """Time the high pulses on any digital pin; the signal is lost after ``timeout_ms``
+        (1-65535) without one.
+
+        ``slot`` (0-5) is where the board keeps it; by default the lowest free one.
+        ``low_us``/``centre_us``/``high_us``: the end points of :meth:`PulseInput.position`
+        and :meth:`PulseInput.throttle`.  Raises PinCapabilityError, PinRoleError (a pin
+        held by another role, named), ValueRangeError or FirmwareFeatureError (an image
+        without pulse inputs, naming the ones that have them).
+        """
+        board = cast("BoardCore", self)
+        board.require_feature(p.Feature.PULSE_IN, "pulse-width inputs")
+        require_capable(pin, Function.PULSE_IN)
+        assert isinstance(pin, DigitalPin)
+        if not 1 <= timeout_ms <= 0xFFFF:
+            raise ValueRangeError("pulse input timeout_ms", timeout_ms, "1-65535")
+        used = _slots_in_use(board)
+        if slot is None:
+            free = [s for s in range(p.PULSE_IN_SLOTS) if s not in used]
+            if not free:
+                raise UsageError(
+                    f"all {p.PULSE_IN_SLOTS} pulse input slots of {board} are in use: "
+                    "release one first"
+                )
+            slot = free[0]
+        elif not 0 <= slot < p.PULSE_IN_SLOTS:
+            raise ValueRangeError("pulse input slot", slot, f"0-{p.PULSE_IN_SLOTS - 1}")
+        elif slot in used:
+            raise UsageError(f"pulse input slot {slot} of {board} is in use: release it first")
+        handle = PulseInput(
+            board, pin, slot, timeout_ms, low_us=low_us, centre_us=centre_us, high_us=high_us
+        )
+        roles = board.roles
+        roles.check_free(handle)
+        setup = p.PulseInConfig(slot, int(pin), timeout_ms)
+        roles.claim(handle, setup)
+        try:
+            await board.request(setup)
+        except BaseException:
+            roles.withdraw(handle, None)
+            raise
+        return handle

@@ -1,0 +1,22 @@
+/* pulse_in.h - PULSE_IN class: high-pulse widths on any digital pin (RC receiver channels). */
+#ifndef PULSE_IN_H
+#define PULSE_IN_H
+
+#include <stdint.h>
+
+#include "aio.h"
+
+#if AIO_WITH_PULSE_IN
+void pulse_in_init(void);
+uint8_t pulse_in_handle(const aio_request_t *rq, aio_reply_t *rp);
+/* Ends the input on `pin`: the pin becomes free. */
+void pulse_in_release(uint8_t pin);
+/* Main loop: take the pulses the interrupt timed; signal lost/back events. */
+void pulse_in_poll(void);
+#else /* !AIO_WITH_PULSE_IN: the hooks other modules call do nothing */
+static inline void pulse_in_init(void) {}
+static inline void pulse_in_release(uint8_t pin) { (void)pin; }
+static inline void pulse_in_poll(void) {}
+#endif
+
+#endif
