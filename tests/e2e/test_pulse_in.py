@@ -61,7 +61,7 @@ async def test_widths_across_the_rc_range_loss_and_return(
         await uno.rcpulse_stop("D7")
         with anyio.fail_after(10):
             lost = await received.receive()
-        assert lost.lost == 1 and lost.width_us == 1111
+        assert lost.lost == 1 and abs(lost.width_us - 1111) <= 2  # the last width, as measured
         assert (await board.request(p.PulseInRead(slot=2))).lost == 1
         await uno.rcpulse("D7", width_us=1400)
         with anyio.fail_after(10):
