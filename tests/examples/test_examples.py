@@ -29,6 +29,9 @@ pytestmark = pytest.mark.sim
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 DEADLINE = 60.0
+#: How late the harness may stamp a pin edge (firmware/sim/README.md, "Pulse capture"):
+#: at the end of the instruction running when the timer moved the pin.
+EDGE_STAMP_US = 4 / 16
 
 
 class ExampleRun:
@@ -146,8 +149,10 @@ async def test_dc_motor(virtual_uno_factory: VirtualUnoFactory) -> None:
     out = await run_to_end("dc_motor", uno, "--cruise", "-0.25")
     assert "braked" in out and "motor at -0.25: D9 25.0 % at 20000 Hz" in out, out
     stats = await captured_pulses(uno, 9, 4)  # 50 us periods, 12.5 us high, 1/16 us counts
-    assert all(abs(high - 12.5) <= 0.07 for high in stats.high_us), stats
-    assert all(abs(period - 50) <= 0.07 for period in stats.period_us), stats
+    # Each edge is stamped at the instruction boundary after it, up to EDGE_STAMP_US late
+    # (firmware/sim/README.md, "Pulse capture"): 12.375 against 12.5 was seen in a run.
+    assert all(abs(high - 12.5) <= EDGE_STAMP_US for high in stats.high_us), stats
+    assert all(abs(period - 50) <= EDGE_STAMP_US for period in stats.period_us), stats
     assert (await uno.pin("D7")).level == 0 and (await uno.pin("D8")).level == 1  # reverse
 
 
