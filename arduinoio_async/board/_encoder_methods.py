@@ -10,23 +10,16 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, cast
 
 from .. import protocol as p
-from ..errors import UsageError, ValueRangeError
+from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
 from ..protocol.pins import require as require_capable
+from ._slots import choose_slot
 from .encoders import Encoder, ModeName, encoder_mode
 
 if TYPE_CHECKING:
     from ._core import BoardCore
 
 __all__ = ["EncoderMethods"]
-
-
-def _slots_in_use(board: BoardCore) -> set[int]:
-    return {
-        claim.handle.slot
-        for claim in board.roles.values()
-        if isinstance(claim.handle, Encoder) and not claim.handle.released
-    }
 
 
 class EncoderMethods:
@@ -56,19 +49,7 @@ class EncoderMethods:
         if a is b:
             raise ValueRangeError("encoder pin B", b.name, "a pin other than A")
         decoding = encoder_mode(mode)
-        used = _slots_in_use(board)
-        if slot is None:
-            free = [s for s in range(p.ENCODER_SLOTS) if s not in used]
-            if not free:
-                raise UsageError(
-                    f"all {p.ENCODER_SLOTS} encoder slots of {board} are in use: "
-                    "release an encoder first"
-                )
-            slot = free[0]
-        elif not 0 <= slot < p.ENCODER_SLOTS:
-            raise ValueRangeError("encoder slot", slot, f"0-{p.ENCODER_SLOTS - 1}")
-        elif slot in used:
-            raise UsageError(f"encoder slot {slot} of {board} is in use: release it first")
+        slot = choose_slot(board, Encoder, p.ENCODER_SLOTS, slot, "encoder")
         handle = Encoder(board, a, b, slot, decoding)
         roles = board.roles
         roles.check_free(handle)

@@ -10,23 +10,16 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, cast
 
 from .. import protocol as p
-from ..errors import UsageError, ValueRangeError
+from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
 from ..protocol.pins import require as require_capable
+from ._slots import choose_slot
 from .pulse_inputs import DEFAULT_CENTRE_US, DEFAULT_HIGH_US, DEFAULT_LOW_US, PulseInput
 
 if TYPE_CHECKING:
     from ._core import BoardCore
 
 __all__ = ["PulseInMethods"]
-
-
-def _slots_in_use(board: BoardCore) -> set[int]:
-    return {
-        claim.handle.slot
-        for claim in board.roles.values()
-        if isinstance(claim.handle, PulseInput) and not claim.handle.released
-    }
 
 
 class PulseInMethods:
@@ -57,19 +50,7 @@ class PulseInMethods:
         assert isinstance(pin, DigitalPin)
         if not 1 <= timeout_ms <= 0xFFFF:
             raise ValueRangeError("pulse input timeout_ms", timeout_ms, "1-65535")
-        used = _slots_in_use(board)
-        if slot is None:
-            free = [s for s in range(p.PULSE_IN_SLOTS) if s not in used]
-            if not free:
-                raise UsageError(
-                    f"all {p.PULSE_IN_SLOTS} pulse input slots of {board} are in use: "
-                    "release one first"
-                )
-            slot = free[0]
-        elif not 0 <= slot < p.PULSE_IN_SLOTS:
-            raise ValueRangeError("pulse input slot", slot, f"0-{p.PULSE_IN_SLOTS - 1}")
-        elif slot in used:
-            raise UsageError(f"pulse input slot {slot} of {board} is in use: release it first")
+        slot = choose_slot(board, PulseInput, p.PULSE_IN_SLOTS, slot, "pulse input")
         handle = PulseInput(
             board, pin, slot, timeout_ms, low_us=low_us, centre_us=centre_us, high_us=high_us
         )
