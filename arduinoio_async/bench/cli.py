@@ -16,7 +16,15 @@ from . import cpu_idle
 from .commands import COMMANDS
 from .cpu_idle import SHALLOW
 from .report import print_scenario, write_json, write_plot
-from .runner import SCENARIO_GROUPS, ScenarioResult, Target, host_overhead, run_scenario
+from .runner import (
+    HOST_ROUNDS,
+    PIPELINED_RATE_COUNT,
+    SCENARIO_GROUPS,
+    ScenarioResult,
+    Target,
+    host_overhead,
+    run_scenario,
+)
 
 __all__ = ["build_parser", "main"]
 
@@ -32,6 +40,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-n", "--count", type=int, default=300, help="requests per command")
     parser.add_argument(
         "--warmup", type=int, default=200, help="requests before measuring (sim and caches settle)"
+    )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=HOST_ROUNDS,
+        help="interleaved rounds of the host's pty comparison (fewer: a quicker, rougher look)",
+    )
+    parser.add_argument(
+        "--rate-count",
+        type=int,
+        default=PIPELINED_RATE_COUNT,
+        help="requests per command behind a pipelined rate (fewer: a quicker, rougher rate)",
     )
     parser.add_argument("--paper", action="store_true", help="115200 baud + 16U2 bridge model")
     parser.add_argument("--pipelined", action="store_true", help="16U2 model, many in flight")
@@ -60,7 +80,7 @@ async def _run(args: argparse.Namespace, console: Console) -> list[ScenarioResul
 
         host = None
         if "host" in runs:
-            host = await host_overhead(max(args.count, 1000), advance)
+            host = await host_overhead(max(args.count, 1000), advance, rounds=args.rounds)
         host_ms = 0.0
         if host is not None:
             # The host's share of a round trip: library plus the OS's pty path, measured
@@ -75,6 +95,7 @@ async def _run(args: argparse.Namespace, console: Console) -> list[ScenarioResul
                         n=args.count,
                         warmup=args.warmup,
                         host_ms=host_ms,
+                        rate_count=args.rate_count,
                         progress=advance,
                     )
                 )

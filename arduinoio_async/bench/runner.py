@@ -239,6 +239,11 @@ async def _pipelined(
     return samples, n / (time.perf_counter() - begin)
 
 
+#: Requests per command behind a pipelined rate by default: a rate needs a run long
+#: enough to average over ticks and scheduling.
+PIPELINED_RATE_COUNT = 2000
+
+
 async def run_scenario(
     name: str,
     target: Target,
@@ -246,9 +251,11 @@ async def run_scenario(
     n: int,
     warmup: int,
     host_ms: float,
+    rate_count: int = PIPELINED_RATE_COUNT,
     progress: Progress | None = None,
 ) -> ScenarioResult:
-    """Run one scenario over all ten commands."""
+    """Run one scenario over all ten commands; a pipelined rate takes at least
+    ``rate_count`` requests per command."""
     scenario = SCENARIOS[name]
     bridge = scenario["usb_bridge"] == "16u2" and target.virtual
     baud = scenario["baud"] if target.virtual else target.baud
@@ -267,8 +274,7 @@ async def run_scenario(
             if scenario["pipelined"]:
                 workers = min(max(1, p.RX_FIFO_SIZE // command.request_bytes), 32)
                 await _pipelined(board, command, warmup, workers)
-                # A rate needs a run long enough to average over ticks and scheduling.
-                samples, rate = await _pipelined(board, command, max(n, 2000), workers)
+                samples, rate = await _pipelined(board, command, max(n, rate_count), workers)
             else:
                 if uno is not None:
                     await uno.firmware_cycles(clear=True)
@@ -298,8 +304,11 @@ async def run_scenario(
     return result
 
 
-async def host_overhead(n: int, progress: Progress | None = None) -> ScenarioResult:
-    """The library's own CPU time per command, and the bare-pyserial floor on a pty."""
+async def host_overhead(
+    n: int, progress: Progress | None = None, *, rounds: int | None = None
+) -> ScenarioResult:
+    """The library's own CPU time per command, and the bare-pyserial floor on a pty
+    (``rounds`` interleaved rounds, :data:`HOST_ROUNDS` by default)."""
     result = ScenarioResult(
         "host",
         "library CPU per command against an instant in-memory responder; "
@@ -325,7 +334,7 @@ async def host_overhead(n: int, progress: Progress | None = None) -> ScenarioRes
             result.extra.setdefault("cpu_us_per_command", {})[command.name] = cpu_us
             if progress is not None:
                 progress(f"host: {command.name}", 1)
-    result.extra["pty"] = await _pty_floor(n)
+    result.extra["pty"] = await _pty_floor(n, HOST_ROUNDS if rounds is None else rounds)
     return result
 
 

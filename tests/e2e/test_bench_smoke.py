@@ -17,8 +17,9 @@ pytestmark = pytest.mark.sim
 def test_bench_all_scenarios_write_json_and_plot(tmp_path: Path) -> None:
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
     console = Console(file=open(tmp_path / "out.txt", "w"), width=160)  # noqa: SIM115
+    quick = ["-n", "3", "--warmup", "1", "--rounds", "2", "--rate-count", "40"]
     code = main(
-        ["bench", "--all", "-n", "3", "--warmup", "1", "--json", str(out), "--plot", str(plot)],
+        ["bench", "--all", *quick, "--json", str(out), "--plot", str(plot)],
         console=console,
     )
     assert code == 0
@@ -39,6 +40,7 @@ def test_bench_all_scenarios_write_json_and_plot(tmp_path: Path) -> None:
     assert all(c["predicted_ms"] for c in scenarios["paper"]["commands"])
     assert all(c["commands_per_s"] for c in scenarios["pipelined"]["commands"])
     assert scenarios["host"]["extra"]["pty"]["library_cpu_us"] > 0
+    assert scenarios["host"]["extra"]["pty"]["rounds"] == 2
     assert data["versions"]["protocol"] == 1 and data["machine"]["cpus"]
     assert plot.stat().st_size > 10_000
     text = (tmp_path / "out.txt").read_text()
