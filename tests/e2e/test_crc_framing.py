@@ -82,7 +82,7 @@ async def test_no_wrong_answer_at_1e2_line_faults(virtual_uno_factory: VirtualUn
     each dropped, inserted and flipped; every answer that returns is the fixture's."""
     uno = await virtual_uno_factory(board_id=0x0084, baud=1_000_000, seed=5)
     await uno.set_analog(1, 3000)
-    async with Board.open(uno.port, baudrate=uno.baud, timeout=0.2) as board:
+    async with Board.open(uno.port, baudrate=uno.baud, timeout=0.1) as board:
         assert board.link.framing is p.Framing.CRC16
         out = await board.digital_output(D3, initial=False)
         truth = await board.analog(A1).read()
