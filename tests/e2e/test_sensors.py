@@ -52,8 +52,8 @@ async def test_analog_encoders_and_imu_in_one_1khz_stream(
     uno = await virtual_uno_factory(profile="sensing", baud=1_000_000)
     for channel, mv in enumerate(MILLIVOLTS):
         await uno.set_analog(channel, mv)
-    for pin in ("D2", "D3", "D4", "D12"):
-        await uno.drive(pin, 0)
+    for name in ("D2", "D3", "D4", "D12"):
+        await uno.drive(name, 0)
     async with Board.open(uno.port, baudrate=uno.baud) as board:
         left = await board.encoder(a=D2, b=D3)
         right = await board.encoder(a=D4, b=D12)
