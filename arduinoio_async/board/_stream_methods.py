@@ -63,7 +63,5 @@ class StreamMethods:
         check_stream(board)  # duty PWM on D5/D6 holds the timer the samples need
         if blocks and board.roles.i2c is None:
             raise UsageError("I2C blocks in the stream need the bus: await board.i2c() first")
-        for block in blocks:
-            await board.request(block)
-        async with run_stream(board, request, buffer) as samples:
+        async with run_stream(board, request, buffer, setup=blocks) as samples:
             yield samples

@@ -222,9 +222,13 @@ def _describe(request: p.Request[Any]) -> str:
 
 @asynccontextmanager
 async def run_stream(
-    board: BoardCore, request: p.StreamStart, buffer: int
+    board: BoardCore,
+    request: p.StreamStart,
+    buffer: int,
+    setup: Sequence[p.Request[Any]] = (),
 ) -> AsyncIterator[SampleStream]:
-    """Start ``request`` on ``board``, yield its samples, stop it when the block ends.
+    """Start ``request`` on ``board`` (after ``setup``: its I2C blocks, replayed with it
+    after a reset), yield its samples, stop it when the block ends.
 
     The body of :meth:`Board.stream <arduinoio_async.board.Board.stream>`.  A period the
     link cannot carry comes back as :class:`LinkCapacityError` naming the shortest period
@@ -240,6 +244,7 @@ async def run_stream(
                     request,
                     p.StreamStop(),
                     samples,
+                    setup=setup,
                     conflict=lambda held: (
                         f"{board} already streams {_describe(held)}: one stream per board "
                         "(end that block, or ask for the same layout to share it)"
