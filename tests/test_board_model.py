@@ -80,7 +80,7 @@ async def test_an_image_without_the_description_is_an_uno() -> None:
         assert not board.capabilities.features & p.Feature.BOARD_DESCRIPTION
         assert board.model is UNO_R3
         with pytest.raises(PinCapabilityError, match="D2 cannot do servo PWM"):
-            await board.servo(D2)
+            await board.servo(D2)  # type: ignore[arg-type]
 
 
 async def test_a_mega_is_checked_against_the_mega_pins() -> None:
