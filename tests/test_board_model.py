@@ -7,6 +7,7 @@ sent); the model data of protocol/boards.py for the wire round trip.
 from __future__ import annotations
 
 import dataclasses
+import typing
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -14,8 +15,9 @@ import pytest
 
 from arduinoio_async import A0, A1, D2, D3, D9, D10, D11, D13
 from arduinoio_async import protocol as p
-from arduinoio_async.board import Board
+from arduinoio_async.board import Board, Mega2560Board, WrongBoardModelError
 from arduinoio_async.errors import PinCapabilityError
+from arduinoio_async.protocol import pins_mega
 from arduinoio_async.protocol.boards import (
     BOARD_MODELS,
     MEGA2560,
@@ -126,3 +128,31 @@ def test_a_plain_number_is_refused_with_the_pin_it_meant() -> None:
     with pytest.raises(PinCapabilityError, match="3 is a number, not a pin: use D3"):
         MEGA2560.require(3, Function.SERVO_PWM)
     assert MEGA2560.can(D3, Function.COUNTER) and not MEGA2560.can(A0, Function.I2C)
+
+
+@pytest.mark.parametrize(
+    ("literal", "function"),
+    [
+        (pins_mega.MegaServoPin, Function.SERVO_PWM),
+        (pins_mega.MegaDutyPwmPin, Function.DUTY_PWM),
+        (pins_mega.MegaSoftPwmPin, Function.SOFT_PWM),
+        (pins_mega.MegaCounterPin, Function.COUNTER),
+        (pins_mega.MegaSpiCsPin, Function.SPI_CS),
+    ],
+)
+def test_the_mega_pin_types_are_the_mega_model_data(literal: object, function: Function) -> None:
+    assert tuple(int(pin) for pin in typing.get_args(literal)) == MEGA2560.pin_numbers(function)
+
+
+async def test_a_mega_board_opens_on_a_mega_and_refuses_an_uno() -> None:
+    async with (
+        FakeBoard(board_id=0x0042, model=MEGA2560) as fake,
+        Mega2560Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as mega,
+    ):
+        assert isinstance(mega, Mega2560Board) and mega.model.key == "mega2560"
+        with pytest.raises(PinCapabilityError, match="D9 cannot do servo PWM"):
+            await mega.servo(D9)  # type: ignore[arg-type]
+    async with FakeBoard(board_id=0x0042) as fake:
+        with pytest.raises(WrongBoardModelError, match="is an Arduino Uno R3, not an Arduino"):
+            async with Mega2560Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2):
+                pass

@@ -16,7 +16,7 @@ import logging
 import random
 from collections.abc import AsyncIterator, Callable, Mapping
 from contextlib import asynccontextmanager
-from typing import Any, TypeVar
+from typing import Any, Self, TypeVar
 
 import anyio
 import anyio.abc
@@ -126,7 +126,7 @@ class Board(
         ready_timeout: float = READY_TIMEOUT,
         trace: TraceHook | None = None,
         low_latency: bool | None = None,
-    ) -> AsyncIterator[Board]:
+    ) -> AsyncIterator[Self]:
         """Open ``port`` (a device path or pyserial URL) and wait until the board answers.
 
         ``timeout`` is the default per-request timeout; ``ready_timeout`` bounds the wait
@@ -163,7 +163,7 @@ class Board(
         ready_timeout: float = READY_TIMEOUT,
         trace: TraceHook | None = None,
         name: str = "",
-    ) -> AsyncIterator[Board]:
+    ) -> AsyncIterator[Self]:
         """Use an already open byte stream (a memory link in tests, a custom transport)."""
         link = await cls.start_link(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=name
@@ -173,7 +173,7 @@ class Board(
 
     @classmethod
     @asynccontextmanager
-    async def _serving(cls, link: Transport) -> AsyncIterator[Board]:
+    async def _serving(cls, link: Transport) -> AsyncIterator[Self]:
         """The board on a link that answered: the link runs while the block does."""
         async with link:
             board = await cls.from_link(link)
@@ -186,7 +186,7 @@ class Board(
                 board._link = None
 
     @classmethod
-    async def from_link(cls, link: Transport) -> Board:
+    async def from_link(cls, link: Transport) -> Self:
         """A board on a started transport: reads its capabilities and ID, tags its session."""
         caps = await link.request(p.ReadCapabilities())
         board = cls(link, (await link.request(p.ReadId())).board_id, caps)
