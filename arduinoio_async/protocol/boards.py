@@ -73,6 +73,23 @@ class BoardModel:
     def pin_names(self, function: Function) -> tuple[str, ...]:
         return tuple(self.pin_name(n) for n in self.pin_numbers(function))
 
+    def pin_ranges(self, function: Function) -> str:
+        """``D2-D13, A0-A5``: the function's pins, runs of neighbours as ranges ("none")."""
+        runs: list[list[int]] = []
+        for number in self.pin_numbers(function):
+            same_kind = runs and (runs[-1][-1] < self.digital_pins) == (number < self.digital_pins)
+            if runs and same_kind and number == runs[-1][-1] + 1:
+                runs[-1].append(number)
+            else:
+                runs.append([number])
+        parts = [
+            self.pin_name(run[0])
+            if len(run) == 1
+            else f"{self.pin_name(run[0])}{'-' if len(run) > 2 else ', '}{self.pin_name(run[-1])}"
+            for run in runs
+        ]
+        return ", ".join(parts) or "none"
+
     def number_of(self, pin: object) -> int | None:
         """The Arduino pin number of a pin object, None for anything that is not a pin."""
         if isinstance(pin, AnalogPin):

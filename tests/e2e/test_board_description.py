@@ -7,10 +7,16 @@ III), and a page past the last is refused by the board.
 
 from __future__ import annotations
 
+import io
+import json
+
+import anyio
 import pytest
+from rich.console import Console
 
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import BoardError
 from arduinoio_async.protocol.boards import UNO_R3, WIRE_FUNCTIONS
 from arduinoio_async.protocol.profiles import UNO_PROFILES
@@ -34,3 +40,23 @@ async def test_every_uno_image_describes_the_uno_model(
         with pytest.raises(BoardError) as past:
             await board.request(p.ReadBoardDescription(UNO_R3.pages))
         assert past.value.code == p.ErrorCode.VALUE_OUT_OF_RANGE
+
+
+async def test_info_prints_the_model_and_the_pins_per_function(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(board_id=2)
+
+    def info(*more: str) -> str:
+        buffer = io.StringIO()
+        console = Console(file=buffer, width=200)
+        assert cli_main(["info", "--port", uno.port, *more], console=console) == 0
+        return buffer.getvalue()
+
+    text = await anyio.to_thread.run_sync(info)
+    assert "Arduino Uno R3 (ATmega328P)" in text
+    assert "pins: servo PWM" in text and "D9, D10" in text and "D2-D13" in text
+    raw = json.loads(await anyio.to_thread.run_sync(info, "--json"))
+    assert raw["model"]["key"] == "uno_r3" and raw["model"]["mcu"] == "ATmega328P"
+    assert raw["model"]["pins"]["servo_pwm"] == ["D9", "D10"]
+    assert raw["model"]["pins"]["analog_input"] == [f"A{n}" for n in range(6)]
