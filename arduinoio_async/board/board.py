@@ -1,7 +1,8 @@
 """One I/O board: connection set-up, and typed handles for every feature.
 
-``Board`` sits on a :class:`~arduinoio_async.transport.Transport`.  It enforces Table III
-and the one-role-per-pin rule *before* anything is sent (the board would refuse too, but a
+``Board`` sits on a :class:`~arduinoio_async.transport.Transport`.  It enforces the pins
+its board described (:attr:`Board.model`; the Uno's Table III for an older image) and the
+one-role-per-pin rule *before* anything is sent (the board would refuse too, but a
 local error names the pins that can do it and costs no round trip).  The roles it gave are
 recorded in its public :class:`~arduinoio_async.board.roles.PinRoles` table
 (:attr:`Board.roles`), so that after a reset or replug the manager can replay them on the
