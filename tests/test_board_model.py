@@ -16,8 +16,8 @@ import pytest
 from arduinoio_async import A0, A1, D2, D3, D9, D10, D11, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board, Mega2560Board, WrongBoardModelError
-from arduinoio_async.errors import PinCapabilityError
-from arduinoio_async.protocol import pins_mega
+from arduinoio_async.errors import BoardError, PinCapabilityError
+from arduinoio_async.protocol import pins, pins_mega
 from arduinoio_async.protocol.boards import (
     BOARD_MODELS,
     MEGA2560,
@@ -156,3 +156,31 @@ async def test_a_mega_board_opens_on_a_mega_and_refuses_an_uno() -> None:
         with pytest.raises(WrongBoardModelError, match="is an Arduino Uno R3, not an Arduino"):
             async with Mega2560Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2):
                 pass
+
+
+async def test_a_fake_mega_drives_the_megas_own_pins() -> None:
+    """FakeBoard in Mega mode: its pins and their functions are the MEGA2560 data."""
+    async with (
+        FakeBoard(board_id=0x0042, model=MEGA2560) as fake,
+        Mega2560Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as mega,
+    ):
+        output = await mega.digital_output(pins.D40)
+        await output.write(True)
+        assert fake.levels[40] is True
+        fake.drive(53, True)
+        assert (await (await mega.digital_input(pins.D53)).read()).level
+        await mega.servo(pins.D44, pulse_us=1500)
+        assert fake.pulses[44] == 1500
+        await mega.counter(pins.D18)
+        assert fake.role(18) == "counter"
+
+
+async def test_the_fake_refuses_on_the_wire_what_its_model_cannot_do() -> None:
+    """The fake's own checks follow its model too (a request sent past the library)."""
+    async with on_fake(model=smaller_uno()) as (board, _fake):
+        with pytest.raises(BoardError) as refused:
+            await board.request(p.GpioConfig(13, p.GpioFlags.OUTPUT))
+        assert refused.value.code == p.ErrorCode.PIN_NOT_CAPABLE
+        with pytest.raises(BoardError) as refused:
+            await board.request(p.PwmConfig(10, 1500))
+        assert refused.value.code == p.ErrorCode.PIN_NOT_CAPABLE

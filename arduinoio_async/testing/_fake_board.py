@@ -21,6 +21,7 @@ import anyio.abc
 
 from .. import protocol as p
 from ..protocol.boards import UNO_R3, WIRE_FUNCTIONS, BoardModel
+from ..protocol.pins import Function
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
@@ -31,10 +32,6 @@ from ._fake_transaction import split_items
 from ._fake_wire import FakeWire
 from ._faults import Faults
 from ._peripherals import (
-    DIGITAL,
-    DUTY,
-    INPUT,
-    PULSE,
     PinModel,
     check_pulse,
     has,
@@ -92,7 +89,8 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
-        self._pins = {n: PinModel() for n in range(2, 14)}
+        self.levels += [False] * (self.model.digital_pins - len(self.levels))
+        self._pins = {n: PinModel() for n in range(2, self.model.digital_pins)}
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
@@ -226,7 +224,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             self.changes_dropped += 1
 
     def role(self, pin: int) -> str:
-        """What the fake board set ``pin`` (2-13) up as: ``free``, ``input``,
+        """What the fake board set ``pin`` (D2 up to its model's last) up as: ``free``, ``input``,
         ``output``, ``pwm`` or ``counter``, for a test's assertions."""
         return self._pins[pin].role
 
@@ -302,7 +300,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
     def reboot(self) -> None:
         """A fresh boot (watchdog, power loss, the reset button): RAM state is gone, the
         subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
-        self._pins = {n: PinModel() for n in range(2, 14)}
+        self._pins = {n: PinModel() for n in range(2, self.model.digital_pins)}
         self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
@@ -441,7 +439,8 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
                     return
 
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
-        levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
+        inputs = self._mask(Function.DIGITAL_INPUT)
+        levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(inputs, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
         i2c = self.i2c_block_payload() if request.flags & p.StreamFlags.I2C else b""
         return self.stream.sample(
@@ -456,10 +455,10 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
         pin = request.pin
         error = self.failsafe.set_safe_state(
             request,
-            digital=has(DIGITAL, pin),
-            pulse_capable=has(PULSE, pin),
+            digital=has(self._mask(Function.DIGITAL_OUTPUT), pin),
+            pulse_capable=has(self._mask(Function.SOFT_PWM) | self._mask(Function.SERVO_PWM), pin),
             check_pulse=check_pulse,
-            duty_capable=has(DUTY, pin),
+            duty_capable=has(self._mask(Function.DUTY_PWM), pin),
         )
         if error is not None:
             return self._error(request, error)

@@ -11,8 +11,9 @@ import anyio
 from anyio.streams.memory import MemoryObjectSendStream
 
 from .. import protocol as p
+from ..protocol.pins import Function
 from ._fake_stepper import FakeSteppers
-from ._peripherals import DIGITAL, PeripheralModels, PinModel, has
+from ._peripherals import PeripheralModels, PinModel, has
 from ._timed import StreamModel
 
 __all__ = ["GpioModels"]
@@ -35,7 +36,7 @@ class GpioModels(PeripheralModels):
     _changes_in: MemoryObjectSendStream[p.Event]
 
     def _gpio_config(self, request: p.GpioConfig) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role not in ("free", "input", "output"):
@@ -57,7 +58,7 @@ class GpioModels(PeripheralModels):
         return p.GpioConfigReply(request.pin, request.flags)
 
     def _gpio_read(self, request: p.GpioRead) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role not in ("input", "output"):
@@ -69,7 +70,7 @@ class GpioModels(PeripheralModels):
         return p.GpioReadReply(request.pin, state)
 
     def _gpio_write(self, request: p.GpioWrite) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if self._pins[request.pin].role != "output":
             return self._error(request, E.PIN_NOT_CONFIGURED)
@@ -77,7 +78,7 @@ class GpioModels(PeripheralModels):
         return p.GpioWriteReply(request.pin, request.value)
 
     def _gpio_watch(self, request: p.GpioWatch) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role != "input":
@@ -86,7 +87,7 @@ class GpioModels(PeripheralModels):
         return p.GpioWatchReply(request.pin, request.enable)
 
     def _release(self, request: p.PinRelease) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if self._pins[request.pin].role == "stepper":
             self.steppers.release(request.pin)
