@@ -361,8 +361,8 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
         return p.WriteIdReply(request.board_id)
 
     def _pin_roles(self, request: p.ReadPinRoles) -> p.Frame:
-        def mask(role: str) -> int:
-            return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
+        def mask(role: str) -> int:  # the reply's u16 masks hold D0-D15 (a Mega's others: none)
+            return sum(1 << n for n, pin in self._pins.items() if pin.role == role and n < 16)
 
         pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
         return p.ReadPinRolesReply(mask("input"), mask("output"), pwm, mask("counter"))
