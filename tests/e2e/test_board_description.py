@@ -15,12 +15,16 @@ import pytest
 from rich.console import Console
 
 from arduinoio_async import protocol as p
+from arduinoio_async.blocking import open_board
 from arduinoio_async.board import Board
 from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import BoardError
 from arduinoio_async.protocol.boards import UNO_R3, WIRE_FUNCTIONS
+from arduinoio_async.protocol.pins import Function
 from arduinoio_async.protocol.profiles import UNO_PROFILES
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+from .test_blocking import virtual_uno
 
 pytestmark = pytest.mark.sim
 
@@ -60,3 +64,9 @@ async def test_info_prints_the_model_and_the_pins_per_function(
     assert raw["model"]["key"] == "uno_r3" and raw["model"]["mcu"] == "ATmega328P"
     assert raw["model"]["pins"]["servo_pwm"] == ["D9", "D10"]
     assert raw["model"]["pins"]["analog_input"] == [f"A{n}" for n in range(6)]
+
+
+def test_a_blocking_board_has_the_model_too() -> None:
+    with virtual_uno(board_id=0x0031) as uno, open_board(uno.port) as board:
+        assert board.model.key == "uno_r3"
+        assert board.model.pin_names(Function.SERVO_PWM) == ("D9", "D10")
