@@ -13,10 +13,10 @@ from contextlib import asynccontextmanager
 
 import pytest
 
-from arduinoio_async import A0, A1, D2, D3, D9, D10, D11, D13
+from arduinoio_async import A0, A1, A4, D2, D3, D9, D10, D11, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board, Mega2560Board, WrongBoardModelError
-from arduinoio_async.errors import BoardError, PinCapabilityError
+from arduinoio_async.errors import BoardError, PinCapabilityError, PinRoleError
 from arduinoio_async.protocol import pins, pins_mega
 from arduinoio_async.protocol.boards import (
     BOARD_MODELS,
@@ -184,3 +184,21 @@ async def test_the_fake_refuses_on_the_wire_what_its_model_cannot_do() -> None:
         with pytest.raises(BoardError) as refused:
             await board.request(p.PwmConfig(10, 1500))
         assert refused.value.code == p.ErrorCode.PIN_NOT_CAPABLE
+
+
+async def test_a_fake_megas_analog_inputs_and_i2c_pins_are_the_megas() -> None:
+    """A12 reads on a Mega; its I2C is on D20/D21, so A4 stays an analog input with the bus
+    on (on an Uno A4/A5 are the bus's)."""
+    async with (
+        FakeBoard(board_id=0x0042, model=MEGA2560) as fake,
+        Mega2560Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as mega,
+    ):
+        fake.analog[12] = 700
+        assert await mega.analog(pins.A12).read() == 700
+        await mega.i2c()
+        fake.analog[4] = 300
+        assert await mega.analog(pins.A4).read() == 300
+    async with on_fake() as (uno, _fake):
+        await uno.i2c()
+        with pytest.raises(PinRoleError, match="A4 is in use as I2C"):
+            uno.analog(A4)

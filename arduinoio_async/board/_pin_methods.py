@@ -89,7 +89,7 @@ class PinMethods:
 
     def analog(self, pin: AnalogPin) -> AnalogInput:
         """An analog input (no configuration needed); A4/A5 are busy while I2C is on."""
-        if self._board.roles.i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
+        if self._board.roles.i2c is not None and self._board.model.can(pin, Function.I2C):
             raise PinRoleError(pin.name, "I2C", "analog input")
         return AnalogInput(cast("BoardCore", self), pin)
 

@@ -20,6 +20,7 @@ from typing import Final
 
 from ..errors import PinCapabilityError, ProtocolError
 from ._constants import BOARD_PAGE_BYTES, BoardModelId
+from .commands.misc import ReadBoardDescriptionReply
 from .pins import TABLE_III, AnalogPin, DigitalPin, Function
 
 __all__ = [
@@ -145,6 +146,13 @@ class BoardModel:
         first = index * self.maps_per_page
         functions = WIRE_FUNCTIONS[first : first + self.maps_per_page]
         return b"".join(self.pin_map(f) for f in functions)
+
+    def reply(self, index: int) -> ReadBoardDescriptionReply | None:
+        """Description page ``index`` as the board answers it; None past the last page."""
+        if not 0 <= index < self.pages:
+            return None
+        head = (self.model_id, self.digital_pins, self.analog_pins, len(WIRE_FUNCTIONS))
+        return ReadBoardDescriptionReply(index, *head, self.page(index))
 
 
 def _numbers(pins: Iterable[DigitalPin | AnalogPin], digital_pins: int) -> tuple[int, ...]:

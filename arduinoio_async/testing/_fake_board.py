@@ -20,7 +20,7 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
-from ..protocol.boards import UNO_R3, WIRE_FUNCTIONS, BoardModel
+from ..protocol.boards import UNO_R3, BoardModel
 from ..protocol.pins import Function
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
@@ -90,6 +90,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
         self.levels += [False] * (self.model.digital_pins - len(self.levels))
+        self.analog += [0] * (self.model.analog_pins - len(self.analog))
         self._pins = {n: PinModel() for n in range(2, self.model.digital_pins)}
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
@@ -131,7 +132,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             p.GpioWatch: self._gpio_watch,
             p.PinRelease: self._release,
             p.AnalogRead: self._analog_read,
-            p.AnalogReadAll: lambda r: p.AnalogReadAllReply(tuple(self.analog)),
+            p.AnalogReadAll: self._analog_read_all,
             p.AnalogWatch: self._analog_watch,
             p.I2CConfig: self._i2c_config,
             p.I2CRead: self._i2c_read,
@@ -342,19 +343,10 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
         )
 
     def _describe(self, request: p.ReadBoardDescription) -> p.Frame:
-        model = self.model
         if not self.describes:
             return self._error(request, p.ErrorCode.UNKNOWN_DESCRIPTOR)
-        if request.page >= model.pages:
-            return self._error(request, p.ErrorCode.VALUE_OUT_OF_RANGE)
-        return p.ReadBoardDescriptionReply(
-            request.page,
-            model.model_id,
-            model.digital_pins,
-            model.analog_pins,
-            len(WIRE_FUNCTIONS),
-            model.page(request.page),
-        )
+        reply = self.model.reply(request.page)
+        return reply or self._error(request, p.ErrorCode.VALUE_OUT_OF_RANGE)
 
     def _write_id(self, request: p.WriteId) -> p.Frame:
         self.board_id = request.board_id

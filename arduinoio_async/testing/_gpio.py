@@ -96,19 +96,30 @@ class GpioModels(PeripheralModels):
         self.duties.pop(request.pin, None)
         return p.PinReleaseReply(request.pin)
 
+    def _analog_refusal(self, channel: int) -> p.ErrorCode | None:
+        """Why the model refuses analog ``channel``: not an input, or an I2C pin while the
+        bus is on (A4/A5 on an Uno); None when it may be read."""
+        number = self.model.digital_pins + channel
+        if number not in self.model.pin_numbers(Function.ANALOG_INPUT):
+            return E.PIN_NOT_CAPABLE
+        if self.i2c_speed is not None and number in self.model.pin_numbers(Function.I2C):
+            return E.PIN_BUSY
+        return None
+
+    def _analog_read_all(self, request: p.AnalogReadAll) -> p.Frame:
+        return p.AnalogReadAllReply(tuple(self.analog[: p.ANALOG_CHANNELS]))
+
     def _analog_read(self, request: p.AnalogRead) -> p.Frame:
-        if request.channel >= p.ANALOG_CHANNELS:
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self.i2c_speed is not None and request.channel in (4, 5):
-            return self._error(request, E.PIN_BUSY)
+        refusal = self._analog_refusal(request.channel)
+        if refusal is not None:
+            return self._error(request, refusal)
         return p.AnalogReadReply(request.channel, self.analog[request.channel])
 
     def _analog_watch(self, request: p.AnalogWatch) -> p.Frame:
         channel, deadband = request.channel, request.deadband
-        if channel >= p.ANALOG_CHANNELS:
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self.i2c_speed is not None and channel in (4, 5):
-            return self._error(request, E.PIN_BUSY)
+        refusal = self._analog_refusal(channel) if channel < p.ANALOG_CHANNELS else None
+        if channel >= p.ANALOG_CHANNELS or refusal is not None:  # watches: 6 channels
+            return self._error(request, refusal or E.PIN_NOT_CAPABLE)
         if deadband > p.ANALOG_MAX:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         stream = self.stream.request
