@@ -54,6 +54,7 @@ from ..board.spi import BitOrderName
 from ..board.streaming import SampleStream
 from ..errors import BoardDisconnectedError
 from ..opener import open_board as open_any_board
+from ..protocol.boards import BoardModel
 from ..protocol.pins import (
     AnalogPin,
     CounterPin,
@@ -116,6 +117,11 @@ class BlockingBoard(_Blocking):
     def board_id(self) -> int:
         """The board's ID, read when the link opened."""
         return self.handle.board_id
+
+    @property
+    def model(self) -> BoardModel:
+        """What the board said it is and which pins can do what (read when it opened)."""
+        return self.handle.model
 
     # ---- handles ------------------------------------------------------------------------
 

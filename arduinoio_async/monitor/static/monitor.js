@@ -453,7 +453,10 @@
     const view = boards[message.board];
     if (!view) return;
     for (const [name, state] of Object.entries(view.pins)) {
-      const bit = 1 << Number(name.slice(1));
+      // The level masks are 32-bit numbers here: a Mega's pins above D30 have no bit
+      // (the stream's and the change events' masks carry D0-D15 today).
+      const number = Number(name.slice(1));
+      const bit = number <= 30 ? 1 << number : 0;
       // data-source says where the level comes from: "changes" (pushed events) or "stream".
       state.row.dataset.source = message.watched & bit ? "changes" : message.known & bit ? "stream" : "";
       state.led.dataset.level = message.known & bit ? (message.levels & bit ? "1" : "0") : "";

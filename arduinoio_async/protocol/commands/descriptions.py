@@ -108,6 +108,7 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
     misc.ReadStatus: lambda rq: "report its status",
     misc.SetSession: lambda rq: f"take the session tag 0x{rq.session:04X}",
     misc.ReadPinRoles: lambda rq: "report its pin roles",
+    misc.ReadBoardDescription: lambda rq: f"describe its pins (page {rq.page})",
     transaction.Transaction: lambda rq: "run a transaction",
     misc.SetLowLatency: lambda rq: f"turn low-latency mode {'on' if rq.enabled else 'off'}",
     misc.SetFraming: lambda rq: (
