@@ -143,6 +143,7 @@ class Function(Enum):
     SPI = "SPI"
     SPI_CS = "SPI chip select"
     PULSE_IN = "pulse-width input"
+    SONAR = "sonar"
 
 
 _DIGITAL = tuple(DigitalPin)
@@ -165,6 +166,8 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.SPI_CS: (D2, D3, D4, D5, D6, D7, D8, D9, D10),
     #: Pin-change interrupts on every digital pin.
     Function.PULSE_IN: _DIGITAL,
+    #: Trigger (an output) and echo (pin-change interrupts) on any digital pin.
+    Function.SONAR: _DIGITAL,
 }
 
 
