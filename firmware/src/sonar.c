@@ -90,18 +90,14 @@ void sonar_poll(void)
         return;
     }
     if (phase == LISTEN) {
-        if (pulse_take(CHAN, &width, &end)) {
-            if (width < AIO_SONAR_TIMEOUT_US) {
-                record(cur, (uint16_t)((width * speed_dm_s + 10000u) / 20000u), (uint16_t)width, end);
-                end_listen();
-            }
-            return; /* a longer pulse is the part's own "nothing heard": the timeout says it */
-        }
-        if (now - phase_us >= AIO_SONAR_TIMEOUT_US) {
+        /* a pulse of the timeout or longer is the part's own "nothing heard" */
+        if (pulse_take(CHAN, &width, &end) && width < AIO_SONAR_TIMEOUT_US)
+            record(cur, (uint16_t)((width * speed_dm_s + 10000u) / 20000u), (uint16_t)width, end);
+        else if (now - phase_us >= AIO_SONAR_TIMEOUT_US)
             record(cur, AIO_SONAR_NO_ECHO, 0, now);
-            end_listen();
-        }
-        return;
+        else
+            return;
+        end_listen(); /* and the next may fire at once */
     }
     if (fired && now - last_fire_us < (uint32_t)period_ms * 1000u)
         return;

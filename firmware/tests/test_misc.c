@@ -18,7 +18,7 @@ void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, (0x07 | AIO_FEATURE_SPI >> 16 | AIO_FEATURE_I2C_STREAM >> 16 | AIO_FEATURE_PULSE_IN >> 16), 0xFF, 0xFF, 0x00,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, (0x07 | AIO_FEATURE_SPI >> 16 | AIO_FEATURE_I2C_STREAM >> 16 | AIO_FEATURE_PULSE_IN >> 16 | AIO_FEATURE_SONAR >> 16), 0xFF, 0xFF, 0x00,
                      0x01, 0xC2, 0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
