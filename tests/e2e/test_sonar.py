@@ -7,13 +7,19 @@ while another sonar's measurement ran (an overlap: sonars that can hear each oth
 
 from __future__ import annotations
 
-import anyio
-import pytest
+import io
 
-from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12, D13
+import anyio
+import anyio.from_thread
+import anyio.to_thread
+import pytest
+from rich.console import Console
+
+from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12, D13, blocking
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.board.sonars import Sonar, SonarReading
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.errors import (
     FirmwareFeatureError,
     PinCapabilityError,
@@ -226,3 +232,33 @@ async def test_an_image_without_sonars_says_which_has_them(
         with pytest.raises(FirmwareFeatureError, match="sensing"):
             await board.sonar(D7, D8)
         assert D7 not in board.roles
+
+
+async def test_cli_and_blocking_api(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """``arduinoio sonar`` prints the model's distance and frees both pins; the blocking
+    twin reads it too."""
+    uno = await virtual_uno_factory(profile="sensing", baud=1_000_000)
+    await uno.sonar("D7", "D8", distance_mm=612)
+    buffer = io.StringIO()
+    argv = ["sonar", "D7", "D8", "--seconds", "0.4", "--interval", "0.2", "--period-ms", "20"]
+    argv += ["--port", uno.port, "--baud", str(uno.baud)]
+    code = await anyio.to_thread.run_sync(
+        lambda: cli_main(argv, console=Console(file=buffer, width=200))
+    )
+    out = buffer.getvalue()
+    assert code == 0, out
+    assert "sonar D7/D8: every 20 ms" in out
+    distances = [int(word) for line in out.splitlines()[1:] for word in line.split()[:1]]
+    assert len(distances) == 2 and all(within(d, 612) for d in distances), out
+
+    def script() -> int | None:
+        with blocking.open_board(uno.port, baudrate=uno.baud) as board:
+            sonar = board.sonar(D7, D8)  # the CLI released both pins
+            board.sonar_timing(period_ms=20)
+            deadline = 200
+            while sonar.read().readings < 2 and deadline:
+                deadline -= 1
+                anyio.from_thread.run(anyio.sleep, 0.01)
+            return sonar.distance_mm()
+
+    assert within(await anyio.to_thread.run_sync(script), 612)
