@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 from collections.abc import AsyncIterator
@@ -315,3 +316,24 @@ async def test_rc_receiver(virtual_uno_factory: VirtualUnoFactory) -> None:
     truth = {s.pin: s for s in await uno.rcpulse_status()}
     assert abs(truth[4].last_width_us - 1750) < 0.1
     assert "last steering pulse: 175" in out, out  # 1749-1751 us
+
+
+async def test_sonar(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's sonar models (the distances they are set to, the echo
+    widths they drove, no overlap between the two sonars)."""
+    uno = await virtual_uno_factory(profile="sensing")
+    await uno.sonar("D7", "D8", distance_mm=0)
+    await uno.sonar("D4", "D5", distance_mm=0)
+    async with run_example("sonar", "--port", uno.port, "--seconds", "1.5") as run:
+        await run.wait_for("ready")
+        await uno.sonar("D7", distance_mm=1500)
+        await uno.sonar("D4", distance_mm=250)
+        out = await run.finish()
+    last = re.fullmatch(r"front +(\d+) mm   rear +(\d+) mm", out.strip().splitlines()[-1])
+    assert last is not None, out
+    front, rear = int(last[1]), int(last[2])
+    # 20 C: the board uses 343.2 m/s, the model 343.0: 0.06 % apart
+    assert abs(front - 1500) <= 15 and abs(rear - 250) <= 3, out
+    status = await uno.sonar_status()
+    assert status.overlaps == 0
+    assert status.on(7).echoes >= 2 and status.on(4).echoes >= 2
