@@ -357,12 +357,12 @@ async def test_paper_robot(virtual_uno_factory: VirtualUnoFactory) -> None:
         truth = {g.a: g.position for g in await sensors.wait_quadrature()}
         assert truth == {2: 600, 4: 400}
         # steering 1500 + (600 - 400); ESC 1500 + 300 * (1000 - 300) / 1000
-        for pin, width in ((9, 1700), (10, 1710)):
-            with anyio.fail_after(5):
-                while not all(
-                    abs(h - width) <= 1 for h in (await captured_pulses(actuators, pin, 3)).high_us
-                ):
-                    pass
+        for servo, width in ((9, 1700), (10, 1710)):
+            with anyio.fail_after(5):  # until the loop has seen the generators' last edges
+                while True:
+                    highs = (await captured_pulses(actuators, servo, 3)).high_us
+                    if all(abs(h - width) <= 1 for h in highs):
+                        break
         out = await run.finish()
     last = next(line for line in out.splitlines() if line.startswith("last: "))
     assert "encoders left 600 right 400" in last, out
@@ -370,7 +370,7 @@ async def test_paper_robot(virtual_uno_factory: VirtualUnoFactory) -> None:
     assert abs(distance - 1000) <= 10, out
     assert "accel z +9.81 m/s^2" in last and "steering 1700 us  ESC 1710 us" in last, out
     assert "failsafe tripped" in out, out
-    for pin in (9, 10):
-        stats = await captured_pulses(actuators, pin, 3)
-        assert all(abs(h - 1500) <= 1 for h in stats.high_us), (pin, stats)
+    for servo in (9, 10):
+        stats = await captured_pulses(actuators, servo, 3)
+        assert all(abs(h - 1500) <= 1 for h in stats.high_us), (servo, stats)
     assert (await sensors.sonar_status()).on(7).echoes >= 10
