@@ -80,6 +80,7 @@ from ._handles import (
     _Blocking,
 )
 from ._imu import BlockingMPU6050
+from ._sonars import BlockingSonar
 from ._spi import BlockingSpiBus
 from ._stepper import BlockingStepper
 
@@ -219,6 +220,27 @@ class BlockingBoard(_Blocking):
         """A quadrature encoder on any two digital pins (see ``Board.encoder``)."""
         handle = self._runner.call(lambda: self.handle.encoder(a, b, mode=mode, slot=slot))
         return BlockingEncoder(self._runner, handle)
+
+    def sonar(
+        self, trigger: DigitalPin, echo: DigitalPin, *, slot: int | None = None
+    ) -> BlockingSonar:
+        """An HC-SR04 style sonar, trigger and echo on any two pins (see ``Board.sonar``)."""
+        handle = self._runner.call(lambda: self.handle.sonar(trigger, echo, slot=slot))
+        return BlockingSonar(self._runner, handle)
+
+    def sonar_timing(
+        self,
+        *,
+        period_ms: int = 60,
+        speed_m_s: float | None = None,
+        temperature_c: float | None = None,
+    ) -> None:
+        """How often the board fires a sonar, and the speed of sound (``Board.sonar_timing``)."""
+        self._runner.call(
+            lambda: self.handle.sonar_timing(
+                period_ms=period_ms, speed_m_s=speed_m_s, temperature_c=temperature_c
+            )
+        )
 
     def spi(
         self,

@@ -18,12 +18,24 @@ from ..protocol.pins import AnalogPin, Function
 from ._features import require_stream_features
 from .i2c_blocks import I2CBlock, block_requests, blocks_bytes
 from .motors import check_stream
+from .sonars import Sonar
 from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 
 if TYPE_CHECKING:
     from ._core import BoardCore
 
 __all__ = ["StreamMethods"]
+
+
+def sonar_slots(board: BoardCore) -> int:
+    """The sonar slots a stream started now carries: the highest live sonar's slot + 1
+    (as the board counts them at STREAM START)."""
+    slots = [
+        claim.handle.slot
+        for claim in board.roles.values()
+        if isinstance(claim.handle, Sonar) and not claim.handle.released
+    ]
+    return max(slots, default=-1) + 1
 
 
 class StreamMethods:
@@ -42,6 +54,7 @@ class StreamMethods:
         steppers: bool = False,
         encoders: bool = False,
         i2c: Sequence[I2CBlock] = (),
+        sonars: bool = False,
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
@@ -52,6 +65,8 @@ class StreamMethods:
         :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         ``i2c=[I2CBlock(0x68, 0x3B, 14)]`` adds register blocks the board reads each
         period (:mod:`arduinoio_async.board.i2c_blocks`; set up the bus first).
+        ``sonars=True`` carries the latest reading of each sonar slot up to the highest
+        one set up now (``Sample.sonars``; set the sonars up first).
         """
         board = cast("BoardCore", self)
         for pin in analog:
@@ -59,7 +74,15 @@ class StreamMethods:
         blocks = block_requests(i2c) if i2c else []
         i2c_bytes = blocks_bytes(i2c) if i2c else None
         request = stream_request(
-            analog, levels, edges, counters, period_ms, steppers, encoders, i2c_bytes
+            analog,
+            levels,
+            edges,
+            counters,
+            period_ms,
+            steppers,
+            encoders,
+            i2c_bytes,
+            sonar_slots(board) if sonars else None,
         )
         require_stream_features(board, p.StreamFlags(request.flags))
         check_stream(board)  # duty PWM on D5/D6 holds the timer the samples need

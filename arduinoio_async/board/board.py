@@ -47,6 +47,7 @@ from ._encoder_methods import EncoderMethods
 from ._features import FeatureMethods
 from ._motor_methods import MotorMethods
 from ._pulse_in_methods import PulseInMethods
+from ._sonar_methods import SonarMethods
 from ._spi_methods import SpiMethods
 from ._stepper_methods import StepperMethods
 from ._stream_methods import StreamMethods
@@ -85,6 +86,7 @@ class Board(
     EncoderMethods,
     SpiMethods,
     PulseInMethods,
+    SonarMethods,
 ):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 

@@ -33,6 +33,7 @@ from .._event_queue import SequencedQueue
 from ..errors import LinkCapacityError, ValueRangeError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from ..transport import Transport
+from .sonars import SonarSample, sonar_block
 
 if TYPE_CHECKING:
     from ._core import BoardCore
@@ -65,6 +66,9 @@ class Sample:
     #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
     #: includes encoders.
     encoders: tuple[int, ...] | None = None
+    #: Each sonar slot's latest reading (slot 0 first, the slots configured when the
+    #: stream started), if the stream includes sonars.
+    sonars: tuple[SonarSample, ...] | None = None
     #: The I2C blocks' bytes, one entry per block the stream reads (in the order given
     #: to ``board.stream(i2c=...)``), ``None`` where that period's read failed; ``None``
     #: if the stream reads no I2C blocks.
@@ -109,6 +113,10 @@ class Sample:
             encoders = tuple(
                 ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
             )
+        sonars = None
+        if frame.flags & p.StreamFlags.SONAR:
+            sonars = sonar_block(data[pos:])
+            pos += 1 + 3 * len(sonars)
         i2c = i2c_status = None
         if frame.flags & p.StreamFlags.I2C:
             # free slots (length 0, status 0) are left out: the blocks come in slot order
@@ -126,8 +134,9 @@ class Sample:
             counters,
             steppers,
             encoders,
-            i2c,
-            i2c_status,
+            sonars=sonars,
+            i2c=i2c,
+            i2c_status=i2c_status,
         )
 
 
@@ -140,9 +149,11 @@ def stream_request(
     steppers: bool = False,
     encoders: bool = False,
     i2c_bytes: int | None = None,
+    sonars: int | None = None,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request (``i2c_bytes``: the
-    data bytes of the I2C blocks it reads, None for none)."""
+    data bytes of the I2C blocks it reads, None for none; ``sonars``: the sonar slots the
+    block carries, None for no sonars)."""
     mask = 0
     for pin in analog:
         require(pin, Function.ANALOG_INPUT)
@@ -160,16 +171,18 @@ def stream_request(
         flags |= p.StreamFlags.ENCODERS
     if i2c_bytes is not None:
         flags |= p.StreamFlags.I2C
+    if sonars is not None:
+        flags |= p.StreamFlags.SONAR
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    size = p.sample_payload_size(mask, flags, i2c_bytes or 0)
+    size = p.sample_payload_size(mask, flags, i2c_bytes or 0, sonars or 0)
     if size > p.STREAM_MAX_VALUES:
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
             f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
             f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
-            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS})",
+            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS}, sonars 1 + 3 a slot)",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0

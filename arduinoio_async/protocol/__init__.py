@@ -37,6 +37,11 @@ from ._constants import (
     SERVO_DEFAULT_MIN_US,
     SERVO_PERIOD_US,
     SOFT_PWM_STEP_US,
+    SONAR_DEFAULT_SPEED_DM_S,
+    SONAR_NO_ECHO,
+    SONAR_NO_READING,
+    SONAR_SLOTS,
+    SONAR_TIMEOUT_US,
     STEPPER_COUNT,
     STEPPER_MAX_ACCEL,
     STEPPER_MAX_SPEED,
@@ -82,6 +87,7 @@ from .commands import (
     misc,
     pulse_in,
     pwm,
+    sonar,
     spi,
     stepper,
     stream,
@@ -97,6 +103,7 @@ from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
 from .commands.pulse_in import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
+from .commands.sonar import *  # noqa: F403
 from .commands.spi import *  # noqa: F403
 from .commands.stepper import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
@@ -142,6 +149,11 @@ __all__ = [
     "SERVO_DEFAULT_MIN_US",
     "SERVO_PERIOD_US",
     "SOFT_PWM_STEP_US",
+    "SONAR_DEFAULT_SPEED_DM_S",
+    "SONAR_NO_ECHO",
+    "SONAR_NO_READING",
+    "SONAR_SLOTS",
+    "SONAR_TIMEOUT_US",
     "STEPPER_COUNT",
     "STEPPER_MAX_ACCEL",
     "STEPPER_MAX_SPEED",
@@ -196,6 +208,7 @@ __all__ += counter.__all__
 __all__ += stepper.__all__
 __all__ += encoder.__all__
 __all__ += pulse_in.__all__
+__all__ += sonar.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

@@ -301,6 +301,7 @@ class Function(Enum):
     SPI = "SPI"
     SPI_CS = "SPI chip select"
     PULSE_IN = "pulse-width input"
+    SONAR = "sonar"
 
 
 #: The Uno's header: D2-D13 (D0/D1 carry the link) and A0-A5.
@@ -326,6 +327,8 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.SPI_CS: (D2, D3, D4, D5, D6, D7, D8, D9, D10),
     #: Pin-change interrupts on every digital pin.
     Function.PULSE_IN: _DIGITAL,
+    #: Trigger (an output) and echo (pin-change interrupts) on any digital pin.
+    Function.SONAR: _DIGITAL,
 }
 
 

@@ -26,6 +26,7 @@ from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
 from ._fake_i2c_blocks import I2CBlockModels
+from ._fake_sonar import SonarModels
 from ._fake_spi import SpiModels
 from ._fake_stepper import FakeSteppers
 from ._fake_transaction import split_items
@@ -47,7 +48,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
+class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -146,6 +147,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
             **self._encoder_handlers(),
+            **self._sonar_handlers(),
             **self._spi_handlers(),
             **self._i2c_block_handlers(),
             p.StreamStart: self._stream_start,
@@ -305,6 +307,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
         self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
+        self.sonars.clear()
         self.spi_config = None
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
@@ -396,7 +399,11 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
         error = self.stream.check(
-            request, self.baud, self.i2c_speed is not None, self.i2c_block_bytes()
+            request,
+            self.baud,
+            self.i2c_speed is not None,
+            self.i2c_block_bytes(),
+            max(self.sonars, default=-1) + 1,
         )
         if error is None and self._duty_timer_busy(Timer.TIMER0):
             error = E.PIN_BUSY  # duty PWM on D5/D6 holds the alarm timer
@@ -435,6 +442,8 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
         levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(inputs, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
         i2c = self.i2c_block_payload() if request.flags & p.StreamFlags.I2C else b""
+        if request.flags & p.StreamFlags.SONAR:
+            i2c = self.sonar_block() + i2c  # the sonar block comes before the I2C blocks
         return self.stream.sample(
             request, self.analog, levels, self.counters, board_us, self.encoder_counts(), i2c
         )

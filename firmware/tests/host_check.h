@@ -59,6 +59,7 @@ void test_encoder(void);
 void test_spi(void);
 void test_i2cblock(void);
 void test_pulse_in(void);
+void test_sonar(void);
 void test_stream(void);
 void test_failsafe(void);
 void test_stepper(void);

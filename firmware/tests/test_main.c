@@ -24,6 +24,7 @@ int main(void)
     test_spi();
     test_i2cblock();
     test_pulse_in();
+    test_sonar();
     test_stream();
     test_failsafe();
     test_stepper();

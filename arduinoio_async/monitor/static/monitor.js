@@ -179,6 +179,12 @@
         { a: encoders.a.value.trim().toUpperCase(), b: encoders.b.value.trim().toUpperCase(), mode: encoders.mode.value },
         (slot) => `encoder ${encoders.a.value}/${encoders.b.value} in slot ${slot}`));
 
+    const sonars = root.querySelector("form.sonars");
+    sonars.querySelector(".sonar-add").addEventListener("click", () =>
+      control(view, "sonar",
+        { trigger: sonars.trigger.value.trim().toUpperCase(), echo: sonars.echo.value.trim().toUpperCase() },
+        (slot) => `sonar ${sonars.trigger.value}/${sonars.echo.value} in slot ${slot}`));
+
     const imu = root.querySelector("form.imu");
     imu.querySelector(".imu-add").addEventListener("click", () =>
       control(view, "imu",
@@ -240,6 +246,7 @@
       (s.moving ? `, ${s.speed} steps/s` : ", at rest")).join("; ") || "none";
     for (const pin of snapshot.pins) renderPin(view, pin);
     renderEncoders(view, snapshot.encoders);
+    renderSonars(view, snapshot.sonars);
     renderMotors(view, snapshot.motors);
     renderSpi(view, snapshot.spi);
     renderImu(view, snapshot.imu);
@@ -339,6 +346,24 @@
       reset.addEventListener("click", () => control(view, "encoder_reset", { slot: e.slot }, () => `encoder ${e.slot} reset`));
       li.append(text, reset);
       return li;
+    }));
+  }
+
+  // Sonars: the board's latest distance of each (or "no echo"), its age and readings.
+  function renderSonars(view, sonars) {
+    const form = view.root.querySelector("form.sonars");
+    const list = form.querySelector(".sonar-rows");
+    form.dataset.supported = sonars && sonars.supported ? "true" : "false";
+    if (!sonars || !sonars.supported) {
+      list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "not in this firmware" }));
+      return;
+    }
+    list.replaceChildren(...sonars.rows.map((s) => {
+      const what = s.distance_mm !== null ? `${s.distance_mm} mm` : s.no_echo ? "no echo" : "waiting";
+      return Object.assign(document.createElement("li"), {
+        className: "sonar-reading",
+        textContent: `slot ${s.slot} (${s.pins}): ${what} · ${s.age_ms} ms ago · ${s.readings} readings`,
+      });
     }));
   }
 
