@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, cast
 
 from .. import protocol as p
 from ..errors import UsageError
-from ..protocol.pins import AnalogPin
+from ..protocol.pins import AnalogPin, Function
 from ._features import require_stream_features
 from .i2c_blocks import I2CBlock, block_requests, blocks_bytes
 from .motors import check_stream
@@ -54,6 +54,8 @@ class StreamMethods:
         period (:mod:`arduinoio_async.board.i2c_blocks`; set up the bus first).
         """
         board = cast("BoardCore", self)
+        for pin in analog:
+            board.model.require(pin, Function.ANALOG_INPUT)
         blocks = block_requests(i2c) if i2c else []
         i2c_bytes = blocks_bytes(i2c) if i2c else None
         request = stream_request(

@@ -34,7 +34,7 @@ from ..board.handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, Pul
 from ..board.motors import DutyPwm, Motor
 from ..board.roles import RoleHolder
 from ..errors import PinRoleError, UsageError
-from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function, capable_pins
 from ._args import pin_arg
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -51,7 +51,7 @@ if TYPE_CHECKING:
 __all__ = ["ROLES", "BoardPanel", "roles_for"]
 
 #: Bit n set for every digital pin Dn the page shows.
-ALL_PINS = sum(1 << int(pin) for pin in DigitalPin)
+ALL_PINS = sum(1 << int(pin) for pin in UNO_DIGITAL)
 #: Longest a role control waits for the change events of its inputs to be subscribed.
 SUBSCRIBE_WAIT = 2.0
 #: The event counters' pins, in the order the stream reports their counts.
@@ -158,8 +158,8 @@ class BoardPanel:
         #: Last count of each counter (D2, D3) from whichever source reported it last.
         self.counters: dict[DigitalPin, int] = {}
         self.analog: dict[str, int] = {}
-        self.rises = dict.fromkeys(DigitalPin, 0)
-        self.falls = dict.fromkeys(DigitalPin, 0)
+        self.rises = dict.fromkeys(UNO_DIGITAL, 0)
+        self.falls = dict.fromkeys(UNO_DIGITAL, 0)
         self.i2c: I2CBus | None = None
         self.message = ""
         self.config_changed = True
@@ -172,7 +172,7 @@ class BoardPanel:
     def analog_pins(self) -> list[AnalogPin]:
         """The stream's channels: all six, less A4/A5 while the I2C bus uses them."""
         busy = (AnalogPin.A4, AnalogPin.A5) if self.i2c is not None else ()
-        return [pin for pin in AnalogPin if pin not in busy]
+        return [pin for pin in UNO_ANALOG if pin not in busy]
 
     def inputs(self) -> dict[DigitalPin, PinKey]:
         """The pins with an input role, each keyed by its handle and role (pull-up or not)."""
@@ -217,7 +217,7 @@ class BoardPanel:
         if rose or fell:
             batch.rose |= rose
             batch.fell |= fell
-            for pin in DigitalPin:
+            for pin in UNO_DIGITAL:
                 self.rises[pin] += rose >> int(pin) & 1
                 self.falls[pin] += fell >> int(pin) & 1
         if activity.counters is not None:
@@ -252,8 +252,8 @@ class BoardPanel:
             "watched": watched,
             "rose": batch.rose,
             "fell": batch.fell,
-            "rises": [self.rises[pin] for pin in DigitalPin],
-            "falls": [self.falls[pin] for pin in DigitalPin],
+            "rises": [self.rises[pin] for pin in UNO_DIGITAL],
+            "falls": [self.falls[pin] for pin in UNO_DIGITAL],
             "counters": [self.counters.get(pin) for pin in COUNTER_PINS],
             "reported": sum(1 << int(pin) for pin in self.counts.reported),
             "stream": self.stream.describe(),
@@ -286,8 +286,8 @@ class BoardPanel:
     # ---- state for the page ------------------------------------------------------------------
 
     def pin_roles(self) -> dict[DigitalPin, PinRole]:
-        roles = {pin: PinRole() for pin in DigitalPin}
-        for pin in DigitalPin:
+        roles = {pin: PinRole() for pin in UNO_DIGITAL}
+        for pin in UNO_DIGITAL:
             words = self.elsewhere.role(pin)
             if words is not None:
                 roles[pin] = PinRole("elsewhere", elsewhere=words)
@@ -319,7 +319,7 @@ class BoardPanel:
             "stream": self.stream.describe(),
             "changes": self.changes.describe(),
             "i2c": None if self.i2c is None else int(self.i2c.speed),
-            "analog_pins": [pin.name for pin in AnalogPin],
+            "analog_pins": [pin.name for pin in UNO_ANALOG],
             **{device.key: device.describe() for device in self.devices},
             "message": self.message,
             "pins": [
@@ -330,7 +330,7 @@ class BoardPanel:
                     "elsewhere": roles[pin].elsewhere,
                     "roles": roles_for(pin),
                 }
-                for pin in DigitalPin
+                for pin in UNO_DIGITAL
             ],
         }
 

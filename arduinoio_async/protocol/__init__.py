@@ -9,6 +9,7 @@ from it.
 from ._constants import (
     ANALOG_CHANNELS,
     ANALOG_MAX,
+    BOARD_PAGE_BYTES,
     DEFAULT_BAUD,
     DUTY_FULL,
     ENCODER_SLOTS,
@@ -51,6 +52,7 @@ from ._constants import (
     TEMP_REFERENCE_MV,
     TX_BUFFER_SIZE,
     VCC_MV,
+    BoardModelId,
     ClassTag,
     Edge,
     EncoderMode,
@@ -109,6 +111,7 @@ def encode(message: Frame) -> bytes:
 __all__ = [
     "ANALOG_CHANNELS",
     "ANALOG_MAX",
+    "BOARD_PAGE_BYTES",
     "DEFAULT_BAUD",
     "DUTY_FULL",
     "ENCODER_SLOTS",
@@ -154,6 +157,7 @@ __all__ = [
     "TEMP_REFERENCE_MV",
     "TX_BUFFER_SIZE",
     "VCC_MV",
+    "BoardModelId",
     "ClassTag",
     "Decoded",
     "Decoder",

@@ -250,6 +250,9 @@ class Feature(IntFlag):
     #: I2C BLOCK: register blocks the board reads from I2C devices every stream period,
     #: interrupt-driven, in the stream (extension).
     I2C_STREAM = 0x400000
+    #: READ_BOARD_DESCRIPTION: the board model and, per function, the pins that can do
+    #: it (extension, issue 29; protocol/boards.py).
+    BOARD_DESCRIPTION = 0x800000
 
 
 class Framing(IntEnum):
@@ -281,6 +284,19 @@ INTER_BYTE_GAP_MS: Final = 10
 
 #: Largest variable payload (I2C data, stream values) of any frame.
 MAX_BLOB: Final = 32
+
+
+class BoardModelId(IntEnum):
+    """The board model a READ_BOARD_DESCRIPTION reply names (extension, issue 29)."""
+
+    UNO_R3 = 0x01
+    MEGA2560 = 0x02
+
+
+#: Pin-map bytes one READ_BOARD_DESCRIPTION page carries at most: the reply's data is
+#: 5 fixed bytes, a length byte and this many map bytes, within the largest reply data
+#: (MAX_BLOB + 3 = 35 bytes).  A page holds as many whole function maps as fit.
+BOARD_PAGE_BYTES: Final = 29
 I2C_MAX_LENGTH: Final = 32
 
 #: Receive FIFO and transmit buffer sizes of the firmware, in bytes.  A host that keeps

@@ -19,7 +19,7 @@ import yaml
 
 from ..errors import UsageError
 from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
-from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function, capable_pins
 from ..protocol.timers import TIMER_OF, Timer
 from ._sources import INPUTS, OUTPUTS, PIN_NEEDS
 from ._wire import fully_qualified
@@ -256,10 +256,12 @@ def _positive(value: object, where: str) -> float:
     return float(value)
 
 
+#: The Uno's pin names (the bridge's configuration describes Uno boards).
+_UNO_PIN_NAMES = frozenset(pin.name for pin in (*UNO_DIGITAL, *UNO_ANALOG))
+
+
 def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | AnalogPin:
-    if not isinstance(value, str) or (
-        value not in DigitalPin.__members__ and value not in AnalogPin.__members__
-    ):
+    if not isinstance(value, str) or value not in _UNO_PIN_NAMES:
         raise ConfigError(f"{where}.pin: unknown pin {value!r} (D2-D13, A0-A5)")
     pin: DigitalPin | AnalogPin = (
         DigitalPin[value] if value in DigitalPin.__members__ else AnalogPin[value]

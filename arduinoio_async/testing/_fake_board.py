@@ -20,6 +20,7 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
+from ..protocol.boards import UNO_R3, WIRE_FUNCTIONS, BoardModel
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
@@ -83,6 +84,11 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
     crc_capable: bool = True
     #: The framing in force (XOR after every boot).
     framing: p.Framing = p.Framing.XOR
+    #: The board model it describes (READ_BOARD_DESCRIPTION; protocol/boards.py).
+    model: BoardModel = UNO_R3
+    #: False models an image older than the description (no Feature.BOARD_DESCRIPTION:
+    #: the library falls back to the Uno's Table III).
+    describes: bool = True
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
@@ -120,6 +126,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             p.SetLowLatency: self._set_low_latency,
             p.SetFraming: self._set_framing,
             p.ReadPinRoles: self._pin_roles,
+            p.ReadBoardDescription: self._describe,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
             p.GpioWrite: self._gpio_write,
@@ -330,8 +337,25 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             features |= int(feature)
         if not self.crc_capable:
             features &= ~p.Feature.CRC16
+        if not self.describes:
+            features &= ~p.Feature.BOARD_DESCRIPTION
         return p.ReadCapabilitiesReply(
             p.PROTOCOL_VERSION, *p.FIRMWARE_VERSION, features, self.baud, p.RX_FIFO_SIZE
+        )
+
+    def _describe(self, request: p.ReadBoardDescription) -> p.Frame:
+        model = self.model
+        if not self.describes:
+            return self._error(request, p.ErrorCode.UNKNOWN_DESCRIPTOR)
+        if request.page >= model.pages:
+            return self._error(request, p.ErrorCode.VALUE_OUT_OF_RANGE)
+        return p.ReadBoardDescriptionReply(
+            request.page,
+            model.model_id,
+            model.digital_pins,
+            model.analog_pins,
+            len(WIRE_FUNCTIONS),
+            model.page(request.page),
         )
 
     def _write_id(self, request: p.WriteId) -> p.Frame:

@@ -36,6 +36,7 @@
 #define AIO_DT_MISC_TRANSACTION 0x09u
 #define AIO_DT_MISC_SET_LOW_LATENCY 0x0Au
 #define AIO_DT_MISC_SET_FRAMING 0x0Bu
+#define AIO_DT_MISC_READ_BOARD_DESCRIPTION 0x0Cu
 #define AIO_DT_GPIO_CONFIG 0x01u
 #define AIO_DT_GPIO_READ 0x02u
 #define AIO_DT_GPIO_WRITE 0x03u
@@ -173,6 +174,7 @@
 #define AIO_FEATURE_PULSE_IN 0x100000u
 #define AIO_FEATURE_SPI 0x200000u
 #define AIO_FEATURE_I2C_STREAM 0x400000u
+#define AIO_FEATURE_BOARD_DESCRIPTION 0x800000u
 
 /* Limits. */
 #define AIO_INTER_BYTE_GAP_MS 10u
@@ -206,6 +208,7 @@
 #define AIO_STEPPER_COUNT 4u
 #define AIO_STEPPER_MAX_SPEED 10000u
 #define AIO_STEPPER_MAX_ACCEL 1000000u
+#define AIO_BOARD_PAGE_BYTES 29u
 
 /* Table III: bit n set when pin (or analog channel) n can do it. */
 #define AIO_PINS_DIGITAL_INPUT 0x3FFCu
@@ -220,6 +223,46 @@
 #define AIO_PINS_SPI 0x3800u
 #define AIO_PINS_SPI_CS 0x07FCu
 #define AIO_PINS_PULSE_IN 0x3FFCu
+
+/* Board models (READ_BOARD_DESCRIPTION) and functions in wire order. */
+#define AIO_BOARD_UNO_R3 0x01u
+#define AIO_BOARD_MEGA2560 0x02u
+#define AIO_FUNCTION_DIGITAL_INPUT 0u
+#define AIO_FUNCTION_DIGITAL_OUTPUT 1u
+#define AIO_FUNCTION_ANALOG_INPUT 2u
+#define AIO_FUNCTION_SOFT_PWM 3u
+#define AIO_FUNCTION_SERVO_PWM 4u
+#define AIO_FUNCTION_I2C 5u
+#define AIO_FUNCTION_COUNTER 6u
+#define AIO_FUNCTION_DUTY_PWM 7u
+#define AIO_FUNCTION_ENCODER 8u
+#define AIO_FUNCTION_SPI 9u
+#define AIO_FUNCTION_SPI_CS 10u
+#define AIO_FUNCTION_PULSE_IN 11u
+#define AIO_BOARD_FUNCTIONS 12u
+/* Description tables: model, digital pins, analog pins, functions, then per
+ * function (wire order) a bitmap of ceil(pins / 8) bytes, pin n in bit n % 8 of
+ * byte n / 8 (Arduino numbering: An is digital pins + n). */
+#define AIO_BOARD_TABLE_UNO_R3 { \
+    0x01u, 0x0Eu, 0x06u, 0x0Cu, 0xFCu, 0x3Fu, 0x00u, 0xFCu, 0x3Fu, 0x00u, 0x00u, 0xC0u, \
+    0x0Fu, 0xFCu, 0x00u, 0x00u, 0x00u, 0x06u, 0x00u, 0x00u, 0x00u, 0x0Cu, 0x0Cu, 0x00u, \
+    0x00u, 0x68u, 0x06u, 0x00u, 0xFCu, 0x3Fu, 0x00u, 0x00u, 0x38u, 0x00u, 0xFCu, 0x07u, \
+    0x00u, 0xFCu, 0x3Fu, 0x00u, \
+}
+#define AIO_BOARD_PAGE_LEN_UNO_R3 27u
+#define AIO_BOARD_TABLE_MEGA2560 { \
+    0x02u, 0x36u, 0x10u, 0x0Cu, 0xFCu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0x3Fu, 0x00u, \
+    0x00u, 0xFCu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0x3Fu, 0x00u, 0x00u, 0x00u, 0x00u, \
+    0x00u, 0x00u, 0x00u, 0x00u, 0xC0u, 0xFFu, 0x3Fu, 0x00u, 0x00u, 0xC0u, 0x3Fu, 0x00u, \
+    0x00u, 0x00u, 0x00u, 0x00u, 0xECu, 0x19u, 0x00u, 0x00u, 0x00u, 0x70u, 0x00u, 0x00u, \
+    0x00u, 0x00u, 0x00u, 0x30u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x0Cu, 0x00u, \
+    0x3Cu, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0xECu, 0x19u, 0x00u, 0x00u, 0x00u, \
+    0x70u, 0x00u, 0x00u, 0x00u, 0x0Cu, 0xFCu, 0x3Cu, 0x00u, 0x00u, 0x00u, 0x3Cu, 0xC0u, \
+    0x3Fu, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x1Cu, 0x00u, 0x00u, 0xFCu, 0xFFu, \
+    0xFFu, 0xFFu, 0xFFu, 0xFFu, 0x23u, 0x00u, 0x00u, 0x0Cu, 0xFCu, 0x3Cu, 0x00u, 0x00u, \
+    0x00u, 0x3Cu, 0xC0u, 0x3Fu, \
+}
+#define AIO_BOARD_PAGE_LEN_MEGA2560 27u
 
 /* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.
  * data_len: data bytes between DT and CS without the variable part;
@@ -237,6 +280,7 @@
     X(MISC, TRANSACTION, 0x01u, 0x09u, 2, 1) \
     X(MISC, SET_LOW_LATENCY, 0x01u, 0x0Au, 1, -1) \
     X(MISC, SET_FRAMING, 0x01u, 0x0Bu, 1, -1) \
+    X(MISC, READ_BOARD_DESCRIPTION, 0x01u, 0x0Cu, 1, -1) \
     X(GPIO, CONFIG, 0x02u, 0x01u, 2, -1) \
     X(GPIO, READ, 0x02u, 0x02u, 1, -1) \
     X(GPIO, WRITE, 0x02u, 0x03u, 2, -1) \
@@ -292,6 +336,7 @@
 #define AIO_REPLY_LEN_MISC_TRANSACTION 2u
 #define AIO_REPLY_LEN_MISC_SET_LOW_LATENCY 1u
 #define AIO_REPLY_LEN_MISC_SET_FRAMING 1u
+#define AIO_REPLY_LEN_MISC_READ_BOARD_DESCRIPTION 6u
 #define AIO_REPLY_LEN_GPIO_CONFIG 2u
 #define AIO_REPLY_LEN_GPIO_READ 2u
 #define AIO_REPLY_LEN_GPIO_WRITE 2u

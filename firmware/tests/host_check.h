@@ -45,6 +45,7 @@ void check(const char *file, int line, const uint8_t *req, size_t rn, const uint
 void test_table(void);
 void test_misc(void);
 void test_low_latency(void);
+void test_board_description(void);
 void test_gpio(void);
 void test_gpio_changes(void);
 void test_transaction(void);

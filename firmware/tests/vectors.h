@@ -253,6 +253,9 @@ static const aio_vector_step_t aio_vectors_misc[] = {
     {14, -1, 0, 4, {1, 10, 1, 10}, 4, {1, 10, 1, 10}},
     {15, -1, 0, 4, {1, 10, 2, 9}, 4, {129, 10, 9, 130}},
     {16, -1, 0, 4, {1, 10, 0, 11}, 4, {1, 10, 0, 11}},
+    {20, -1, 0, 4, {1, 12, 0, 13}, 36, {1, 12, 0, 1, 14, 6, 12, 27, 252, 63, 0, 252, 63, 0, 0, 192, 15, 252, 0, 0, 0, 6, 0, 0, 0, 12, 12, 0, 0, 104, 6, 0, 252, 63, 0, 139}},
+    {21, -1, 0, 4, {1, 12, 1, 12}, 18, {1, 12, 1, 1, 14, 6, 12, 9, 0, 56, 0, 252, 7, 0, 252, 63, 0, 0}},
+    {22, -1, 0, 4, {1, 12, 2, 15}, 4, {129, 12, 9, 132}},
 };
 
 static const aio_vector_step_t aio_vectors_pwm[] = {
@@ -373,7 +376,7 @@ static const aio_vector_file_t aio_vector_files[] = {
     {"gpio", 0x0007, 32, aio_vectors_gpio},
     {"i2c", 0x0007, 12, aio_vectors_i2c},
     {"i2c_stream", 0x0007, 16, aio_vectors_i2c_stream},
-    {"misc", 0x0102, 11, aio_vectors_misc},
+    {"misc", 0x0102, 14, aio_vectors_misc},
     {"pwm", 0x0007, 16, aio_vectors_pwm},
     {"spi", 0x000D, 16, aio_vectors_spi},
     {"stepper", 0x0007, 40, aio_vectors_stepper},
