@@ -1,0 +1,49 @@
+"""The Arduino Mega 2560 image on the virtual Mega (issue 29, first stage).
+
+The firmware is built from the same sources for the ATmega2560 (`make -C firmware mega`,
+BOARD wiring in firmware/src/hal_board_mega2560.h) and runs on simavr's ATmega2560 core
+(`virtual-uno --board mega2560`).  Oracles: the ID the harness wrote into the EEPROM, the
+library's MEGA2560 model data for the description, the board's own refusals.  The Mega
+fixture (jumpered pairs D2-D53, R2R on A0-A15) is not built yet (notes/w4-mega.md).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from arduinoio_async import protocol as p
+from arduinoio_async.board import Board
+from arduinoio_async.errors import BoardError
+from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+pytestmark = pytest.mark.sim
+
+BUILD = Path(__file__).resolve().parents[2] / "firmware" / "build"
+
+
+def mega_elf(baud: int) -> Path:
+    path = BUILD / f"arduinoio-mega2560-{baud}.elf"
+    if not path.is_file():
+        pytest.skip(f"{path.name} not built (make -C firmware mega)")
+    return path
+
+
+async def test_the_mega_image_boots_and_describes_the_mega(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    mega = await virtual_uno_factory(
+        board="mega2560", elf=mega_elf(115200), baud=115200, board_id=0x2560
+    )
+    async with Board.open(mega.port, baudrate=mega.baud) as board:
+        assert await board.read_id() == 0x2560  # the harness's EEPROM, through USART0
+        assert board.model.model_id == p.BoardModelId.MEGA2560
+        assert (board.model.digital_pins, board.model.analog_pins) == (54, 16)
+        assert board.model.functions == {f: MEGA2560.pin_numbers(f) for f in WIRE_FUNCTIONS}
+        # the ATmega2560 has no temperature sensor: neither offered nor answered
+        assert not board.capabilities.features & p.Feature.TEMPERATURE
+        with pytest.raises(BoardError) as refused:
+            await board.request(p.ReadTemperature())
+        assert refused.value.code == p.ErrorCode.NOT_IN_IMAGE
