@@ -10,6 +10,7 @@
  * ready line.
  */
 #include "harness.h"
+#include "board_map.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -345,6 +346,11 @@ int main(int argc, char **argv)
 		return 2;
 	}
 	const char *mcu = options.mega2560 ? "atmega2560" : "atmega328p";
+	if (options.mega2560 && options.fixture == FIX_R2R) {
+		logf_("--fixture r2r is the Uno's (A0-A5 ladders); the Mega has open and loopback");
+		return 2;
+	}
+	board_map_select(options.mega2560);
 	avr = avr_make_mcu_by_name(mcu);
 	if (!avr) { logf_("simavr does not know %s", mcu); return 2; }
 	avr_init(avr);

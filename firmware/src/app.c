@@ -154,6 +154,7 @@ uint8_t app_step(void)
     stepper_poll();
     encoder_poll();
     pulse_in_poll();
+    gpio_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

@@ -13,6 +13,11 @@
 #ifndef BOARD_PINS_MEGA2560_H
 #define BOARD_PINS_MEGA2560_H
 
+#define PINS_LAST 15u /* pins.h: the role table reaches D15 */
+/* D2-D9 have no pin-change interrupt (D2/D3's INT4/INT5 serve counters and encoders):
+ * GPIO inputs there are polled by the main loop (gpio_poll: ~10 kHz, the tick wakes it). */
+#define AIO_PINS_POLLED_EDGES 0x03FCu
+
 #undef AIO_PINS_DIGITAL_INPUT
 #undef AIO_PINS_DIGITAL_OUTPUT
 #undef AIO_PINS_ANALOG_INPUT

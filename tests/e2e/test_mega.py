@@ -4,7 +4,8 @@ The firmware is built from the same sources for the ATmega2560 (`make -C firmwar
 BOARD wiring in firmware/src/hal_board_mega2560.h) and runs on simavr's ATmega2560 core
 (`virtual-uno --board mega2560`).  Oracles: the ID the harness wrote into the EEPROM, the
 library's MEGA2560 model data for the description, the board's own refusals.  The Mega
-fixture (jumpered pairs D2-D53, R2R on A0-A15) is not built yet (notes/w4-mega.md).
+fixture reaches D0-D15 so far (firmware/sim/board_map.c: jumpers D2-D3 ... D14-D15);
+D16-D53 and R2R on A0-A15 are not built yet (notes/w4-mega.md).
 """
 
 from __future__ import annotations
@@ -17,7 +18,10 @@ from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.errors import BoardError
 from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
+from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+from .test_paper_verification import check_jumpers
 
 pytestmark = pytest.mark.sim
 
@@ -47,3 +51,38 @@ async def test_the_mega_image_boots_and_describes_the_mega(
         with pytest.raises(BoardError) as refused:
             await board.request(p.ReadTemperature())
         assert refused.value.code == p.ErrorCode.NOT_IN_IMAGE
+
+
+# The first stage's pins: D2-D15 (hal_board_mega2560.h), jumpered in pairs.
+MEGA_EVEN = [DigitalPin(n) for n in range(2, 16, 2)]
+MEGA_ODD = [DigitalPin(n) for n in range(3, 16, 2)]
+
+
+async def test_every_output_drives_the_port_bit_the_arduino_core_names(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """Ground truth from the harness: D4 is PG5, D6 PH3, D14 PJ1 ... (board_map.c)."""
+    mega = await virtual_uno_factory(
+        board="mega2560", elf=mega_elf(1_000_000), baud=1_000_000, fast=True
+    )
+    async with Board.open(mega.port, baudrate=mega.baud) as board:
+        for pin in [*MEGA_EVEN, *MEGA_ODD]:
+            for level in (True, False):
+                await board.gpio(pin).write(level)
+                seen = await mega.pin(int(pin))
+                assert (seen.ddr, seen.port, seen.level) == (1, int(level), int(level)), pin
+
+
+async def test_mega_jumpers_carry_1000_random_patterns_both_ways(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    mega = await virtual_uno_factory(
+        board="mega2560",
+        elf=mega_elf(1_000_000),
+        baud=1_000_000,
+        fixture="loopback",
+        fast=True,
+    )
+    async with Board.open(mega.port, baudrate=mega.baud, timeout=2.0) as board:
+        await check_jumpers(board, MEGA_EVEN, MEGA_ODD)
+        await check_jumpers(board, MEGA_ODD, MEGA_EVEN)
