@@ -14,13 +14,16 @@ from pathlib import Path
 
 import pytest
 
+from arduinoio_async import D2, D3, D11, D12
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
+from arduinoio_async.board.mega import Mega2560Board
 from arduinoio_async.errors import BoardError
 from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
 from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from .pulses import fresh_pulses
 from .test_paper_verification import check_jumpers
 
 pytestmark = pytest.mark.sim
@@ -86,3 +89,34 @@ async def test_mega_jumpers_carry_1000_random_patterns_both_ways(
     async with Board.open(mega.port, baudrate=mega.baud, timeout=2.0) as board:
         await check_jumpers(board, MEGA_EVEN, MEGA_ODD)
         await check_jumpers(board, MEGA_ODD, MEGA_EVEN)
+
+
+async def test_mega_servo_pulses_on_timer1_are_measured_by_the_fixture(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """OC1A/OC1B are D11/D12 on the Mega (D9/D10 on the Uno): the harness captures them."""
+    mega = await virtual_uno_factory(board="mega2560", elf=mega_elf(1_000_000), baud=1_000_000)
+    async with Mega2560Board.open(mega.port, baudrate=mega.baud) as board:
+        servo = await board.servo(D11, pulse_us=1500)
+        await board.servo(D12, pulse_us=1000)
+        d11, d12 = [await fresh_pulses(mega, pin, 3) for pin in ("D11", "D12")]
+        assert all(abs(h - 1500) <= 1 for h in d11.high_us), d11
+        assert all(abs(t - 20000) <= 20 for t in d11.period_us), d11
+        assert all(abs(h - 1000) <= 1 for h in d12.high_us), d12
+        await servo.set_pulse(1234)
+        d11 = await fresh_pulses(mega, "D11", 2)
+        assert all(abs(h - 1234) <= 1 for h in d11.high_us[1:]), d11
+
+
+async def test_mega_counters_on_int4_int5_count_generated_pulses_exactly(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    mega = await virtual_uno_factory(board="mega2560", elf=mega_elf(1_000_000), baud=1_000_000)
+    async with Mega2560Board.open(mega.port, baudrate=mega.baud) as board:
+        rising = await board.counter(D2, edge=p.Edge.RISING)
+        falling = await board.counter(D3, edge=p.Edge.FALLING)
+        await mega.pulses("D2", count=37, high_us=200, low_us=300)
+        await mega.pulses("D3", count=23, high_us=100, low_us=100)
+        await mega.wait_pulses()
+        assert await rising.read() == 37
+        assert await falling.read() == 23
