@@ -369,7 +369,7 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods):
         return await self.command("status")
 
     async def set_analog(self, channel: int, mv: float) -> None:
-        """Set the voltage on ADC ``channel`` (0..7) in millivolts; an R2R ladder overrides it."""
+        """Voltage on ADC ``channel`` (0..7, Mega 0..15) in mV; an R2R ladder overrides it."""
         await self.command("set_analog", channel=channel, mv=mv)
 
     async def set_temperature(self, celsius: float) -> None:

@@ -19,6 +19,8 @@ static const struct board_map uno = {
 	.pin_port = {2, 2, 2, 2, 2, 2, 2, 2, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1},
 	.pin_bit = {0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 0, 1, 2, 3, 4, 5},
 	.last_jumpered = 13,
+	.adc_channels = 8,
+	.first_analog_pin = 14,
 	.oc = uno_oc,
 	.n_oc = (int)(sizeof uno_oc / sizeof uno_oc[0]),
 };
@@ -39,6 +41,8 @@ static const struct board_map mega2560 = {
 	.pin_port = {ME, ME, ME, ME, MG, ME, MH, MH, MH, MH, MB, MB, MB, MB, MJ, MJ, MF, MF, MF, MF},
 	.pin_bit = {0, 1, 4, 5, 5, 3, 3, 4, 5, 6, 4, 5, 6, 7, 1, 0, 0, 1, 2, 3},
 	.last_jumpered = 15,
+	.adc_channels = 16,
+	.first_analog_pin = 16,
 	.oc = mega_oc,
 	.n_oc = (int)(sizeof mega_oc / sizeof mega_oc[0]),
 };

@@ -26,11 +26,13 @@
 #include "mpu6050.h"
 
 #define NEDGE 32
+#define ADC_SLOTS 17 /* ADC0-15 (the Mega's; the Uno uses 0-7) and the temperature */
+#define ADC_SLOT_TEMP (ADC_SLOTS - 1)
 
 static const char *const fixture_names[] = {"open", "loopback", "r2r"};
 static int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
-static int analog_mv[8];
-static int adc_sent[9];
+static int analog_mv[ADC_SLOTS - 1];
+static int adc_sent[ADC_SLOTS]; /* the last slot: the temperature sensor */
 static double temperature_c = 25.0;
 static i2c_eeprom_t i2c_ee;
 static double r2r_res[6][4];    /* per ladder: Ra (B0-N0), Rg (N0-GND), Rs (N0-OUT), Rb (B1-OUT) */
@@ -48,8 +50,8 @@ static avr_irq_t *port_irq_base[NPORTS_MAX];   /* per port: base of its IOPORT I
 
 extern const char *const fixture_names[];
 extern int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
-extern int analog_mv[8];
-extern int adc_sent[9];
+extern int analog_mv[ADC_SLOTS - 1];
+extern int adc_sent[ADC_SLOTS];
 extern double temperature_c;
 extern i2c_eeprom_t i2c_ee;
 
@@ -174,17 +176,35 @@ static int pin_managed(int p)
 	return p >= 2; /* D0/D1 belong to the UART */
 }
 
+/* simavr 1.6 keeps 8 input voltages (adc_values[8]): its ADC8-ADC15 IRQs are dropped
+ * and a conversion of ADC8-15 (the ATmega2560's MUX5 = 1, mux 0x20-0x27) reads past the
+ * array.  The harness gives those mux entries the voltage as a fixed "reference" source
+ * instead (ADC_MUX_REF converts mux.src mV), so A8-A15 read what the fixture applies. */
+static avr_adc_t *find_adc(void)
+{
+	for (avr_io_t *io = avr->io_port; io; io = io->next)
+		if (io->kind && !strcmp(io->kind, "adc"))
+			return (avr_adc_t *)io;
+	return NULL;
+}
+
 static void send_adc(int ch, int mv)
 {
 	if (adc_sent[ch] == mv)
 		return;
 	adc_sent[ch] = mv;
-	avr_raise_irq(adc_irq_base + (ch == 8 ? ADC_IRQ_TEMP : ADC_IRQ_ADC0 + ch), (uint32_t)mv);
+	if (ch >= 8 && ch < 16) {
+		avr_adc_t *adc = find_adc();
+		if (adc)
+			adc->muxmode[0x20 + ch - 8] = (avr_adc_mux_t){.kind = ADC_MUX_REF, .src = (unsigned)mv};
+		return;
+	}
+	avr_raise_irq(adc_irq_base + (ch == ADC_SLOT_TEMP ? ADC_IRQ_TEMP : ADC_IRQ_ADC0 + ch), (uint32_t)mv);
 }
 
 void update_analog(void)
 {
-	for (int ch = 0; ch < 8; ch++) {
+	for (int ch = 0; ch < board->adc_channels; ch++) {
 		int mv = analog_mv[ch];
 		if (opt->fixture == FIX_R2R && ch < 6) {
 			r2r_mv[ch] = r2r_output(ch);
@@ -192,7 +212,7 @@ void update_analog(void)
 		}
 		send_adc(ch, mv);
 	}
-	send_adc(8, (int)lround(314.0 + (temperature_c - 25.0) * 1.0));
+	send_adc(ADC_SLOT_TEMP, (int)lround(314.0 + (temperature_c - 25.0) * 1.0));
 }
 
 /* Recompute every input pin from the circuit and push it into simavr.
@@ -380,7 +400,7 @@ void circuit_after_reset(void)
 	read_shadows();
 	for (int p = 0; p < NPINS; p++)
 		oc_level[p] = 0; /* OCnx are cleared by a reset */
-	for (int ch = 0; ch < 9; ch++)
+	for (int ch = 0; ch < ADC_SLOTS; ch++)
 		adc_sent[ch] = -1;
 	apply_circuit();
 	update_analog();

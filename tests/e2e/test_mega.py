@@ -20,7 +20,7 @@ from arduinoio_async.board import Board
 from arduinoio_async.board.mega import Mega2560Board
 from arduinoio_async.errors import BoardError
 from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
-from arduinoio_async.protocol.pins import DigitalPin
+from arduinoio_async.protocol.pins import AnalogPin, DigitalPin
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
 from .pulses import fresh_pulses
@@ -120,3 +120,19 @@ async def test_mega_counters_on_int4_int5_count_generated_pulses_exactly(
         await mega.wait_pulses()
         assert await rising.read() == 37
         assert await falling.read() == 23
+
+
+async def test_mega_reads_all_16_analog_inputs_at_the_fixture_voltage(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """A0-A15, A8-A15 through the ADC's MUX5: each input its own voltage, read back."""
+    mega = await virtual_uno_factory(
+        board="mega2560", elf=mega_elf(1_000_000), baud=1_000_000, fast=True
+    )
+    volts = [150 + 300 * ch for ch in range(16)]  # all different, so a wrong mux shows
+    for ch, mv in enumerate(volts):
+        await mega.set_analog(ch, mv)
+    async with Mega2560Board.open(mega.port, baudrate=mega.baud) as board:
+        for ch, mv in enumerate(volts):
+            value = await board.analog(AnalogPin(ch)).read()
+            assert abs(value - mv * 1024 / 5000) <= 2, (ch, value, mv)
