@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import anyio
 import pytest
 
 from arduinoio_async import D2, D3, D11, D12
@@ -22,7 +23,10 @@ from arduinoio_async.errors import BoardError
 from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
 from arduinoio_async.protocol.pins import AnalogPin, DigitalPin
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+from arduinoio_async.transport._serial import open_serial_stream
 
+from ..vectors.test_vectors import BAUD, VECTORS, RawLink, run_vectors, wait_answering
+from ..vectors.vectors import VectorFile
 from .pulses import fresh_pulses
 from .test_paper_verification import check_jumpers
 
@@ -136,3 +140,53 @@ async def test_mega_reads_all_16_analog_inputs_at_the_fixture_voltage(
         for ch, mv in enumerate(volts):
             value = await board.analog(AnalogPin(ch)).read()
             assert abs(value - mv * 1024 / 5000) <= 2, (ch, value, mv)
+
+
+async def test_mega_i2c_eeprom_write_and_read_back(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The TWI unit (D20/D21 on the Mega) against the fixture's 24C02 at 0x50."""
+    mega = await virtual_uno_factory(board="mega2560", elf=mega_elf(1_000_000), baud=1_000_000)
+    async with Mega2560Board.open(mega.port, baudrate=mega.baud) as board:
+        bus = await board.i2c(p.I2CSpeed.KHZ_400)
+        data = bytes(range(0x40, 0x50))
+        await bus.write(0x50, 0x20, data[:8])
+        await bus.write(0x50, 0x28, data[8:])
+        assert await bus.read(0x50, 0x20, 16) == data
+        assert await mega.eeprom_i2c(0x20, 16) == data  # the device's own memory
+        with pytest.raises(BoardError) as info:
+            await bus.read(0x51, 0, 1)
+        assert info.value.code is p.ErrorCode.I2C_NACK_ADDRESS
+
+
+# The shared vectors whose requests and answers do not depend on the board's pin table
+# or feature set.  The others (analog, duty, encoder, failsafe, framing, gpio, misc, pwm,
+# spi, stream) state the Uno's Table III answers (D9 servo, D14 not a pin, A7 refused, the
+# Uno's features) and need Mega variants: notes/w4-mega.md.
+BOARD_INDEPENDENT_VECTORS = ("counter", "i2c", "i2c_stream", "stepper", "transaction")
+
+
+@pytest.mark.parametrize(
+    "vf",
+    [vf for vf in VECTORS if vf.name in BOARD_INDEPENDENT_VECTORS],
+    ids=lambda vf: vf.name,
+)
+async def test_the_board_independent_vectors_on_the_mega_image(
+    vf: VectorFile, virtual_uno_factory: VirtualUnoFactory
+) -> None:
+    mega = await virtual_uno_factory(
+        board="mega2560", elf=mega_elf(BAUD), baud=BAUD, board_id=vf.board_id
+    )
+    stream = await open_serial_stream(mega.port, BAUD)
+    try:
+        link = RawLink(stream)
+        await wait_answering(link)
+
+        async def drive(pin: int, level: bool) -> None:
+            await mega.drive(pin, level)
+            start = (await mega.status())["sim_us"]
+            with anyio.fail_after(5):
+                while (await mega.status())["sim_us"] < start + 50:
+                    await anyio.lowlevel.checkpoint()
+
+        await run_vectors(vf, link, drive)
+    finally:
+        await stream.aclose()
