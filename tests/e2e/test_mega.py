@@ -19,7 +19,8 @@ from arduinoio_async import D2, D3, D11, D12
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.board.mega import Mega2560Board
-from arduinoio_async.errors import BoardError
+from arduinoio_async.errors import BoardError, PinCapabilityError
+from arduinoio_async.manager import BoardManager
 from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
 from arduinoio_async.protocol.pins import AnalogPin, DigitalPin
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -190,3 +191,25 @@ async def test_the_board_independent_vectors_on_the_mega_image(
         await run_vectors(vf, link, drive)
     finally:
         await stream.aclose()
+
+
+async def test_an_uno_and_a_mega_under_one_manager_by_id(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """Each board is found by its ID and described as its own model; each drives its own
+    pins (ground truth: each harness's port bit)."""
+    uno = await virtual_uno_factory(board_id=7, baud=1_000_000)
+    mega = await virtual_uno_factory(
+        board="mega2560", elf=mega_elf(1_000_000), baud=1_000_000, board_id=8
+    )
+    async with BoardManager(ports=[uno.port, mega.port], usb=False, env=False) as boards:
+        with anyio.fail_after(10):
+            uno_board, mega_board = await boards.get(7), await boards.get(8)
+        assert uno_board.model.model_id == p.BoardModelId.UNO_R3
+        assert mega_board.model.model_id == p.BoardModelId.MEGA2560
+        await mega_board.gpio(DigitalPin(14)).write(True)  # D14: a Mega pin only
+        await uno_board.gpio(DigitalPin(13)).write(True)
+        assert (await mega.pin(14)).level == 1
+        assert (await uno.pin(13)).level == 1
+        with pytest.raises(PinCapabilityError):
+            await uno_board.gpio(DigitalPin(14)).write(True)  # refused before sending
