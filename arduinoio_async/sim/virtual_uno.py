@@ -117,7 +117,7 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods):
     Use as ``async with VirtualUno(board_id=1) as uno:`` and open ``uno.port`` with pyserial.
     The process is stopped (SIGTERM, then SIGKILL) when the context exits, also on
     cancellation, so tests never leak simulator processes.  ``board="mega2560"``: an
-    ATmega2560 running the Mega image given as ``elf`` (the fixture is still the Uno's).
+    ATmega2560 running the Mega image (jumpers D2-D15, ADC0-15; no R2R ladders yet).
     """
 
     def __init__(
@@ -207,7 +207,7 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods):
             args += ["--bootloader", str(self.bootloader)]
         elf = self._elf
         if elf is None and self.bootloader is None:
-            elf = find_firmware_elf(self.baud, self.profile)
+            elf = find_firmware_elf(self.baud, self.profile, self.board)
         if elf is not None:
             if not elf.is_file():
                 raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {INSTALL_HINT}")

@@ -10,10 +10,14 @@ D16-D53 and R2R on A0-A15 are not built yet (notes/w4-mega.md).
 
 from __future__ import annotations
 
+import json
+import os
+import sys
 from pathlib import Path
 
 import anyio
 import pytest
+from anyio.streams.buffered import BufferedByteReceiveStream
 
 from arduinoio_async import D2, D3, D11, D12
 from arduinoio_async import protocol as p
@@ -23,6 +27,7 @@ from arduinoio_async.errors import BoardError, PinCapabilityError
 from arduinoio_async.manager import BoardManager
 from arduinoio_async.protocol.boards import MEGA2560, WIRE_FUNCTIONS
 from arduinoio_async.protocol.pins import AnalogPin, DigitalPin
+from arduinoio_async.sim import SimulatorNotAvailable, VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 from arduinoio_async.transport._serial import open_serial_stream
 
@@ -213,3 +218,40 @@ async def test_an_uno_and_a_mega_under_one_manager_by_id(
         assert (await uno.pin(13)).level == 1
         with pytest.raises(PinCapabilityError):
             await uno_board.gpio(DigitalPin(14)).write(True)  # refused before sending
+
+
+async def test_arduinoio_sim_board_mega2560_runs_the_mega_image_info_sees_it(
+    tmp_path: Path, virtual_uno_factory: VirtualUnoFactory
+) -> None:
+    """`arduinoio sim --board mega2560` finds the Mega image itself; `arduinoio info`
+    finds the board and prints the Mega model it described."""
+    mega_elf(1_000_000)  # skips when the image is not built
+    await virtual_uno_factory()  # skips here when the simulator is missing
+    env = {k: v for k, v in os.environ.items() if k != "ARDUINOIO_PORTS"}
+    env["ARDUINOIO_REGISTRY_DIR"] = str(tmp_path / "registry")
+    command = [sys.executable, "-m", "arduinoio_async"]
+    sim = await anyio.open_process(
+        [*command, "sim", "--board", "mega2560", "--id", "0x2560"], env=env
+    )
+    try:
+        assert sim.stdout is not None
+        with anyio.fail_after(20):
+            line = await BufferedByteReceiveStream(sim.stdout).receive_until(b"\n", 4096)
+        port = json.loads(line)["port"]
+        found = await anyio.run_process([*command, "info", "--json"], env=env, check=False)
+        assert found.returncode == 0, found.stderr.decode()
+        info = json.loads(found.stdout)
+        assert info["id"] == 0x2560 and info["port"] == port
+        assert info["model"]["key"] == MEGA2560.key
+    finally:
+        sim.terminate()
+        with anyio.fail_after(10):
+            await sim.wait()
+    assert sim.returncode == 0
+
+
+async def test_an_unknown_board_or_a_profile_on_the_mega_is_refused_at_once() -> None:
+    with pytest.raises(ValueError, match="uno or mega2560"):
+        VirtualUno(board="leonardo")
+    with pytest.raises(SimulatorNotAvailable, match="no profile 'sensing'"):
+        VirtualUno(board="mega2560", profile="sensing").command_line()
