@@ -104,6 +104,18 @@ def source_tree() -> Path | None:
 BOARDS: Final = ("uno", "mega2560")
 
 
+def board_image_stem(baud: int, profile: str = DEFAULT_PROFILE, board: str = "uno") -> str:
+    """The image file's name without extension for ``board`` (ValueError for an unknown
+    board, or a profile other than the default for a board with one image)."""
+    if board not in BOARDS:
+        raise ValueError(f"no firmware for board {board!r} (boards: {', '.join(BOARDS)})")
+    if board == "uno":
+        return image_stem(baud, profile)
+    if profile != DEFAULT_PROFILE:
+        raise ValueError(f"the {board} image has every class: it has no profile {profile!r}")
+    return f"arduinoio-{board}-{baud}"
+
+
 def firmware_image(
     baud: int, kind: str = "hex", profile: str = DEFAULT_PROFILE, board: str = "uno"
 ) -> Path:
@@ -113,12 +125,7 @@ def firmware_image(
     ``board="mega2560"``: ``arduinoio-mega2560-<baud>.<kind>`` (one image, no profiles)."""
     if kind not in ("hex", "elf"):
         raise ValueError(f"firmware image kind is 'hex' or 'elf', not {kind!r}")
-    if board not in BOARDS:
-        raise ValueError(f"no firmware for board {board!r} (boards: {', '.join(BOARDS)})")
-    if board != "uno" and profile != DEFAULT_PROFILE:
-        raise ValueError(f"the {board} image has every class: it has no profile {profile!r}")
-    stem = image_stem(baud, profile) if board == "uno" else f"arduinoio-{board}-{baud}"
-    name = f"{stem}.{kind}"
+    name = f"{board_image_stem(baud, profile, board)}.{kind}"
     env = os.environ.get(ENV_FIRMWARE_DIR)
     if env:
         path = Path(env) / name
