@@ -75,6 +75,13 @@ def add_commands(sub: Any) -> None:
         help="which image (docs: firmware profiles): standard (default: encoders, steppers) "
         "or sensing (encoders, sonar, RC inputs, SPI, I2C blocks in the stream; no steppers)",
     )
+    flash.add_argument(
+        "--board",
+        choices=_resources.BOARDS,
+        default="uno",
+        help="uno (optiboot, STK500v1) or mega2560 (its stk500v2 bootloader, avrdude -c wiring; "
+        "one image with every class: no --profile)",
+    )
     flash.add_argument("--hex", type=Path, default=None, help="flash this Intel hex file instead")
     flash.add_argument(
         "--baud",
@@ -95,14 +102,22 @@ def add_commands(sub: Any) -> None:
     flash.set_defaults(handler=flash_firmware)
 
 
-def avrdude_command(avrdude: str, port: str, image: Path, baud: int) -> list[str]:
-    """The avrdude invocation for an Uno's bootloader (STK500v1, "arduino" programmer)."""
+#: Per board: avrdude's part and programmer for its bootloader (the Uno's optiboot speaks
+#: STK500v1, "arduino"; the Mega 2560's stk500v2 bootloader is avrdude's "wiring").
+_AVRDUDE_TARGET = {"uno": ("atmega328p", "arduino"), "mega2560": ("atmega2560", "wiring")}
+
+
+def avrdude_command(
+    avrdude: str, port: str, image: Path, baud: int, board: str = "uno"
+) -> list[str]:
+    """The avrdude invocation for the board's bootloader (no chip erase: -D)."""
+    part, programmer = _AVRDUDE_TARGET[board]
     return [
         avrdude,
         "-p",
-        "atmega328p",
+        part,
         "-c",
-        "arduino",
+        programmer,
         "-P",
         port,
         "-b",
@@ -134,9 +149,13 @@ async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
     image = args.hex
     if image is None:
         try:
-            image = _resources.firmware_image(args.firmware_baud, "hex", args.profile)
+            image = _resources.firmware_image(
+                args.firmware_baud, "hex", args.profile, board=args.board
+            )
         except _resources.ResourceNotFound as exc:
             raise ToolMissing(str(exc)) from exc
+        except ValueError as exc:  # a profile for the Mega's one image
+            raise ArduinoIOError(str(exc)) from exc
     elif not image.is_file():
         raise ToolMissing(f"{image} does not exist")
     avrdude = shutil.which(args.avrdude or "avrdude")
@@ -145,7 +164,7 @@ async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
     if avrdude is None:
         raise ToolMissing("avrdude is not installed: sudo apt-get install avrdude")
     port = args.port or _only_port()
-    command = avrdude_command(avrdude, port, image, args.baud)
+    command = avrdude_command(avrdude, port, image, args.baud, args.board)
     if args.dry_run:
         console.print(" ".join(command), highlight=False, soft_wrap=True)
         return 0

@@ -14,6 +14,7 @@ import json
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 import anyio
 import pytest
@@ -38,7 +39,8 @@ from .test_paper_verification import check_jumpers
 
 pytestmark = pytest.mark.sim
 
-BUILD = Path(__file__).resolve().parents[2] / "firmware" / "build"
+REPO = Path(__file__).resolve().parents[2]
+BUILD = REPO / "firmware" / "build"
 
 
 def mega_elf(baud: int) -> Path:
@@ -255,3 +257,49 @@ async def test_an_unknown_board_or_a_profile_on_the_mega_is_refused_at_once() ->
         VirtualUno(board="leonardo")
     with pytest.raises(SimulatorNotAvailable, match="no profile 'sensing'"):
         VirtualUno(board="mega2560", profile="sensing").command_line()
+
+
+STK500V2_HEX = REPO / "firmware/bootloader/build/stk500v2-mega2560.hex"
+BOOT_SECTION = 0x3E000  # the stk500v2 bootloader's 8 KiB at the top of the flash
+
+
+def in_application(status: dict[str, Any], resets_before: int) -> bool:
+    """The core was reset since ``resets_before`` and runs below the boot section."""
+    return int(status["resets"]) > resets_before and int(status["pc"]) < BOOT_SECTION
+
+
+async def test_arduinoio_flash_board_mega2560_writes_through_the_stk500v2_bootloader(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """A virtual Mega with only Arduino's stk500v2 bootloader (built from arduino-core-avr's
+    source, `make bootloader`); `arduinoio flash --board mega2560` writes and verifies the
+    Mega image through it (avrdude -c wiring), and after the next reset the application
+    answers (ground truth: the core left the boot section, then a raw ID request)."""
+    if not STK500V2_HEX.is_file():
+        pytest.skip(f"{STK500V2_HEX} missing (make bootloader)")
+    mega_elf(115200)
+    mega = await virtual_uno_factory(board="mega2560", bootloader=STK500V2_HEX, baud=115200)
+    assert await mega.eeprom(0, 2) == b"\xff\xff"  # a new board: nothing but the bootloader
+    result = await anyio.run_process(
+        [
+            *(sys.executable, "-m", "arduinoio_async", "flash", "--board", "mega2560"),
+            *("--port", mega.port, "--firmware-baud", "115200"),
+        ],
+        check=False,
+    )
+    err = result.stderr.decode()
+    assert result.returncode == 0, err
+    assert "arduinoio-mega2560-115200.hex" in result.stdout.decode() and "verified" in (
+        result.stdout.decode()
+    )
+    resets = (await mega.status())["resets"]
+    stream = await open_serial_stream(mega.port, 115200)  # DTR: a reset into the bootloader
+    try:
+        with anyio.fail_after(15):  # the reset, its wait for a programmer, the jump to 0
+            while not in_application(await mega.status(), resets):  # noqa: ASYNC110
+                await anyio.sleep(0.05)  # polls the harness (simulated time)
+        link = RawLink(stream)
+        reply = p.Decoder.from_board().feed(await link.exchange(p.ReadId().encode()))
+        assert isinstance(reply[0], p.ReadIdReply)
+    finally:
+        await stream.aclose()
