@@ -26,6 +26,7 @@ __all__ = [
     "BOOT_QUIET_S",
     "BRIDGES",
     "DISCOVERY_IDS",
+    "MEGA2560_USB_IDS",
     "Bridge",
     "BridgeKind",
     "boot_quiet_for_ids",
@@ -148,10 +149,11 @@ def bridge_for_ids(vid: int | None, pid: int | None) -> Bridge | None:
 #: (its window ends 0.84 s after a reset, measured on the virtual Mega running it; the Uno's
 #: optiboot instead leaves at the first byte it does not understand).  Opening the port
 #: resets such a board (DTR), so the host keeps quiet this long first, in seconds.
-BOOT_QUIET_S: Final[dict[tuple[int, int], float]] = {
-    (0x2341, 0x0010): 1.2,  # Mega 2560 (8U2)
-    (0x2341, 0x0042): 1.2,  # Mega 2560 R3 (16U2)
-}
+#: The Arduino Mega 2560's USB IDs (its 8U2, then 16U2 running arduino-usbserial): the
+#: board ``arduinoio flash`` picks the Mega's image and bootloader protocol for.
+MEGA2560_USB_IDS: Final = ((0x2341, 0x0010), (0x2341, 0x0042))
+
+BOOT_QUIET_S: Final[dict[tuple[int, int], float]] = {ids: 1.2 for ids in MEGA2560_USB_IDS}
 
 
 def boot_quiet_for_ids(vid: int | None, pid: int | None) -> float:

@@ -1,4 +1,5 @@
-"""Opening a Mega 2560 keeps the line quiet through its bootloader's window (issue 29).
+"""A Mega 2560 known by its USB IDs: the open waits out its bootloader's window, and
+`arduinoio flash` picks its image and bootloader protocol (issue 29).
 
 Opening the port resets a Mega (DTR) into Arduino's stk500v2 bootloader, which takes any
 byte of its first 0.84 s (measured on the virtual Mega running it) for a programmer's and
@@ -24,6 +25,7 @@ from arduinoio_async.errors import BoardSilentError
 from arduinoio_async.testing._fake_sysfs import FakeSysfs
 from arduinoio_async.transport import _latency
 from arduinoio_async.transport._bridges import BOOT_QUIET_S, boot_quiet_for_ids
+from tests.e2e.test_cli import run
 
 
 def test_only_the_megas_usb_ids_ask_for_quiet() -> None:
@@ -62,6 +64,30 @@ async def test_the_first_probe_waits_out_a_megas_boot_window(
         wait = BOOT_QUIET_S[(0x2341, 0x0042)]
         assert first_byte_after, "the library never probed"
         assert (first_byte_after[0] >= wait) is quiet, first_byte_after
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+@pytest.mark.parametrize(
+    ("pid", "expected"),
+    [(0x0042, "-p atmega2560 -c wiring"), (0x0043, "-p atmega328p -c arduino")],
+)
+async def test_flash_picks_the_image_and_bootloader_of_the_board_it_finds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, pid: int, expected: str
+) -> None:
+    """Without --board, the port's USB IDs choose: a Mega's gets its image and stk500v2."""
+    master, slave = os.openpty()
+    try:
+        port = os.ttyname(slave)
+        sysfs = FakeSysfs(tmp_path / "sys")
+        await anyio.to_thread.run_sync(sysfs.add_device_of, port, 0x2341, pid)
+        monkeypatch.setattr(_latency, "SYSFS_ROOT", str(sysfs.root))
+        code, out = await run("flash", "--port", port, "--firmware-baud", "115200", "--dry-run")
+        assert code == 0, out
+        assert expected in out
+        mega = pid == 0x0042
+        assert ("arduinoio-mega2560-115200.hex" in out) is mega, out
     finally:
         os.close(master)
         os.close(slave)
