@@ -14,7 +14,6 @@ import signal
 import tempfile
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager, suppress
-from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal, cast
@@ -28,6 +27,7 @@ from ..protocol import DEFAULT_BAUD
 from ..protocol.profiles import DEFAULT_PROFILE
 from ._quadrature import QuadratureMethods
 from ._rcpulse import RcPulseMethods
+from ._readings import CircuitPin, FirmwareCycles, PulseStats
 from ._sonar import SonarModelMethods
 from ._spi_device import SpiDeviceMethods
 from .harness import (
@@ -55,56 +55,6 @@ Fixture = Literal["open", "loopback", "r2r"]
 UsbBridge = Literal["none", "16u2", "ftdi", "ch340"]
 _USB_BRIDGES = ("none", "16u2", "ftdi", "ch340")
 PinName = int | str
-
-
-@dataclass(frozen=True, slots=True)
-class CircuitPin:
-    """A pin as the simulated circuit sees it (DDR/PORT bits and the resulting level)."""
-
-    pin: int
-    ddr: int
-    port: int
-    level: int
-    mv: int | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class PulseStats:
-    """Recent pulses captured on a pin; times are simulated microseconds.
-
-    ``high_us`` and ``period_us`` hold the last 32 values; ``highs`` and ``periods`` count
-    all values recorded since the last clear, so a poller can tell which entries are new.
-    """
-
-    pin: int
-    count: int
-    falls: int
-    level: int
-    high_us: tuple[float, ...]
-    period_us: tuple[float, ...]
-    highs: int = 0
-    periods: int = 0
-    #: Simulated time of the rise that started each entry of ``high_us``.
-    rise_us: tuple[float, ...] = ()
-    #: Simulated time of the pin's last level change (None: it never changed).
-    last_edge_us: float | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class FirmwareCycles:
-    """Simulated CPU cycles from the firmware reading a request's last byte from UDR0 to its
-    first reply byte written to UDR0 (the firmware's own work, independent of the baud rate).
-
-    ``last`` is ``None`` until a request got a reply.  16 cycles are one microsecond.
-    """
-
-    samples: tuple[int, ...]
-    last: int | None
-
-    @property
-    def samples_us(self) -> tuple[float, ...]:
-        """The samples in microseconds, which is what latency budgets are written in."""
-        return tuple(s / 16.0 for s in self.samples)
 
 
 def _pin_arg(pin: PinName) -> PinName:
