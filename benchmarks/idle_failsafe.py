@@ -62,6 +62,8 @@ async def watch_stalls(stalls: list[tuple[float, float]], stop: anyio.Event) -> 
         before = time.monotonic()
         await anyio.sleep(STALL_TICK)
         now = time.monotonic()
+        if stop.is_set():  # the host's deliberate stop at the end is not a stall
+            return
         if now - before - STALL_TICK >= STALL:
             stalls.append((now, now - before - STALL_TICK))
 
