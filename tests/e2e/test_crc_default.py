@@ -75,3 +75,21 @@ async def test_the_environment_overrides_the_bridges_default(
     async with Board.open(uno.port, baudrate=uno.baud, low_latency=False) as board:
         assert board.link.framing is p.Framing.XOR
         assert await board.read_id() == 0x0093
+
+
+async def test_crc_framing_and_low_latency_mode_together_through_the_16u2_model(
+    virtual_uno_factory: VirtualUnoFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The configuration the defaults now pick for an Uno R3 at 1 Mbaud: CRC-16 frames and
+    filler after each burst, through the bridge's 4.096 ms tick (the harness's model)."""
+    uno = await virtual_uno_factory(board_id=0x0094, baud=1_000_000, usb_bridge="16u2")
+    behind(monkeypatch, uno.port, 0x2341, 0x0043)
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        assert board.link.framing is p.Framing.CRC16
+        assert board.low_latency
+        out = await board.digital_output(D3)
+        for level in (True, False, True):
+            await out.write(level)
+            assert (await uno.pin(3)).level == int(level)
+        assert [await board.read_id() for _ in range(20)] == [0x0094] * 20
+        assert board.link.stats.garbage_bytes == 0
