@@ -19,6 +19,7 @@ import json
 import threading
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
+from typing import cast
 
 import anyio
 import zenoh
@@ -34,10 +35,13 @@ from arduinoio_async.network._keys import (
     undeclare,
 )
 from arduinoio_async.network._limits import (
+    ACTIVE_WINDOW,
     CLIENT_QUERIES,
     CLIENT_RECORDS,
     MAX_ATTACHMENT,
     MAX_PAYLOAD,
+    MIN_SHARE,
+    ClientQueues,
     ClientRecords,
 )
 from arduinoio_async.network._served_board import KNOWN_FRAMES, ServedBoard
@@ -308,3 +312,28 @@ async def test_a_flooding_client_gets_half_the_link_while_another_client_is_acti
         # (plus the one or two answered while a request crossed to the board)
         assert max(ahead[1:]) <= CLIENT_QUERIES // 2 + 2, ahead
         undeclare(token)
+
+
+def test_the_share_shrinks_while_another_client_is_active_and_grows_back() -> None:
+    """ClientQueues alone, on a clock of its own: a client over its share gives places
+    back as its queries are answered, and fills its whole share again once the other
+    client has been quiet for ACTIVE_WINDOW."""
+    clock = [0.0]
+    queues = ClientQueues(now=lambda: clock[0])
+    flood = [cast(zenoh.Query, object()) for _ in range(40)]
+    assert [queues.admit(b"runaway", q) for q in flood] == [True] * 16 + [False] * 24
+    legit = cast(zenoh.Query, object())
+    assert queues.admit(b"legit", legit) is True  # its own share: never behind the backlog
+    assert queues.share() == CLIENT_QUERIES // 2
+    # 16 on the board, share 8: the first 8 answers admit nothing, then one for one
+    following = [queues.done(q) for q in flood[:9]]
+    assert following[:8] == [[]] * 8 and following[8] == [flood[16]]
+    queues.done(legit)  # the other client is done, but was heard just now
+    assert queues.share() == CLIENT_QUERIES // 2
+    clock[0] += ACTIVE_WINDOW * 2
+    later = cast(zenoh.Query, object())
+    assert queues.admit(b"runaway", later) is False  # behind its own queue; ages the other out
+    assert queues.share() == CLIENT_QUERIES
+    # 8 on the board, one answered: the share grew back to 16 and is filled again
+    assert queues.done(flood[9]) == flood[17:26]
+    assert MIN_SHARE <= CLIENT_QUERIES // 8
