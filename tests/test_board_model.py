@@ -21,6 +21,8 @@ from arduinoio_async.protocol import pins, pins_mega
 from arduinoio_async.protocol.boards import (
     BOARD_MODELS,
     MEGA2560,
+    MEGA2560_FULL,
+    MEGA2560_HARDWARE,
     UNO_R3,
     WIRE_FUNCTIONS,
     BoardModel,
@@ -87,9 +89,9 @@ async def test_an_image_without_the_description_is_an_uno() -> None:
 
 async def test_a_mega_is_checked_against_the_mega_pins() -> None:
     """D9/D10 are Timer2's on the Mega (the board's tick), D2/D3 its Timer3's."""
-    async with on_fake(model=MEGA2560) as (board, fake):
+    async with on_fake(model=MEGA2560_FULL) as (board, fake):
         assert board.model.key == "mega2560" and board.model.pin_count == 70
-        assert board.model.functions == MEGA2560.functions
+        assert board.model.functions == MEGA2560_FULL.functions
         sent = fake.requests_seen
         with pytest.raises(PinCapabilityError, match="D9 cannot do servo PWM") as servo:
             await board.servo(D9)
@@ -126,7 +128,7 @@ def test_the_uno_model_is_table_iii() -> None:
 
 def test_a_plain_number_is_refused_with_the_pin_it_meant() -> None:
     with pytest.raises(PinCapabilityError, match="3 is a number, not a pin: use D3"):
-        MEGA2560.require(3, Function.SERVO_PWM)
+        MEGA2560_FULL.require(3, Function.SERVO_PWM)
     assert MEGA2560.can(D3, Function.COUNTER) and not MEGA2560.can(A0, Function.I2C)
 
 
@@ -141,7 +143,7 @@ def test_a_plain_number_is_refused_with_the_pin_it_meant() -> None:
     ],
 )
 def test_the_mega_pin_types_are_the_mega_model_data(literal: object, function: Function) -> None:
-    assert tuple(int(pin) for pin in typing.get_args(literal)) == MEGA2560.pin_numbers(function)
+    assert tuple(int(pin) for pin in typing.get_args(literal)) == MEGA2560_HARDWARE[function]
 
 
 async def test_a_mega_board_opens_on_a_mega_and_refuses_an_uno() -> None:
@@ -159,9 +161,10 @@ async def test_a_mega_board_opens_on_a_mega_and_refuses_an_uno() -> None:
 
 
 async def test_a_fake_mega_drives_the_megas_own_pins() -> None:
-    """FakeBoard in Mega mode: its pins and their functions are the MEGA2560 data."""
+    """FakeBoard in Mega mode: its pins and their functions are the model's (here the whole
+    header, MEGA2560_FULL)."""
     async with (
-        FakeBoard(board_id=0x0042, model=MEGA2560) as fake,
+        FakeBoard(board_id=0x0042, model=MEGA2560_FULL) as fake,
         Mega2560Board.connect(fake.host_stream, timeout=0.5, ready_timeout=2) as mega,
     ):
         output = await mega.digital_output(pins.D40)

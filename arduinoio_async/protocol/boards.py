@@ -14,6 +14,7 @@ bitmap of ``ceil(pins / 8)`` bytes, pin 0 in bit 0 of the first byte (docs/proto
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Final
@@ -26,6 +27,8 @@ from .pins import TABLE_III, AnalogPin, DigitalPin, Function
 __all__ = [
     "BOARD_MODELS",
     "MEGA2560",
+    "MEGA2560_FULL",
+    "MEGA2560_HARDWARE",
     "UNO_R3",
     "WIRE_FUNCTIONS",
     "BoardModel",
@@ -184,8 +187,34 @@ _MEGA_PCINT = (10, 11, 12, 13, 14, 15, 50, 51, 52, 53, *range(_MEGA_A0 + 8, _MEG
 _MEGA_TIMER_PINS = (2, 3, 5, 6, 7, 8, 11, 12, 44, 45, 46)
 _MEGA_SPI = (50, 51, 52)
 
-#: The Arduino Mega 2560 (R3): the ATmega2560's pins as issue 29 lists them.  The Mega
-#: firmware (board_mega2560.c) reports this table; the w4-mega work may refine it.
+#: What the ATmega2560 can do on the Mega's header (the target of the Mega image; the
+#: pins of :data:`MEGA2560` are the part of it the image does today).
+MEGA2560_HARDWARE: Final[Mapping[Function, tuple[int, ...]]] = {
+    Function.DIGITAL_INPUT: _MEGA_DIGITAL,
+    Function.DIGITAL_OUTPUT: _MEGA_DIGITAL,
+    Function.ANALOG_INPUT: tuple(range(_MEGA_A0, _MEGA_A0 + 16)),
+    #: Port A (D22-D29): one port, one write per soft PWM edge, as PORTD on the Uno.
+    Function.SOFT_PWM: tuple(range(22, 30)),
+    Function.SERVO_PWM: _MEGA_TIMER_PINS,
+    Function.I2C: (20, 21),
+    Function.COUNTER: _MEGA_INT,
+    Function.DUTY_PWM: _MEGA_TIMER_PINS,
+    Function.ENCODER: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
+    Function.SPI: _MEGA_SPI,
+    Function.SPI_CS: tuple(n for n in _MEGA_DIGITAL if n not in _MEGA_SPI),
+    Function.PULSE_IN: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
+    #: The echo is timed from pin-change stamps, as a pulse input's is.
+    Function.SONAR: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
+}
+
+#: The Mega image's pin masks are 16 bits wide today (firmware/src/board_pins_mega2560.h),
+#: so it serves D2-D15 (with I2C on D20/D21 and every analog input); the rest of
+#: :data:`MEGA2560_HARDWARE` waits for wider masks.  The board describes exactly this, so
+#: the library refuses the rest before sending anything.
+_MEGA_NOW_DIGITAL = tuple(range(2, 16))
+_MEGA_NOW_TIMED = (10, 11, 12, 13, 14, 15)  # PCINT on PB4-7 and PJ0/1
+
+#: The Arduino Mega 2560 (R3) as the Mega image serves it.
 MEGA2560: Final = BoardModel(
     key="mega2560",
     model_id=BoardModelId.MEGA2560,
@@ -195,23 +224,25 @@ MEGA2560: Final = BoardModel(
     digital_pins=54,
     analog_pins=16,
     functions={
-        Function.DIGITAL_INPUT: _MEGA_DIGITAL,
-        Function.DIGITAL_OUTPUT: _MEGA_DIGITAL,
+        Function.DIGITAL_INPUT: _MEGA_NOW_DIGITAL,
+        Function.DIGITAL_OUTPUT: _MEGA_NOW_DIGITAL,
         Function.ANALOG_INPUT: tuple(range(_MEGA_A0, _MEGA_A0 + 16)),
-        #: Port A (D22-D29): one port, one write per soft PWM edge, as PORTD on the Uno.
-        Function.SOFT_PWM: tuple(range(22, 30)),
-        Function.SERVO_PWM: _MEGA_TIMER_PINS,
+        Function.SOFT_PWM: (),
+        Function.SERVO_PWM: (11, 12),  # OC1A/OC1B
         Function.I2C: (20, 21),
-        Function.COUNTER: _MEGA_INT,
-        Function.DUTY_PWM: _MEGA_TIMER_PINS,
-        Function.ENCODER: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
-        Function.SPI: _MEGA_SPI,
-        Function.SPI_CS: tuple(n for n in _MEGA_DIGITAL if n not in _MEGA_SPI),
-        Function.PULSE_IN: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
-        #: The echo is timed from pin-change stamps, as a pulse input's is.
-        Function.SONAR: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
+        Function.COUNTER: (2, 3),  # INT4/INT5
+        Function.DUTY_PWM: (),
+        Function.ENCODER: (2, 3, *_MEGA_NOW_TIMED),
+        Function.SPI: (),
+        Function.SPI_CS: (),
+        Function.PULSE_IN: _MEGA_NOW_TIMED,
+        Function.SONAR: _MEGA_NOW_TIMED,
     },
 )
+
+#: The whole Mega as :data:`MEGA2560_HARDWARE` says (what the typed Mega pins follow; a
+#: FakeBoard can play it to try code for the full header before the image serves it).
+MEGA2560_FULL: Final = dataclasses.replace(MEGA2560, functions=dict(MEGA2560_HARDWARE))
 
 #: Every model the library knows, by wire ID.
 BOARD_MODELS: Final[Mapping[int, BoardModel]] = {m.model_id: m for m in (UNO_R3, MEGA2560)}

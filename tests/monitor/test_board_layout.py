@@ -15,7 +15,7 @@ import pytest
 from arduinoio_async.board import Board
 from arduinoio_async.errors import UsageError
 from arduinoio_async.monitor._panel import BoardPanel
-from arduinoio_async.protocol.boards import MEGA2560, UNO_R3, BoardModel
+from arduinoio_async.protocol.boards import MEGA2560_FULL, UNO_R3, BoardModel
 from arduinoio_async.protocol.pins import Function
 from arduinoio_async.testing import FakeBoard
 
@@ -40,7 +40,7 @@ def pins_of(snapshot: dict[str, object]) -> dict[str, list[str]]:
 
 
 async def test_a_mega_page_shows_the_megas_pins_and_their_roles() -> None:
-    async with panel_on(MEGA2560) as (panel, fake):
+    async with panel_on(MEGA2560_FULL) as (panel, fake):
         pins = pins_of(panel.snapshot())
         assert list(pins) == [f"D{n}" for n in range(2, 54)]
         assert "servo" in pins["D44"] and "servo" not in pins["D9"]
