@@ -18,6 +18,7 @@ from ..protocol.pins import AnalogPin
 from ._features import require_stream_features
 from .i2c_blocks import I2CBlock, block_requests, blocks_bytes
 from .motors import check_stream
+from .pulse_inputs import pulse_input_slots
 from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 
 if TYPE_CHECKING:
@@ -42,6 +43,7 @@ class StreamMethods:
         steppers: bool = False,
         encoders: bool = False,
         i2c: Sequence[I2CBlock] = (),
+        pulse_inputs: bool = False,
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
@@ -52,12 +54,16 @@ class StreamMethods:
         :mod:`arduinoio_async.board.streaming` for gaps and the overflow policy.
         ``i2c=[I2CBlock(0x68, 0x3B, 14)]`` adds register blocks the board reads each
         period (:mod:`arduinoio_async.board.i2c_blocks`; set up the bus first).
+        ``pulse_inputs=True`` carries the pulse inputs' last widths and lost flags
+        (``Sample.pulse_widths``, ``Sample.pulse_lost``; set the inputs up first: the
+        samples carry the slots up to the highest one in use when the stream starts).
         """
         board = cast("BoardCore", self)
         blocks = block_requests(i2c) if i2c else []
         i2c_bytes = blocks_bytes(i2c) if i2c else None
+        pulse_ins = pulse_input_slots(board) if pulse_inputs else None
         request = stream_request(
-            analog, levels, edges, counters, period_ms, steppers, encoders, i2c_bytes
+            analog, levels, edges, counters, period_ms, steppers, encoders, i2c_bytes, pulse_ins
         )
         require_stream_features(board, p.StreamFlags(request.flags))
         check_stream(board)  # duty PWM on D5/D6 holds the timer the samples need

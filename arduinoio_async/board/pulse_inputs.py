@@ -26,7 +26,7 @@ from .handles import PinHandle
 if TYPE_CHECKING:
     from ._core import BoardCore
 
-__all__ = ["PulseInput", "PulseState", "scale_position", "scale_throttle"]
+__all__ = ["PulseInput", "PulseState", "pulse_input_slots", "scale_position", "scale_throttle"]
 
 #: The RC end points most transmitters send (microseconds).
 DEFAULT_LOW_US = 1000
@@ -58,6 +58,19 @@ def scale_position(width_us: float, low_us: float, centre_us: float, high_us: fl
 def scale_throttle(width_us: float, low_us: float, high_us: float) -> float:
     """``width_us`` as 0..1: ``low_us`` -> 0, ``high_us`` -> 1, clamped."""
     return max(0.0, min(1.0, (width_us - low_us) / (high_us - low_us)))
+
+
+def pulse_input_slots(board: BoardCore) -> int:
+    """How many slots the board's stream block carries: the highest slot a live
+    :class:`PulseInput` holds, + 1 (0 for none), as the board counts them at START."""
+    return max(
+        (
+            claim.handle.slot + 1
+            for claim in board.roles.values()
+            if isinstance(claim.handle, PulseInput) and not claim.handle.released
+        ),
+        default=0,
+    )
 
 
 def _state(reply: p.PulseInReadReply | p.PulseInSignal) -> PulseState:

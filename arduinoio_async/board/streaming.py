@@ -72,6 +72,12 @@ class Sample:
     #: Per block: 0 if read, else the error code of the failed step (an
     #: :class:`~arduinoio_async.protocol.ErrorCode`: NACK, timeout).
     i2c_status: tuple[int, ...] | None = None
+    #: The width in microseconds of the last pulse of each pulse input slot 0..n-1 (n: the
+    #: highest slot with an input when the stream started, + 1; 0 where no pulse came yet),
+    #: if the stream includes pulse inputs.
+    pulse_widths: tuple[int, ...] | None = None
+    #: Per slot: the signal is lost (or the slot has no input): its width is old.
+    pulse_lost: tuple[bool, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -109,6 +115,12 @@ class Sample:
             encoders = tuple(
                 ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
             )
+        pulse_widths = pulse_lost = None
+        if frame.flags & p.StreamFlags.PULSE_IN:
+            slots = p.split_pulse_in_block(data[pos:])
+            pos += 1 + 3 * len(slots)
+            pulse_widths = tuple(width for width, _ in slots)
+            pulse_lost = tuple(lost for _, lost in slots)
         i2c = i2c_status = None
         if frame.flags & p.StreamFlags.I2C:
             # free slots (length 0, status 0) are left out: the blocks come in slot order
@@ -128,6 +140,8 @@ class Sample:
             encoders,
             i2c,
             i2c_status,
+            pulse_widths,
+            pulse_lost,
         )
 
 
@@ -140,9 +154,11 @@ def stream_request(
     steppers: bool = False,
     encoders: bool = False,
     i2c_bytes: int | None = None,
+    pulse_ins: int | None = None,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request (``i2c_bytes``: the
-    data bytes of the I2C blocks it reads, None for none)."""
+    data bytes of the I2C blocks it reads, None for none; ``pulse_ins``: the pulse input
+    slots it carries, None for no pulse inputs)."""
     mask = 0
     for pin in analog:
         require(pin, Function.ANALOG_INPUT)
@@ -158,18 +174,21 @@ def stream_request(
         flags |= p.StreamFlags.STEPPERS
     if encoders:
         flags |= p.StreamFlags.ENCODERS
+    if pulse_ins is not None:
+        flags |= p.StreamFlags.PULSE_IN
     if i2c_bytes is not None:
         flags |= p.StreamFlags.I2C
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    size = p.sample_payload_size(mask, flags, i2c_bytes or 0)
+    size = p.sample_payload_size(mask, flags, i2c_bytes or 0, pulse_ins or 0)
     if size > p.STREAM_MAX_VALUES:
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
             f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
             f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
-            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS})",
+            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS}, pulse inputs 1 + 3 "
+            "each)",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0

@@ -128,6 +128,10 @@ class StreamFlags(IntFlag):
     #: One i32 count per encoder slot (ENCODER_SLOTS of them, slot 0 first; a free
     #: slot reads 0).
     ENCODERS = 0x10
+    #: The pulse inputs (extension): a u8 count n (the highest configured PULSE_IN slot
+    #: + 1 when the stream started), then per slot 0..n-1 a u16 width in microseconds and
+    #: a u8 lost flag (1: signal lost, or no input on that slot).
+    PULSE_IN = 0x40
     #: The I2C register blocks (I2C_BLOCK_SLOTS of them, slot 0 first): per slot a u8
     #: length (0: a free slot), a u8 status (0: read this period; else the error code of
     #: the failed step) and that many bytes.

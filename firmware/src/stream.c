@@ -31,6 +31,7 @@
 #include "i2c.h"
 #include "stepper.h"
 #include "i2cblock.h"
+#include "pulse_in.h"
 
 #ifndef BAUD
 #define BAUD 115200UL
@@ -43,10 +44,15 @@
 #define STREAM_FLAGS                                                                     \
     (AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS |                        \
      (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u) | \
-     (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
+     (AIO_WITH_PULSE_IN ? AIO_STREAM_PULSE_IN : 0u) | (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
+#if AIO_WITH_PULSE_IN
+static uint8_t pulse_ins;            /* the pulse input slots the samples carry (frozen at START) */
+#else
+#define pulse_ins 0u
+#endif
 static uint8_t adc_shift;            /* ADC clock of the chain: 16 MHz >> adc_shift */
 static uint16_t seq;                 /* sequence number of the next sample */
 static uint32_t instant;             /* its sampling instant, board microseconds */
@@ -75,7 +81,7 @@ uint8_t stream_running(void) { return running; }
 
 uint8_t stream_converts(void) { return running && mask; }
 
-static uint8_t value_bytes(uint8_t m, uint8_t f)
+static uint8_t value_bytes_n(uint8_t m, uint8_t f, uint8_t pins_n)
 {
     uint8_t n = 0;
     for (; m; m >>= 1)
@@ -94,12 +100,19 @@ static uint8_t value_bytes(uint8_t m, uint8_t f)
     if (f & AIO_STREAM_ENCODERS)
         n += 4u * AIO_ENCODER_SLOTS;
 #endif
+#if AIO_WITH_PULSE_IN
+    if (f & AIO_STREAM_PULSE_IN)
+        n += 1u + 3u * pins_n;
+#endif
+    (void)pins_n;
 #if AIO_WITH_I2C_STREAM
     if (f & AIO_STREAM_I2C)
         n += i2cblock_bytes();
 #endif
     return n;
 }
+
+static uint8_t value_bytes(uint8_t m, uint8_t f) { return value_bytes_n(m, f, pulse_ins); }
 
 uint8_t stream_admit(uint8_t len, uint16_t period_us, uint32_t baud)
 {
@@ -190,6 +203,13 @@ static void sample(void)
     if (flags & AIO_STREAM_ENCODERS)
         for (r = 0; r < AIO_ENCODER_SLOTS; r++)
             p = aio_put32(p, (uint32_t)encoder_peek((uint8_t)r));
+#endif
+    /* (the sonar block goes here, before the pulse inputs') */
+#if AIO_WITH_PULSE_IN
+    if (flags & AIO_STREAM_PULSE_IN) {
+        *p++ = pulse_ins;
+        p = pulse_in_put_stream(p, pulse_ins);
+    }
 #endif
     frame_len = (uint8_t)(HDR + len + 1u);
     busy = 1;
@@ -282,7 +302,7 @@ static void stop(void)
 
 uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
-    uint8_t m, f, s, shift;
+    uint8_t m, f, s, shift, n;
     uint16_t period, r;
 
     if (rq->dt != AIO_DT_STREAM_START && rq->dt != AIO_DT_STREAM_STOP)
@@ -296,9 +316,14 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     m = rq->data[0];
     f = rq->data[1];
     period = aio_be16(rq->data + 2);
+#if AIO_WITH_PULSE_IN
+    n = pulse_in_stream_slots();
+#else
+    n = 0;
+#endif
     if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
         f & ~STREAM_FLAGS ||
-        (m == 0 && f == 0) || value_bytes(m, f) > AIO_STREAM_MAX_VALUES ||
+        (m == 0 && f == 0) || value_bytes_n(m, f, n) > AIO_STREAM_MAX_VALUES ||
         period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
         period % AIO_STREAM_PERIOD_STEP_US)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
@@ -310,7 +335,7 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_PIN_BUSY; /* duty PWM on D5/D6 holds the alarm timer */
     if (m && analog_watched())
         return AIO_ERR_PIN_BUSY; /* the ADC samples watched channels */
-    if (!stream_admit(value_bytes(m, f), period, BAUD))
+    if (!stream_admit(value_bytes_n(m, f, n), period, BAUD))
         return AIO_ERR_LINK_CAPACITY;
     shift = stream_adc_clock((uint8_t)(value_bytes(m, 0) / 2u), period);
     if (!shift)
@@ -320,6 +345,9 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     s = hal_irq_save();
     mask = m;
     flags = f;
+#if AIO_WITH_PULSE_IN
+    pulse_ins = n;
+#endif
     adc_shift = shift;
     channel_count = 0;
     for (r = 0; r < AIO_ANALOG_CHANNELS; r++)

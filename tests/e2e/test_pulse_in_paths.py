@@ -1,0 +1,86 @@
+"""RC pulse inputs on the other paths: the firmware-timed stream, many tasks at once.
+
+Oracle: the harness's RC pulse sources (``uno.rcpulse_status``: the width each source
+held its pin high, measured in CPU cycles), never the library's own answer.
+"""
+
+from __future__ import annotations
+
+import anyio
+import pytest
+
+from arduinoio_async import A0, D7, D8
+from arduinoio_async.board import Board
+from arduinoio_async.sim import VirtualUno
+from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+pytestmark = pytest.mark.sim
+
+
+async def truth_of(uno: VirtualUno, pin: int) -> float:
+    """The last completed pulse's width on ``pin`` by the harness."""
+    return next(s for s in await uno.rcpulse_status() if s.pin == pin).last_width_us
+
+
+async def test_the_stream_carries_each_slots_width_and_its_loss(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(profile="sensing")
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        await board.pulse_input(D7, slot=0, timeout_ms=60)
+        await board.pulse_input(D8, slot=2, timeout_ms=60)  # slot 1 has no input
+        await uno.rcpulse("D7", width_us=1300, period_us=10_000)
+        await uno.rcpulse("D8", width_us=1850, period_us=10_000)
+        async with board.stream(analog=[A0], pulse_inputs=True, period_ms=5) as samples:
+            with anyio.fail_after(20):
+                async for s in samples:
+                    assert s.pulse_widths is not None and s.pulse_lost is not None
+                    assert len(s.pulse_widths) == 3 and s.pulse_lost[1]
+                    if not s.pulse_lost[0] and not s.pulse_lost[2]:
+                        break
+            # once both sources settled, a sample's widths are the harness's last pulses
+            with anyio.fail_after(20):
+                async for s in samples:
+                    assert s.pulse_widths is not None
+                    if s.sequence % 8 == 0:
+                        break
+            assert s.pulse_widths is not None  # (the widths are constant: any pulse's)
+            assert abs(s.pulse_widths[0] - await truth_of(uno, 7)) <= 2, s
+            assert abs(s.pulse_widths[2] - await truth_of(uno, 8)) <= 2, s
+            await uno.rcpulse_stop("D8")
+            with anyio.fail_after(20):
+                async for s in samples:
+                    assert s.pulse_lost is not None and s.pulse_widths is not None
+                    if s.pulse_lost[2]:
+                        break
+            assert s.pulse_lost is not None and s.pulse_widths is not None
+            assert not s.pulse_lost[0]
+            assert abs(s.pulse_widths[2] - 1850) <= 2  # the last width, marked lost
+
+
+async def test_many_tasks_read_one_input_and_all_see_the_sources_width(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(profile="sensing")
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        rc = await board.pulse_input(D7, timeout_ms=100)
+        await uno.rcpulse("D7", width_us=1620, period_us=10_000)
+        with anyio.fail_after(20):
+            while True:  # the first pulse reaches the board
+                if not (await rc.read()).lost:
+                    break
+                await anyio.sleep(0.01)
+        widths: list[int] = []
+
+        async def reader() -> None:
+            for _ in range(5):
+                state = await rc.read()
+                assert not state.lost
+                widths.append(state.width_us)
+
+        async with anyio.create_task_group() as tg:
+            for _ in range(12):
+                tg.start_soon(reader)
+        truth = await truth_of(uno, 7)
+        assert len(widths) == 60
+        assert max(abs(w - truth) for w in widths) <= 2, (truth, sorted(set(widths)))
