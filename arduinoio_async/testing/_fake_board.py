@@ -343,7 +343,8 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
 
         pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
-        return p.ReadPinRolesReply(mask("input"), mask("output"), pwm, mask("counter"))
+        roles = (mask("input"), mask("output"), pwm, mask("counter"))
+        return p.ReadPinRolesReply(*roles, mask("pulse-input"))
 
     def _set_decoder(self, framing: p.Framing) -> None:
         self.framing = framing

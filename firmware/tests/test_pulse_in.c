@@ -152,6 +152,7 @@ static void pulse_in_stream(void)
 {
     board();
     CHECK(B(0x0C, 1, 1, 4, 0, 30), B(0x0C, 1, 1, 4, 0, 30));
+    CHECK(B(1, 8), B(1, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0x00, 0x10)); /* READ_PIN_ROLES: D4 */
     CHECK(B(7, 1, 0, 0x40, 0x27, 0x10), B(7, 1, 0, 0x40, 0x27, 0x10)); /* every 10 ms */
     pulse(4, 2u * 1234u + 1u, 10);
     run();

@@ -11,6 +11,7 @@ import pytest
 
 from arduinoio_async import A0, D7, D8
 from arduinoio_async.board import Board
+from arduinoio_async.cli._roles import pin_roles
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
@@ -84,3 +85,14 @@ async def test_many_tasks_read_one_input_and_all_see_the_sources_width(
         truth = await truth_of(uno, 7)
         assert len(widths) == 60
         assert max(abs(w - truth) for w in widths) <= 2, (truth, sorted(set(widths)))
+
+
+async def test_the_boards_pin_roles_name_a_pulse_input(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    uno = await virtual_uno_factory(profile="sensing")
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        rc = await board.pulse_input(D7)
+        assert (await pin_roles(board)).get("D7") == "pulse-width input"
+        await rc.release()
+        assert "D7" not in await pin_roles(board)
