@@ -79,6 +79,7 @@ from ._handles import (
     _Blocking,
 )
 from ._imu import BlockingMPU6050
+from ._pulse_in import BlockingPulseInput
 from ._spi import BlockingSpiBus
 from ._stepper import BlockingStepper
 
@@ -213,6 +214,15 @@ class BlockingBoard(_Blocking):
         """A quadrature encoder on any two digital pins (see ``Board.encoder``)."""
         handle = self._runner.call(lambda: self.handle.encoder(a, b, mode=mode, slot=slot))
         return BlockingEncoder(self._runner, handle)
+
+    def pulse_input(
+        self, pin: DigitalPin, *, timeout_ms: int = 100, slot: int | None = None
+    ) -> BlockingPulseInput:
+        """An RC receiver channel's pulse widths on any digital pin (``Board.pulse_input``)."""
+        handle = self._runner.call(
+            lambda: self.handle.pulse_input(pin, timeout_ms=timeout_ms, slot=slot)
+        )
+        return BlockingPulseInput(self._runner, handle)
 
     def spi(
         self,

@@ -6,11 +6,17 @@ held its pin high, measured in CPU cycles), never the library's own answer.
 
 from __future__ import annotations
 
-import anyio
-import pytest
+import io
 
-from arduinoio_async import A0, D7, D8
+import anyio
+import anyio.from_thread
+import anyio.to_thread
+import pytest
+from rich.console import Console
+
+from arduinoio_async import A0, D7, D8, blocking
 from arduinoio_async.board import Board
+from arduinoio_async.cli import main as cli_main
 from arduinoio_async.cli._roles import pin_roles
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
@@ -96,3 +102,46 @@ async def test_the_boards_pin_roles_name_a_pulse_input(
         assert (await pin_roles(board)).get("D7") == "pulse-width input"
         await rc.release()
         assert "D7" not in await pin_roles(board)
+
+
+async def test_cli_reads_and_watches_and_the_blocking_twin_reads(
+    virtual_uno_factory: VirtualUnoFactory, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``arduinoio rc D7`` prints the source's width (and frees the pin), ``--seconds``
+    watches; a bad pin is a one-line error; the blocking twin reads the same width."""
+    uno = await virtual_uno_factory(profile="sensing")
+    await uno.rcpulse("D7", width_us=1740, period_us=10_000)
+    target = ["--port", uno.port, "--baud", str(uno.baud)]
+
+    def cli(*argv: str) -> tuple[int, str]:
+        buffer = io.StringIO()
+        code = cli_main([*argv, *target], console=Console(file=buffer, width=200))
+        return code, buffer.getvalue()
+
+    code, out = await anyio.to_thread.run_sync(lambda: cli("rc", "D7"))
+    assert code == 0, out
+    truth = await truth_of(uno, 7)
+    width = int(out.split("width ")[1].split(" us")[0])
+    assert abs(width - truth) <= 2, out
+    code, out = await anyio.to_thread.run_sync(
+        lambda: cli("rc", "D7", "--seconds", "0.2", "--interval", "0.1")
+    )
+    assert code == 0 and out.count("width ") == 3, out
+    capsys.readouterr()
+    code, _ = await anyio.to_thread.run_sync(lambda: cli("pulse-in", "D7", "--timeout-ms", "0"))
+    err = capsys.readouterr().err
+    assert code != 0 and "timeout_ms" in err and len(err.strip().splitlines()) == 1, err
+
+    def script() -> tuple[int, bool, float | None]:
+        with blocking.open_board(uno.port, baudrate=uno.baud) as board:
+            rc = board.pulse_input(D7, timeout_ms=100)  # the CLI released the pin
+            state = rc.read()
+            for _ in range(500):  # until the first pulse after set-up (a round trip each)
+                if not state.lost:
+                    break
+                state = rc.read()
+            return state.width_us, state.lost, rc.throttle()
+
+    width, lost, throttle = await anyio.to_thread.run_sync(script)
+    assert not lost and abs(width - truth) <= 2
+    assert throttle is not None and abs(throttle - (truth - 1000) / 1000) < 0.01
