@@ -33,6 +33,7 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
         p.PwmConfig,
         p.CounterConfig,
         p.EncoderConfig,
+        p.PulseInConfig,
         p.SpiConfig,
         p.I2CBlock,
         p.PinRelease,
@@ -45,6 +46,9 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
 #: The claim key of I2C block slot ``s`` is ``I2C_BLOCK_KEY - s`` (below the encoder
 #: slots' -1..-ENCODER_SLOTS): the blocks a stream reads are one client's.
 I2C_BLOCK_KEY = -32
+#: The claim key of pulse input slot ``s`` is ``PULSE_IN_KEY - s`` (between the encoder
+#: slots and the I2C blocks).
+PULSE_IN_KEY = -16
 
 
 def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
@@ -67,7 +71,8 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     """Every (pin, role) ``request`` sets up or releases: :func:`role_of`'s, a stepper's
     pins (its step and direction pins, a limit switch), and an encoder's: its set-up claims
     both its pins and its slot (key ``-1 - slot``: a set-up of a slot in use reconfigures it
-    on the board), in a role naming both pins, so only the same encoder is shared."""
+    on the board), in a role naming both pins, so only the same encoder is shared; a pulse
+    input's pin and slot likewise."""
     if isinstance(request, p.StepperConfig):
         n = request.index
         return [
@@ -79,6 +84,10 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     if isinstance(request, p.EncoderConfig):
         role = f"quadrature encoder D{request.pin_a}/D{request.pin_b} (slot {request.slot})"
         return [(request.pin_a, role), (request.pin_b, role), (-1 - request.slot, role)]
+    if isinstance(request, p.PulseInConfig):
+        # the pin and the slot: a set-up of a slot in use moves it on the board
+        role = f"pulse-width input D{request.pin} (slot {request.slot})"
+        return [(request.pin, role), (PULSE_IN_KEY - request.slot, role)]
     if isinstance(request, p.SpiConfig):
         # the SPI bridge claims D11-D13 and its chip select in one role naming the chip
         # select: another client's bus (another chip select) is refused on D11
@@ -148,6 +157,8 @@ class PinHolders:
             name = f"D{pin}"
         elif pin <= I2C_BLOCK_KEY:
             name = f"I2C block slot {I2C_BLOCK_KEY - pin}"
+        elif pin <= PULSE_IN_KEY:
+            name = f"pulse input slot {PULSE_IN_KEY - pin}"
         else:
             name = f"encoder slot {-1 - pin}"
         return f"{name} is a {held.role} of another client"
