@@ -51,4 +51,5 @@ async def test_a_remote_pulse_input_reads_streams_and_holds_its_pin(
                 async for s in samples:
                     assert s.pulse_widths is not None and s.pulse_lost is not None
                     break
+        assert s.pulse_lost is not None and s.pulse_widths is not None
         assert not s.pulse_lost[0] and abs(s.pulse_widths[0] - truth) <= 2
