@@ -24,6 +24,7 @@ from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
 from ._fake_i2c_blocks import I2CBlockModels
+from ._fake_pulse_in import PulseInModels
 from ._fake_spi import SpiModels
 from ._fake_stepper import FakeSteppers
 from ._fake_transaction import split_items
@@ -49,7 +50,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
+class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -141,6 +142,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
             p.CounterWatch: self._counter_watch,
             **self._encoder_handlers(),
             **self._spi_handlers(),
+            **self._pulse_in_handlers(),
             **self._i2c_block_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
@@ -198,6 +200,8 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
                 self._report_change(pin, level)
             if state.role == "encoder":
                 self._encoder_edge(pin)
+            if state.role == "pulse-input":
+                self._pulse_in_edge(pin, level)
 
     def set_analog(self, channel: int, value: int) -> None:
         """Move an analog input: a watched channel that moved past its deadband reports
@@ -299,6 +303,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, FakeWire):
         self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
+        self.pulse_inputs.clear()
         self.spi_config = None
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
