@@ -15,6 +15,8 @@ the failsafe as usual, and while ``state.lost`` is true stop steering from the r
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -27,6 +29,8 @@ if TYPE_CHECKING:
     from ._core import BoardCore
 
 __all__ = ["PulseInput", "PulseState", "pulse_input_slots", "scale_position", "scale_throttle"]
+
+logger = logging.getLogger(__name__)
 
 #: The RC end points most transmitters send (microseconds).
 DEFAULT_LOW_US = 1000
@@ -111,6 +115,25 @@ class PulseInput(PinHandle):
         """The last width, its age and whether the signal is lost, read from the board now."""
         self.check_usable()
         return _state(await self.board.request(p.PulseInRead(self.slot)))
+
+    def on_signal(self, callback: Callable[[PulseState], None]) -> Callable[[], None]:
+        """Call ``callback(state)`` when this input's signal is lost (``state.lost``: no
+        pulse for ``timeout_ms``, with the last width) or comes back (the first pulse after a
+        loss or after set-up, with its width): the board's PulseInSignal events, sent once
+        per change, so an RC override hears of a loss without polling.  Returns the
+        unsubscriber.  The callback runs in the link's reader: keep it short (set an
+        event, send to a stream); its exceptions are logged.
+        """
+        slot = self.slot
+
+        def on_event(event: p.Event) -> None:
+            if isinstance(event, p.PulseInSignal) and event.slot == slot and not self.released:
+                try:
+                    callback(_state(event))
+                except Exception:  # a listener's bug must not hurt the link
+                    logger.exception("%r: on_signal callback %r failed", self, callback)
+
+        return self.board.link.subscribe(on_event)
 
     async def position(self) -> float | None:
         """The stick position -1..1 by the end points; None while the signal is lost."""

@@ -16,6 +16,7 @@ from rich.console import Console
 
 from arduinoio_async import A0, D2, D3, D4, D7, D8, D12, blocking
 from arduinoio_async.board import Board
+from arduinoio_async.board.pulse_inputs import PulseState
 from arduinoio_async.cli import main as cli_main
 from arduinoio_async.cli._roles import pin_roles
 from arduinoio_async.sim import VirtualUno
@@ -168,3 +169,27 @@ async def test_an_encoder_counts_exactly_beside_four_pulse_inputs(
         assert (state.count, state.invalid) == (truth.position, 0)
         for rc in inputs:
             assert not (await rc.read()).lost
+
+
+async def test_on_signal_calls_back_on_return_and_on_loss(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """``rc.on_signal(callback)``: the board's PulseInSignal events of this input as
+    PulseStates, "back" with the source's width, then "lost" once the source stops."""
+    uno = await virtual_uno_factory(profile="sensing")
+    async with Board.open(uno.port, baudrate=uno.baud) as board:
+        other = await board.pulse_input(D8, timeout_ms=50)  # its events are not rc's
+        rc = await board.pulse_input(D7, timeout_ms=50)
+        send, received = anyio.create_memory_object_stream[PulseState](8)
+        unsubscribe = rc.on_signal(send.send_nowait)
+        await uno.rcpulse("D8", width_us=1900, period_us=10_000)
+        await uno.rcpulse("D7", width_us=1200, period_us=10_000)
+        with anyio.fail_after(10):
+            back = await received.receive()
+        assert not back.lost and abs(back.width_us - await truth_of(uno, 7)) <= 2
+        await uno.rcpulse_stop("D7")
+        with anyio.fail_after(10):
+            lost = await received.receive()
+        assert lost.lost and abs(lost.width_us - 1200) <= 2
+        unsubscribe()
+        assert not (await other.read()).lost
