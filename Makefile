@@ -73,6 +73,7 @@ package-data: firmware
 generate: venv
 	$(BIN)/python -m arduinoio_async.protocol.cheader
 	$(BIN)/python -m arduinoio_async.protocol.docgen
+	$(BIN)/python -m arduinoio_async.protocol.boards_doc
 
 lint: venv
 	$(BIN)/ruff check .

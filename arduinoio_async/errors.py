@@ -60,7 +60,7 @@ class UsageError(ArduinoIOError, ValueError):
 
 
 class PinCapabilityError(UsageError):
-    """A pin was asked for a function that Table III does not give it."""
+    """A pin was asked for a function its board's model (Table III on an Uno) does not give it."""
 
     def __init__(
         self, pin: str, function: str, capable: Sequence[str], *, number: bool = False

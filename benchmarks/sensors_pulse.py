@@ -11,7 +11,7 @@ For each step, once every source has completed two pulses at the new width, each
 read; the error is the board's width minus the width the source held the pin high
 (``rcpulse_status``'s ``last_width_us``, measured in CPU cycles).  The maximum over every
 step and channel is the result; ``sensors.json`` keeps the other sensor benchmarks' keys.
-Sonar (``sonar_error_mm_max``) is not measured yet: the sonar is not implemented.
+Sonar: ``benchmarks/sensors_sonar.py`` (``sonar_error_mm_max``).
 
     .venv/bin/python -m benchmarks.sensors_pulse --json benchmarks/results/sensors.json
 """

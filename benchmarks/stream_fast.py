@@ -27,7 +27,7 @@ import serial
 
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.protocol.pins import AnalogPin
+from arduinoio_async.protocol.pins import UNO_ANALOG
 from arduinoio_async.sim import VirtualUno
 
 from ._results import command_line, write_result
@@ -70,7 +70,7 @@ async def measure(baud: int, channels: int, period_us: int, reader: str, seconds
             spacing: list[int] = []
         else:
             sequences, spacing = [], []
-            pins = list(AnalogPin)[:channels]
+            pins = list(UNO_ANALOG)[:channels]
             async with (
                 Board.open(uno.port, baudrate=baud) as board,
                 board.stream(analog=pins, period_ms=period_us / 1000, buffer=1_000_000) as stream,

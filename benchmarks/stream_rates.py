@@ -21,7 +21,7 @@ import anyio
 
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.protocol.pins import AnalogPin
+from arduinoio_async.protocol.pins import UNO_ANALOG
 from arduinoio_async.sim import VirtualUno
 
 from ._results import command_line, write_result
@@ -30,7 +30,7 @@ from ._results import command_line, write_result
 async def measure(baud: int, channels: int, seconds: float) -> dict[str, Any]:
     mask = (1 << channels) - 1
     period_us = p.stream_min_period_us(mask, p.StreamFlags.NONE, baud)
-    pins = list(AnalogPin)[:channels]
+    pins = list(UNO_ANALOG)[:channels]
     spacing: list[int] = []
     received = 0
     async with (

@@ -20,7 +20,7 @@ import anyio
 
 from arduinoio_async.board import Board
 from arduinoio_async.errors import LinkError
-from arduinoio_async.protocol.pins import AnalogPin
+from arduinoio_async.protocol.pins import UNO_ANALOG
 from arduinoio_async.sim import VirtualUno
 
 from ._results import command_line, report
@@ -32,7 +32,7 @@ async def measure(args: argparse.Namespace) -> dict[str, Any]:
         VirtualUno(board_id=0x0021, baud=1_000_000, seed=args.seed) as uno,
         Board.open(uno.port, baudrate=1_000_000) as board,
     ):
-        channels = list(AnalogPin)[:4]
+        channels = list(UNO_ANALOG)[:4]
         async with board.stream(analog=channels, period_ms=1.0) as stream:
             await uno.set_faults(drop=args.fault, insert=args.fault, flip=args.fault)
 

@@ -204,6 +204,40 @@ def test_mypy_rejects_a_servo_on_a_pin_table_iii_forbids(tmp_path: Path) -> None
     assert "misuse.py:7" in errors[0] and "misuse.py:8" in errors[1]
 
 
+def test_mypy_checks_a_mega_against_the_megas_pins_and_an_uno_against_the_unos(
+    tmp_path: Path,
+) -> None:
+    """Mega2560Board takes the Mega's pin types (protocol/pins_mega.py), Board the Uno's."""
+    snippet = tmp_path / "mega.py"
+    snippet.write_text(
+        textwrap.dedent(
+            """
+            from arduinoio_async.board import Board, Mega2560Board
+            from arduinoio_async.protocol.pins import D9, D18, D24, D44
+
+            async def main(uno: Board, mega: Mega2560Board) -> None:
+                await mega.servo(D44)
+                await mega.counter(D18)
+                await mega.soft_pwm(D24)
+                await mega.servo(D9)
+                await uno.servo(D44)
+                await uno.counter(D18)
+                async with Mega2560Board.open("/dev/ttyACM0") as opened:
+                    await opened.pwm(D44)
+                    await opened.pwm(D9)
+            """
+        )
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(snippet)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    errors = [line for line in result.stdout.splitlines() if ": error:" in line]
+    assert [e.split(":")[1] for e in errors] == ["9", "10", "11", "14"], result.stdout
+
+
 # ---- defects once found in the link core, kept fixed -------------------------------------
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import anyio
 import pytest
 
-from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12
+from arduinoio_async import D2, D3, D4, D5, D6, D7, D8, D9, D10, D11, D12, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
 from arduinoio_async.board.handles import DigitalOutput, output_setup
@@ -94,6 +94,8 @@ CALLS: dict[str, Callable[[Scene], Awaitable[object]]] = {
     "spi": lambda s: s.board.spi(cs=D10),
     "stepper": lambda s: s.board.stepper(step=D6, dir=D7),
     "pulse_input": lambda s: s.board.pulse_input(D4),
+    "sonar": lambda s: s.board.sonar(D11, D13),
+    "sonar_timing": lambda s: s.board.sonar_timing(period_ms=50),
     "temperature": lambda s: s.board.temperature(),
     "wait_rebooted": lambda s: s.board.wait_rebooted(deadline=DEADLINE),
     "write_id": lambda s: s.board.write_id(0x0043, deadline=DEADLINE),

@@ -54,6 +54,7 @@ from ..board.spi import BitOrderName
 from ..board.streaming import SampleStream
 from ..errors import BoardDisconnectedError
 from ..opener import open_board as open_any_board
+from ..protocol.boards import BoardModel
 from ..protocol.pins import (
     AnalogPin,
     CounterPin,
@@ -80,6 +81,7 @@ from ._handles import (
 )
 from ._imu import BlockingMPU6050
 from ._pulse_in import BlockingPulseInput
+from ._sonars import BlockingSonar
 from ._spi import BlockingSpiBus
 from ._stepper import BlockingStepper
 
@@ -117,6 +119,11 @@ class BlockingBoard(_Blocking):
     def board_id(self) -> int:
         """The board's ID, read when the link opened."""
         return self.handle.board_id
+
+    @property
+    def model(self) -> BoardModel:
+        """What the board said it is and which pins can do what (read when it opened)."""
+        return self.handle.model
 
     # ---- handles ------------------------------------------------------------------------
 
@@ -214,6 +221,27 @@ class BlockingBoard(_Blocking):
         """A quadrature encoder on any two digital pins (see ``Board.encoder``)."""
         handle = self._runner.call(lambda: self.handle.encoder(a, b, mode=mode, slot=slot))
         return BlockingEncoder(self._runner, handle)
+
+    def sonar(
+        self, trigger: DigitalPin, echo: DigitalPin, *, slot: int | None = None
+    ) -> BlockingSonar:
+        """An HC-SR04 style sonar, trigger and echo on any two pins (see ``Board.sonar``)."""
+        handle = self._runner.call(lambda: self.handle.sonar(trigger, echo, slot=slot))
+        return BlockingSonar(self._runner, handle)
+
+    def sonar_timing(
+        self,
+        *,
+        period_ms: int = 60,
+        speed_m_s: float | None = None,
+        temperature_c: float | None = None,
+    ) -> None:
+        """How often the board fires a sonar, and the speed of sound (``Board.sonar_timing``)."""
+        self._runner.call(
+            lambda: self.handle.sonar_timing(
+                period_ms=period_ms, speed_m_s=speed_m_s, temperature_c=temperature_c
+            )
+        )
 
     def pulse_input(
         self, pin: DigitalPin, *, timeout_ms: int = 100, slot: int | None = None

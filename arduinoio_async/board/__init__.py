@@ -13,7 +13,9 @@ in one direction (``tests/test_import_graph.py`` checks it):
 * :mod:`.failsafe`: the failsafe and the keepalive heartbeat; :mod:`.boot`: waiting for
   a boot of the board;
 * :mod:`.board`: :class:`Board` itself (opening, requests, restore), with the handle
-  factories mixed in from :mod:`._pin_methods` and :mod:`._motor_methods`.
+  factories mixed in from :mod:`._pin_methods` and :mod:`._motor_methods`;
+* :mod:`.model`: the board's model, read at open; :mod:`.mega`: :class:`Mega2560Board`,
+  a ``Board`` typed with the Mega's pins.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from __future__ import annotations
 from ._core import BoardCore
 from .board import READY_TIMEOUT, Board
 from .failsafe import HEARTBEATS_PER_TIMEOUT, IDLE_HEARTBEAT, FailsafeConfig
+from .mega import Mega2560Board, WrongBoardModelError
 from .roles import Claim, PinRoles
 
 __all__ = [
@@ -31,5 +34,7 @@ __all__ = [
     "BoardCore",
     "Claim",
     "FailsafeConfig",
+    "Mega2560Board",
     "PinRoles",
+    "WrongBoardModelError",
 ]

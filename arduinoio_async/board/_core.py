@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 from .. import protocol as p
 
 if TYPE_CHECKING:
+    from ..protocol.boards import BoardModel
     from ..protocol.pins import DigitalPin
     from ..transport import Transport
     from .roles import PinRoles, RoleHolder
@@ -30,6 +31,9 @@ class BoardCore(Protocol):
 
     board_id: int
     capabilities: p.ReadCapabilitiesReply
+    #: What the board said it is and which pins can do what (the Uno's Table III for an
+    #: image that cannot say): every pin is checked against it before anything is sent.
+    model: BoardModel
     #: The session tag this library gave the board's current boot (0: none yet).
     session: int
     #: The change, counter, analog and stream subscriptions, restored after a reset.

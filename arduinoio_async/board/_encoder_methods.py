@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
-from ..protocol.pins import require as require_capable
 from ._slots import choose_slot
 from .encoders import Encoder, ModeName, encoder_mode
 
@@ -43,8 +42,8 @@ class EncoderMethods:
         """
         board = cast("BoardCore", self)
         board.require_feature(p.Feature.ENCODER, "quadrature encoders")
-        require_capable(a, Function.ENCODER)
-        require_capable(b, Function.ENCODER)
+        board.model.require(a, Function.ENCODER)
+        board.model.require(b, Function.ENCODER)
         assert isinstance(a, DigitalPin) and isinstance(b, DigitalPin)
         if a is b:
             raise ValueRangeError("encoder pin B", b.name, "a pin other than A")

@@ -19,7 +19,6 @@ from ..protocol.pins import (
     Function,
     ServoPin,
     SoftPwmPin,
-    capable_pins,
 )
 from ..protocol.timers import TIMER_OF
 from ._pin_methods import PinMethods
@@ -104,8 +103,8 @@ class MotorMethods(PinMethods):
         other pin at another frequency), PinRoleError when the pin has another role.
         """
         board = cast("BoardCore", self)
-        if cast(object, pin) is D11:
-            capable = [q.name for q in capable_pins(Function.DUTY_PWM)]
+        if cast(object, pin) is D11 and board.model.model_id == p.BoardModelId.UNO_R3:
+            capable = list(board.model.pin_names(Function.DUTY_PWM))
             exc = PinCapabilityError("D11", Function.DUTY_PWM.value, capable)
             exc.args = (exc.args[0] + D11_REASON,)
             raise exc

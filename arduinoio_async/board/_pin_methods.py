@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, TypeVar, cast
 from .. import protocol as p
 from ..errors import PinRoleError
 from ..protocol.pins import AnalogPin, CounterPin, DigitalPin, Function
-from ..protocol.pins import require as require_capable
 from .handles import (
     AnalogInput,
     Counter,
@@ -49,7 +48,7 @@ class PinMethods:
     def _new_handle(
         self, pin: object, function: Function, factory: Callable[[BoardCore, DigitalPin], H]
     ) -> H:
-        require_capable(pin, function)
+        self._board.model.require(pin, function)
         assert isinstance(pin, DigitalPin)
         handle = factory(cast("BoardCore", self), pin)
         self._board.roles.check_free(handle)
@@ -59,7 +58,7 @@ class PinMethods:
 
     def gpio(self, pin: DigitalPin) -> Gpio:
         """A digital pin that configures itself on first use (output on write, input on read)."""
-        require_capable(pin, Function.DIGITAL_OUTPUT)
+        self._board.model.require(pin, Function.DIGITAL_OUTPUT)
         handle = self._gpio.get(pin)
         if handle is None:
             handle = Gpio(cast("BoardCore", self), pin)
@@ -90,7 +89,7 @@ class PinMethods:
 
     def analog(self, pin: AnalogPin) -> AnalogInput:
         """An analog input (no configuration needed); A4/A5 are busy while I2C is on."""
-        if self._board.roles.i2c is not None and pin in (AnalogPin.A4, AnalogPin.A5):
+        if self._board.roles.i2c is not None and self._board.model.can(pin, Function.I2C):
             raise PinRoleError(pin.name, "I2C", "analog input")
         return AnalogInput(cast("BoardCore", self), pin)
 

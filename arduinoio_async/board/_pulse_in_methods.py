@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
-from ..protocol.pins import require as require_capable
 from ._slots import choose_slot
 from .pulse_inputs import DEFAULT_CENTRE_US, DEFAULT_HIGH_US, DEFAULT_LOW_US, PulseInput
 
@@ -46,7 +45,7 @@ class PulseInMethods:
         """
         board = cast("BoardCore", self)
         board.require_feature(p.Feature.PULSE_IN, "pulse-width inputs")
-        require_capable(pin, Function.PULSE_IN)
+        board.model.require(pin, Function.PULSE_IN)
         assert isinstance(pin, DigitalPin)
         if not 1 <= timeout_ms <= 0xFFFF:
             raise ValueRangeError("pulse input timeout_ms", timeout_ms, "1-65535")

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import PinRoleError, UsageError, ValueRangeError
 from ..protocol.pins import DigitalPin, Function, SpiCsPin
-from ..protocol.pins import require as require_capable
 from .handles import PinHandle
 from .spi import BitOrderName, SpiBus, spi_clock
 
@@ -54,7 +53,7 @@ class SpiMethods:
         """
         board = cast("BoardCore", self)
         board.require_feature(p.Feature.SPI, "the SPI bridge")
-        require_capable(cs, Function.SPI_CS)
+        board.model.require(cs, Function.SPI_CS)
         assert isinstance(cs, DigitalPin)
         if isinstance(mode, bool) or mode not in (0, 1, 2, 3):
             raise ValueRangeError("SPI mode", mode, "0, 1, 2 or 3")

@@ -1,7 +1,8 @@
 """One I/O board: connection set-up, and typed handles for every feature.
 
-``Board`` sits on a :class:`~arduinoio_async.transport.Transport`.  It enforces Table III
-and the one-role-per-pin rule *before* anything is sent (the board would refuse too, but a
+``Board`` sits on a :class:`~arduinoio_async.transport.Transport`.  It enforces the pins
+its board described (:attr:`Board.model`; the Uno's Table III for an older image) and the
+one-role-per-pin rule *before* anything is sent (the board would refuse too, but a
 local error names the pins that can do it and costs no round trip).  The roles it gave are
 recorded in its public :class:`~arduinoio_async.board.roles.PinRoles` table
 (:attr:`Board.roles`), so that after a reset or replug the manager can replay them on the
@@ -16,7 +17,7 @@ import logging
 import random
 from collections.abc import AsyncIterator, Callable, Mapping
 from contextlib import asynccontextmanager
-from typing import Any, TypeVar
+from typing import Any, Self, TypeVar
 
 import anyio
 import anyio.abc
@@ -33,8 +34,8 @@ from ..errors import (
     ProtocolError,
     ValueRangeError,
 )
+from ..protocol.boards import UNO_R3, BoardModel
 from ..protocol.pins import DigitalPin, Function
-from ..protocol.pins import require as require_capable
 from ..transport import (
     DEFAULT_TIMEOUT,
     TraceHook,
@@ -46,6 +47,7 @@ from ._encoder_methods import EncoderMethods
 from ._features import FeatureMethods
 from ._motor_methods import MotorMethods
 from ._pulse_in_methods import PulseInMethods
+from ._sonar_methods import SonarMethods
 from ._spi_methods import SpiMethods
 from ._stepper_methods import StepperMethods
 from ._stream_methods import StreamMethods
@@ -62,6 +64,7 @@ from .handles import (
     Gpio,
     PinHandle,
 )
+from .model import read_board_model
 from .motors import Motor
 from .roles import PinRoles, RoleHolder
 from .transactions import Transaction
@@ -83,6 +86,7 @@ class Board(
     EncoderMethods,
     SpiMethods,
     PulseInMethods,
+    SonarMethods,
 ):
     """A connected arduinoio board.  Create it with :meth:`open` or :meth:`connect`."""
 
@@ -90,6 +94,9 @@ class Board(
         self._link: Transport | None = link
         self.board_id = board_id
         self.capabilities = capabilities
+        #: The board's model (:mod:`arduinoio_async.board.model`), read at open; pins are
+        #: checked against it before anything is sent.
+        self.model: BoardModel = UNO_R3
         self.port = link.name
         self._roles = PinRoles(self)
         #: ``gpio(pin)`` hands out one Gpio per pin (until released), with a role or not yet.
@@ -122,7 +129,7 @@ class Board(
         ready_timeout: float = READY_TIMEOUT,
         trace: TraceHook | None = None,
         low_latency: bool | None = None,
-    ) -> AsyncIterator[Board]:
+    ) -> AsyncIterator[Self]:
         """Open ``port`` (a device path or pyserial URL) and wait until the board answers.
 
         ``timeout`` is the default per-request timeout; ``ready_timeout`` bounds the wait
@@ -159,7 +166,7 @@ class Board(
         ready_timeout: float = READY_TIMEOUT,
         trace: TraceHook | None = None,
         name: str = "",
-    ) -> AsyncIterator[Board]:
+    ) -> AsyncIterator[Self]:
         """Use an already open byte stream (a memory link in tests, a custom transport)."""
         link = await cls.start_link(
             stream, timeout=timeout, ready_timeout=ready_timeout, trace=trace, name=name
@@ -169,7 +176,7 @@ class Board(
 
     @classmethod
     @asynccontextmanager
-    async def _serving(cls, link: Transport) -> AsyncIterator[Board]:
+    async def _serving(cls, link: Transport) -> AsyncIterator[Self]:
         """The board on a link that answered: the link runs while the block does."""
         async with link:
             board = await cls.from_link(link)
@@ -182,7 +189,7 @@ class Board(
                 board._link = None
 
     @classmethod
-    async def from_link(cls, link: Transport) -> Board:
+    async def from_link(cls, link: Transport) -> Self:
         """A board on a started transport: reads its capabilities and ID, tags its session."""
         caps = await link.request(p.ReadCapabilities())
         board = cls(link, (await link.request(p.ReadId())).board_id, caps)
@@ -197,7 +204,8 @@ class Board(
     can open its link another way."""
 
     async def _handshake(self, link: Transport) -> None:
-        """Check the protocol version and tag this boot of the board (to detect resets)."""
+        """Check the protocol version, read the board's model, tag this boot (to detect
+        resets)."""
         caps = self.capabilities
         if caps.protocol_version != p.PROTOCOL_VERSION:
             raise ProtocolError(
@@ -205,6 +213,7 @@ class Board(
                 f"speaks {p.PROTOCOL_VERSION} (update the firmware or the library)"
             )
         link.expected_id = self.board_id
+        self.model = await read_board_model(link, caps)
         self.session_found = (await link.request(p.ReadStatus())).session
         self.session = random.randint(1, 0xFFFF)
         await link.request(p.SetSession(self.session))
@@ -291,7 +300,7 @@ class Board(
 
     async def release(self, pin: DigitalPin) -> None:
         """End whatever role ``pin`` has, on the board and here."""
-        require_capable(pin, Function.DIGITAL_INPUT)
+        self.model.require(pin, Function.DIGITAL_INPUT)
         await self.request(p.PinRelease(int(pin)))
         handle = self._roles.release(pin)
         for other in getattr(handle, "other_pins", ()):  # an encoder's pin B goes with A

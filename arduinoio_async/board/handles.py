@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from .. import protocol as p
 from ..errors import I2CError, StaleHandleError, ValueRangeError
-from ..protocol.pins import AnalogPin, DigitalPin, Function, require
+from ..protocol.pins import AnalogPin, DigitalPin, Function
 from .changes import (
     DEFAULT_CHANGE_BUFFER,
     AnalogChanges,
@@ -243,7 +243,7 @@ class AnalogInput:
     """An analog input A0-A5: 10-bit conversions against AVCC."""
 
     def __init__(self, board: BoardCore, pin: AnalogPin, vref: float = p.VCC_MV / 1000) -> None:
-        require(pin, Function.ANALOG_INPUT)
+        board.model.require(pin, Function.ANALOG_INPUT)
         self.board = board
         self.pin = pin
         self.vref = vref

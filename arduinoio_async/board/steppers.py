@@ -29,7 +29,6 @@ import anyio
 from .. import protocol as p
 from ..errors import UsageError, ValueRangeError
 from ..protocol.pins import DigitalPin, Function
-from ..protocol.pins import require as require_capable
 from .handles import PinHandle
 
 if TYPE_CHECKING:
@@ -245,7 +244,7 @@ class Stepper:
             else LimitSwitch(self.board, pin, f"stepper {self.index}'s {side} limit switch")
         )
         if not mine:  # checked as any new input's pin is (Table III, one role per pin)
-            require_capable(pin, Function.DIGITAL_INPUT)
+            self.board.model.require(pin, Function.DIGITAL_INPUT)
             self.board.roles.check_free(switch)
         old = self.limits.get(positive)
         request = p.StepperLimit(self.index, positive, int(pin), active_high)

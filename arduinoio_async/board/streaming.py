@@ -33,6 +33,7 @@ from .._event_queue import SequencedQueue
 from ..errors import LinkCapacityError, ValueRangeError
 from ..protocol.pins import AnalogPin, DigitalPin, Function, require
 from ..transport import Transport
+from .sonars import SonarSample, sonar_block
 
 if TYPE_CHECKING:
     from ._core import BoardCore
@@ -65,6 +66,9 @@ class Sample:
     #: Signed count of each encoder slot (slot 0 first, a free slot 0), if the stream
     #: includes encoders.
     encoders: tuple[int, ...] | None = None
+    #: Each sonar slot's latest reading (slot 0 first, the slots configured when the
+    #: stream started), if the stream includes sonars.
+    sonars: tuple[SonarSample, ...] | None = None
     #: The I2C blocks' bytes, one entry per block the stream reads (in the order given
     #: to ``board.stream(i2c=...)``), ``None`` where that period's read failed; ``None``
     #: if the stream reads no I2C blocks.
@@ -115,6 +119,10 @@ class Sample:
             encoders = tuple(
                 ((take(4) + 2**31) & 0xFFFFFFFF) - 2**31 for _ in range(p.ENCODER_SLOTS)
             )
+        sonars = None
+        if frame.flags & p.StreamFlags.SONAR:
+            sonars = sonar_block(data[pos:])
+            pos += 1 + 3 * len(sonars)
         pulse_widths = pulse_lost = None
         if frame.flags & p.StreamFlags.PULSE_IN:
             slots = p.split_pulse_in_block(data[pos:])
@@ -138,10 +146,11 @@ class Sample:
             counters,
             steppers,
             encoders,
-            i2c,
-            i2c_status,
-            pulse_widths,
-            pulse_lost,
+            sonars=sonars,
+            i2c=i2c,
+            i2c_status=i2c_status,
+            pulse_widths=pulse_widths,
+            pulse_lost=pulse_lost,
         )
 
 
@@ -154,11 +163,13 @@ def stream_request(
     steppers: bool = False,
     encoders: bool = False,
     i2c_bytes: int | None = None,
+    sonars: int | None = None,
     pulse_ins: int | None = None,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request (``i2c_bytes``: the
-    data bytes of the I2C blocks it reads, None for none; ``pulse_ins``: the pulse input
-    slots it carries, None for no pulse inputs)."""
+    data bytes of the I2C blocks it reads, None for none; ``sonars``: the sonar slots the
+    block carries, None for no sonars; ``pulse_ins``: the pulse input slots it carries,
+    None for no pulse inputs)."""
     mask = 0
     for pin in analog:
         require(pin, Function.ANALOG_INPUT)
@@ -178,17 +189,19 @@ def stream_request(
         flags |= p.StreamFlags.PULSE_IN
     if i2c_bytes is not None:
         flags |= p.StreamFlags.I2C
+    if sonars is not None:
+        flags |= p.StreamFlags.SONAR
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    size = p.sample_payload_size(mask, flags, i2c_bytes or 0, pulse_ins or 0)
+    size = p.sample_payload_size(mask, flags, i2c_bytes or 0, sonars or 0, pulse_ins or 0)
     if size > p.STREAM_MAX_VALUES:
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
             f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
             f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
-            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS}, pulse inputs 1 + 3 "
-            "each)",
+            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS}, sonars 1 + 3 a slot, "
+            "pulse inputs 1 + 3 a slot)",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0
@@ -241,9 +254,13 @@ def _describe(request: p.Request[Any]) -> str:
 
 @asynccontextmanager
 async def run_stream(
-    board: BoardCore, request: p.StreamStart, buffer: int
+    board: BoardCore,
+    request: p.StreamStart,
+    buffer: int,
+    setup: Sequence[p.Request[Any]] = (),
 ) -> AsyncIterator[SampleStream]:
-    """Start ``request`` on ``board``, yield its samples, stop it when the block ends.
+    """Start ``request`` on ``board`` (after ``setup``: its I2C blocks, replayed with it
+    after a reset), yield its samples, stop it when the block ends.
 
     The body of :meth:`Board.stream <arduinoio_async.board.Board.stream>`.  A period the
     link cannot carry comes back as :class:`LinkCapacityError` naming the shortest period
@@ -259,6 +276,7 @@ async def run_stream(
                     request,
                     p.StreamStop(),
                     samples,
+                    setup=setup,
                     conflict=lambda held: (
                         f"{board} already streams {_describe(held)}: one stream per board "
                         "(end that block, or ask for the same layout to share it)"

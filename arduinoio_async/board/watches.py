@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import AsyncIterator, Callable, Hashable
+from collections.abc import AsyncIterator, Callable, Hashable, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
@@ -82,6 +82,9 @@ class Subscription:
     request: p.Request[Any]
     #: The request that ends the subscription on the board.
     stop: p.Request[Any]
+    #: What the board must hold before ``request`` (a stream's I2C blocks), sent before it
+    #: each time: a reset forgets them as it forgets the subscription.
+    setup: tuple[p.Request[Any], ...] = ()
     queues: list[EventQueue[Any]] = field(default_factory=list)
     #: The link the board was last asked on (None: the board holds nothing to stop).
     link: Transport | None = None
@@ -112,26 +115,32 @@ class Watches:
         stop: p.Request[Any],
         queue: EventQueue[Any],
         conflict: Callable[[p.Request[Any]], str],
+        setup: Sequence[p.Request[Any]] = (),
     ) -> AsyncIterator[R]:
         """Hold the subscription ``key`` for the block, feeding ``queue``; yields the reply.
 
-        The request is sent for every block (the reply carries a fresh baseline); a block
-        whose ``request`` differs from the one holding ``key`` is refused with
-        :class:`UsageError` (``conflict(held)`` says why).  The last block to end sends
-        ``stop``, shielded from cancellation.
+        The request is sent for every block (the reply carries a fresh baseline), after
+        ``setup`` when the block is the first to hold ``key``; a block whose ``request`` or
+        ``setup`` differs from the one holding ``key`` is refused with :class:`UsageError`
+        (``conflict(held)`` says why).  The last block to end sends ``stop``, shielded from
+        cancellation.
         """
         sub = self._subscriptions.get(key)
-        if sub is not None and sub.request != request:
+        if sub is not None and (sub.request != request or sub.setup != tuple(setup)):
             queue.detach()
             raise UsageError(conflict(sub.request))
+        first = sub is None
         if sub is None:
-            sub = self._subscriptions[key] = Subscription(request, stop)
+            sub = self._subscriptions[key] = Subscription(request, stop, tuple(setup))
         sub.queues.append(queue)
         try:
             async with self._lock:
                 board = self._board
                 link = board.link
                 sub.link = link  # from here the board may hold it: the end stops it
+                if first:
+                    for step in sub.setup:
+                        await board.request(step)
                 reply = await board.request(request)
                 sub.session = board.session
             yield reply
@@ -182,6 +191,8 @@ class Watches:
                     continue
                 sub.link = link
                 try:
+                    for step in sub.setup:
+                        await link.request(step)
                     reply = await link.request(sub.request)
                 except BoardError as exc:
                     self._lose(key, sub, exc)

@@ -24,6 +24,7 @@ from . import (
     _flash,
     _motor_commands,
     _pulse_in_commands,
+    _sonar_commands,
     _spi_commands,
     _stepper_commands,
     _stream_commands,
@@ -43,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     _motor_commands.add_commands(sub)
     _stepper_commands.add_commands(sub)
     _encoder_commands.add_commands(sub)
+    _sonar_commands.add_commands(sub)
     _pulse_in_commands.add_commands(sub)
     _spi_commands.add_commands(sub)
     _stream_commands.add_commands(sub)

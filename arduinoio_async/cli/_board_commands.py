@@ -15,7 +15,7 @@ from rich.console import Console
 
 from .. import protocol as p
 from ..errors import ArduinoIOError, UsageError
-from ..protocol.pins import AnalogPin, DigitalPin, Function, require
+from ..protocol.pins import UNO_ANALOG, AnalogPin, DigitalPin, Function, require
 from ._roles import pin_roles
 from ._target import add_target_options, board_id, target_board
 
@@ -153,7 +153,7 @@ async def read_analog(args: argparse.Namespace, console: Console) -> int:
             value = await board.analog(args.pin).read()
             console.print(f"{args.pin.name}: {value} ({value * 5 / 1024:.3f} V)")
         else:
-            for pin, value in zip(AnalogPin, await board.read_analog_all(), strict=True):
+            for pin, value in zip(UNO_ANALOG, await board.read_analog_all(), strict=True):
                 console.print(f"{pin.name}: {value} ({value * 5 / 1024:.3f} V)")
     return 0
 

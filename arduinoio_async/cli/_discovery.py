@@ -11,6 +11,8 @@ from rich.console import Console
 from .. import protocol as p
 from ..board import Board
 from ..network.options import add_remote_options, remote_boards_listing
+from ..protocol.boards import BoardModel
+from ..protocol.pins import Function
 from ..transport import last_tuning
 from ._output import print_record, print_rows
 from ._roles import pin_roles
@@ -194,6 +196,16 @@ def _state_text(state: dict[str, Any]) -> dict[str, str]:
     }
 
 
+def _model_raw(model: BoardModel) -> dict[str, object]:
+    """The board's model for --json: key, name, MCU and pin names per function."""
+    return {
+        "key": model.key,
+        "name": model.name,
+        "mcu": model.mcu,
+        "pins": {f.name.lower(): list(model.pin_names(f)) for f in Function},
+    }
+
+
 async def board_info(args: argparse.Namespace, console: Console) -> int:
     async with target_board(args) as target:
         board = target.board
@@ -207,6 +219,7 @@ async def board_info(args: argparse.Namespace, console: Console) -> int:
             "rx_buffer": caps.rx_buffer,
             "features": _features(caps.features),
             "temperature_c": round(await board.temperature(), 1),
+            "model": _model_raw(board.model),
         }
     bridge_raw, bridge_shown = _usb_bridge(board.port)
     if bridge_raw is not None:
@@ -222,6 +235,8 @@ async def board_info(args: argparse.Namespace, console: Console) -> int:
         "features": ", ".join(raw["features"]),
         **_state_text(state),
         "temperature": f"{raw['temperature_c']:.1f} C",
+        "model": f"{board.model.name} ({board.model.mcu})",
+        **{f"pins: {f.value}": board.model.pin_ranges(f) for f in Function},
     }
     print_record(console, f"board on {board.port}", shown, raw=raw, as_json=args.json)
     return 0

@@ -10,7 +10,7 @@ from __future__ import annotations
 from .. import protocol as p
 from ..board import Board
 from ..errors import BoardError
-from ..protocol.pins import DigitalPin, Function, pin_mask
+from ..protocol.pins import UNO_DIGITAL, DigitalPin, Function, pin_mask
 
 __all__ = ["explain_busy_pin", "pin_roles"]
 
@@ -23,7 +23,7 @@ async def pin_roles(board: Board) -> dict[str, str]:
     """Pin name -> role ("digital input", "servo PWM", ...) of every pin that has one."""
     reply = await board.request(p.ReadPinRoles())
     roles: dict[str, str] = {}
-    for pin in DigitalPin:
+    for pin in UNO_DIGITAL:
         bit = 1 << int(pin)
         if reply.gpio_input & bit:
             roles[pin.name] = "digital input"

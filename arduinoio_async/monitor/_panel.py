@@ -34,7 +34,8 @@ from ..board.handles import Counter, DigitalOutput, Gpio, I2CBus, PinHandle, Pul
 from ..board.motors import DutyPwm, Motor
 from ..board.roles import RoleHolder
 from ..errors import PinRoleError, UsageError
-from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ..protocol.boards import UNO_R3, BoardModel
+from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function
 from ._args import pin_arg
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -42,6 +43,7 @@ from ._devices import DeviceView, EncoderView, MotorView
 from ._elsewhere import RolesElsewhere
 from ._imu_view import ImuView
 from ._rc_view import RcInputView
+from ._sonar_view import SonarView
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
 from ._spi_view import SpiView
 from ._steppers import StepperView
@@ -52,7 +54,7 @@ if TYPE_CHECKING:
 __all__ = ["ROLES", "BoardPanel", "roles_for"]
 
 #: Bit n set for every digital pin Dn the page shows.
-ALL_PINS = sum(1 << int(pin) for pin in DigitalPin)
+ALL_PINS = sum(1 << int(pin) for pin in UNO_DIGITAL)
 #: Longest a role control waits for the change events of its inputs to be subscribed.
 SUBSCRIBE_WAIT = 2.0
 #: The event counters' pins, in the order the stream reports their counts.
@@ -72,11 +74,10 @@ ROLES: Mapping[str, Function | None] = {
 }
 
 
-def roles_for(pin: DigitalPin) -> list[str]:
+def roles_for(pin: DigitalPin, model: BoardModel = UNO_R3) -> list[str]:
+    """The roles ``pin`` can take on a board of ``model`` (what the board described)."""
     return [
-        role
-        for role, function in ROLES.items()
-        if function is None or pin in capable_pins(function)
+        role for role, function in ROLES.items() if function is None or model.can(pin, function)
     ]
 
 
@@ -151,6 +152,7 @@ class BoardPanel:
             MotorView(board, on_change=self.changed),
             StepperView(board, on_change=self.changed),
             SpiView(board, on_change=self.changed),
+            SonarView(board, on_change=self.changed),
             ImuView(board, on_change=self.changed),
             RcInputView(board, on_change=self.changed),
         ]
@@ -160,8 +162,9 @@ class BoardPanel:
         #: Last count of each counter (D2, D3) from whichever source reported it last.
         self.counters: dict[DigitalPin, int] = {}
         self.analog: dict[str, int] = {}
-        self.rises = dict.fromkeys(DigitalPin, 0)
-        self.falls = dict.fromkeys(DigitalPin, 0)
+        #: Edges seen per pin, in the page's order: the board's own digital pins.
+        self.rises = dict.fromkeys(self.digital_pins(), 0)
+        self.falls = dict.fromkeys(self.digital_pins(), 0)
         self.i2c: I2CBus | None = None
         self.message = ""
         self.config_changed = True
@@ -171,10 +174,15 @@ class BoardPanel:
 
     # ---- live data ---------------------------------------------------------------------
 
+    def digital_pins(self) -> list[DigitalPin]:
+        """The pins the page lays out: the digital pins the board described (D2-D13 on an
+        Uno, D2-D53 on a Mega)."""
+        return [DigitalPin(n) for n in self.board.model.pin_numbers(Function.DIGITAL_OUTPUT)]
+
     def analog_pins(self) -> list[AnalogPin]:
         """The stream's channels: all six, less A4/A5 while the I2C bus uses them."""
         busy = (AnalogPin.A4, AnalogPin.A5) if self.i2c is not None else ()
-        return [pin for pin in AnalogPin if pin not in busy]
+        return [pin for pin in UNO_ANALOG if pin not in busy]
 
     def inputs(self) -> dict[DigitalPin, PinKey]:
         """The pins with an input role, each keyed by its handle and role (pull-up or not)."""
@@ -219,7 +227,7 @@ class BoardPanel:
         if rose or fell:
             batch.rose |= rose
             batch.fell |= fell
-            for pin in DigitalPin:
+            for pin in self.rises:
                 self.rises[pin] += rose >> int(pin) & 1
                 self.falls[pin] += fell >> int(pin) & 1
         if activity.counters is not None:
@@ -254,8 +262,8 @@ class BoardPanel:
             "watched": watched,
             "rose": batch.rose,
             "fell": batch.fell,
-            "rises": [self.rises[pin] for pin in DigitalPin],
-            "falls": [self.falls[pin] for pin in DigitalPin],
+            "rises": list(self.rises.values()),
+            "falls": list(self.falls.values()),
             "counters": [self.counters.get(pin) for pin in COUNTER_PINS],
             "reported": sum(1 << int(pin) for pin in self.counts.reported),
             "stream": self.stream.describe(),
@@ -288,8 +296,8 @@ class BoardPanel:
     # ---- state for the page ------------------------------------------------------------------
 
     def pin_roles(self) -> dict[DigitalPin, PinRole]:
-        roles = {pin: PinRole() for pin in DigitalPin}
-        for pin in DigitalPin:
+        roles = {pin: PinRole() for pin in self.digital_pins()}
+        for pin in roles:
             words = self.elsewhere.role(pin)
             if words is not None:
                 roles[pin] = PinRole("elsewhere", elsewhere=words)
@@ -321,7 +329,7 @@ class BoardPanel:
             "stream": self.stream.describe(),
             "changes": self.changes.describe(),
             "i2c": None if self.i2c is None else int(self.i2c.speed),
-            "analog_pins": [pin.name for pin in AnalogPin],
+            "analog_pins": [pin.name for pin in UNO_ANALOG],
             **{device.key: device.describe() for device in self.devices},
             "message": self.message,
             "pins": [
@@ -330,9 +338,9 @@ class BoardPanel:
                     "role": roles[pin].role,
                     "value": roles[pin].value,
                     "elsewhere": roles[pin].elsewhere,
-                    "roles": roles_for(pin),
+                    "roles": roles_for(pin, board.model),
                 }
-                for pin in DigitalPin
+                for pin in self.digital_pins()
             ],
         }
 
@@ -391,8 +399,9 @@ class BoardPanel:
             await self.changes.wait_watching(frozenset(self.inputs()))
 
     async def _change_role(self, pin: DigitalPin, role: str) -> None:
-        if role not in roles_for(pin):
-            raise UsageError(f"{pin.name} cannot be {role}; it can be {', '.join(roles_for(pin))}")
+        can = roles_for(pin, self.board.model)
+        if role not in can:
+            raise UsageError(f"{pin.name} cannot be {role}; it can be {', '.join(can)}")
         if self.pin_roles()[pin].role != "free":
             await self.board.release(pin)
         board = self.board

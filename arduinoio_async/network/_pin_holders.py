@@ -33,6 +33,7 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
         p.PwmConfig,
         p.CounterConfig,
         p.EncoderConfig,
+        p.SonarConfig,
         p.PulseInConfig,
         p.SpiConfig,
         p.I2CBlock,
@@ -46,9 +47,12 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
 #: The claim key of I2C block slot ``s`` is ``I2C_BLOCK_KEY - s`` (below the encoder
 #: slots' -1..-ENCODER_SLOTS): the blocks a stream reads are one client's.
 I2C_BLOCK_KEY = -32
-#: The claim key of pulse input slot ``s`` is ``PULSE_IN_KEY - s`` (between the encoder
-#: slots and the I2C blocks).
-PULSE_IN_KEY = -16
+#: The claim key of sonar slot ``s`` is ``SONAR_KEY - s`` (between the encoders' and the
+#: I2C blocks'): a set-up of a slot in use reconfigures it on the board.
+SONAR_KEY = -16
+#: The claim key of pulse input slot ``s`` is ``PULSE_IN_KEY - s`` (between the sonars'
+#: and the I2C blocks').
+PULSE_IN_KEY = -24
 
 
 def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
@@ -84,6 +88,9 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     if isinstance(request, p.EncoderConfig):
         role = f"quadrature encoder D{request.pin_a}/D{request.pin_b} (slot {request.slot})"
         return [(request.pin_a, role), (request.pin_b, role), (-1 - request.slot, role)]
+    if isinstance(request, p.SonarConfig):
+        role = f"sonar D{request.trigger}/D{request.echo} (slot {request.slot})"
+        return [(request.trigger, role), (request.echo, role), (SONAR_KEY - request.slot, role)]
     if isinstance(request, p.PulseInConfig):
         # the pin and the slot: a set-up of a slot in use moves it on the board
         role = f"pulse-width input D{request.pin} (slot {request.slot})"
@@ -159,6 +166,8 @@ class PinHolders:
             name = f"I2C block slot {I2C_BLOCK_KEY - pin}"
         elif pin <= PULSE_IN_KEY:
             name = f"pulse input slot {PULSE_IN_KEY - pin}"
+        elif pin <= SONAR_KEY:
+            name = f"sonar slot {SONAR_KEY - pin}"
         else:
             name = f"encoder slot {-1 - pin}"
         return f"{name} is a {held.role} of another client"

@@ -9,6 +9,7 @@ from it.
 from ._constants import (
     ANALOG_CHANNELS,
     ANALOG_MAX,
+    BOARD_PAGE_BYTES,
     DEFAULT_BAUD,
     DUTY_FULL,
     ENCODER_SLOTS,
@@ -36,6 +37,11 @@ from ._constants import (
     SERVO_DEFAULT_MIN_US,
     SERVO_PERIOD_US,
     SOFT_PWM_STEP_US,
+    SONAR_DEFAULT_SPEED_DM_S,
+    SONAR_NO_ECHO,
+    SONAR_NO_READING,
+    SONAR_SLOTS,
+    SONAR_TIMEOUT_US,
     STEPPER_COUNT,
     STEPPER_MAX_ACCEL,
     STEPPER_MAX_SPEED,
@@ -51,6 +57,7 @@ from ._constants import (
     TEMP_REFERENCE_MV,
     TX_BUFFER_SIZE,
     VCC_MV,
+    BoardModelId,
     ClassTag,
     Edge,
     EncoderMode,
@@ -80,6 +87,7 @@ from .commands import (
     misc,
     pulse_in,
     pwm,
+    sonar,
     spi,
     stepper,
     stream,
@@ -95,6 +103,7 @@ from .commands.i2c import *  # noqa: F403
 from .commands.misc import *  # noqa: F403
 from .commands.pulse_in import *  # noqa: F403
 from .commands.pwm import *  # noqa: F403
+from .commands.sonar import *  # noqa: F403
 from .commands.spi import *  # noqa: F403
 from .commands.stepper import *  # noqa: F403
 from .commands.stream import *  # noqa: F403
@@ -109,6 +118,7 @@ def encode(message: Frame) -> bytes:
 __all__ = [
     "ANALOG_CHANNELS",
     "ANALOG_MAX",
+    "BOARD_PAGE_BYTES",
     "DEFAULT_BAUD",
     "DUTY_FULL",
     "ENCODER_SLOTS",
@@ -139,6 +149,11 @@ __all__ = [
     "SERVO_DEFAULT_MIN_US",
     "SERVO_PERIOD_US",
     "SOFT_PWM_STEP_US",
+    "SONAR_DEFAULT_SPEED_DM_S",
+    "SONAR_NO_ECHO",
+    "SONAR_NO_READING",
+    "SONAR_SLOTS",
+    "SONAR_TIMEOUT_US",
     "STEPPER_COUNT",
     "STEPPER_MAX_ACCEL",
     "STEPPER_MAX_SPEED",
@@ -154,6 +169,7 @@ __all__ = [
     "TEMP_REFERENCE_MV",
     "TX_BUFFER_SIZE",
     "VCC_MV",
+    "BoardModelId",
     "ClassTag",
     "Decoded",
     "Decoder",
@@ -192,6 +208,7 @@ __all__ += counter.__all__
 __all__ += stepper.__all__
 __all__ += encoder.__all__
 __all__ += pulse_in.__all__
+__all__ += sonar.__all__
 __all__ += stream.__all__
 __all__ += failsafe.__all__
 __all__ += transaction.__all__

@@ -28,6 +28,7 @@ class ClassTag(IntEnum):
     FAILSAFE = 0x08  # extension
     STEPPER = 0x09  # extension (issue 26)
     ENCODER = 0x0A  # extension: quadrature encoders
+    SONAR = 0x0B  # extension: HC-SR04 style ultrasonic rangers
     PULSE_IN = 0x0C  # extension: pulse-width inputs (RC receiver channels)
     SPI = 0x0D  # extension: the SPI master bridge
     EVENT = 0x40  # extension: frames the board sends without a request
@@ -128,6 +129,10 @@ class StreamFlags(IntFlag):
     #: One i32 count per encoder slot (ENCODER_SLOTS of them, slot 0 first; a free
     #: slot reads 0).
     ENCODERS = 0x10
+    #: The sonars: a u8 count n (the sonar slots 0..n-1 configured when the stream
+    #: started), then per slot a u16 distance in mm (SONAR_NO_ECHO, SONAR_NO_READING) and
+    #: a u8 age of that reading in 1.024 ms steps (255: that old or more).
+    SONAR = 0x20
     #: The pulse inputs (extension): a u8 count n (the highest configured PULSE_IN slot
     #: + 1 when the stream started), then per slot 0..n-1 a u16 width in microseconds and
     #: a u8 lost flag (1: signal lost, or no input on that slot).
@@ -246,6 +251,9 @@ class Feature(IntFlag):
     #: ENCODER class: quadrature encoders on pin-change/external interrupts, their counts
     #: in the stream and EncoderReport events (extension).
     ENCODER = 0x40000
+    #: SONAR class: HC-SR04 style rangers fired in turn, echo timed by the board, in the
+    #: stream (extension).
+    SONAR = 0x80000
     #: PULSE_IN class: high-pulse widths on any digital pin (RC receiver channels), signal
     #: loss events (extension).
     PULSE_IN = 0x100000
@@ -254,6 +262,9 @@ class Feature(IntFlag):
     #: I2C BLOCK: register blocks the board reads from I2C devices every stream period,
     #: interrupt-driven, in the stream (extension).
     I2C_STREAM = 0x400000
+    #: READ_BOARD_DESCRIPTION: the board model and, per function, the pins that can do
+    #: it (extension, issue 29; protocol/boards.py).
+    BOARD_DESCRIPTION = 0x800000
 
 
 class Framing(IntEnum):
@@ -285,6 +296,19 @@ INTER_BYTE_GAP_MS: Final = 10
 
 #: Largest variable payload (I2C data, stream values) of any frame.
 MAX_BLOB: Final = 32
+
+
+class BoardModelId(IntEnum):
+    """The board model a READ_BOARD_DESCRIPTION reply names (extension, issue 29)."""
+
+    UNO_R3 = 0x01
+    MEGA2560 = 0x02
+
+
+#: Pin-map bytes one READ_BOARD_DESCRIPTION page carries at most: the reply's data is
+#: 5 fixed bytes, a length byte and this many map bytes, within the largest reply data
+#: (MAX_BLOB + 3 = 35 bytes).  A page holds as many whole function maps as fit.
+BOARD_PAGE_BYTES: Final = 29
 I2C_MAX_LENGTH: Final = 32
 
 #: Receive FIFO and transmit buffer sizes of the firmware, in bytes.  A host that keeps
@@ -348,6 +372,18 @@ I2C_BLOCK_BYTES: Final = 16
 
 #: Quadrature encoders the board decodes at once (ENCODER CONFIG's slot is 0 to this - 1).
 ENCODER_SLOTS: Final = 4
+#: Sonars (trigger + echo pin pairs) the board fires in turn (SONAR CONFIG's slot is 0 to
+#: this - 1).
+SONAR_SLOTS: Final = 4
+#: A sonar's distance when its last firing heard no echo within SONAR_TIMEOUT_US.
+SONAR_NO_ECHO: Final = 0xFFFF
+#: A sonar's distance before its first firing (or a slot without a sonar, in the stream).
+SONAR_NO_READING: Final = 0xFFFE
+#: How long the board waits for an echo to end after the trigger (about 5 m away).
+SONAR_TIMEOUT_US: Final = 30000
+#: The speed of sound the board assumes until told otherwise: 343.0 m/s (dry air, 20 C),
+#: in units of 0.1 m/s.
+SONAR_DEFAULT_SPEED_DM_S: Final = 3430
 #: Pulse-width inputs the board times at once (PULSE_IN CONFIG's slot is 0 to this - 1).
 PULSE_IN_SLOTS: Final = 6
 

@@ -21,6 +21,7 @@ from pathlib import Path
 from . import _constants as c
 from ._layout import Layout
 from ._messages import EVENT_TYPES, REPLY_TYPES, REQUEST_TYPES
+from .boards import BOARD_MODELS, WIRE_FUNCTIONS
 from .pins import Function, pin_mask
 from .profiles import DEFAULT_PROFILE, OPTIONAL_FEATURES, PROFILES
 
@@ -113,6 +114,11 @@ def render() -> str:
         "I2C_BLOCK_SLOTS",
         "I2C_BLOCK_BYTES",
         "PULSE_IN_SLOTS",
+        "SONAR_SLOTS",
+        "SONAR_NO_ECHO",
+        "SONAR_NO_READING",
+        "SONAR_TIMEOUT_US",
+        "SONAR_DEFAULT_SPEED_DM_S",
         "FAILSAFE_MIN_TIMEOUT_MS",
         "FAILSAFE_MAX_TIMEOUT_MS",
         "EEPROM_ID_ADDRESS",
@@ -121,11 +127,13 @@ def render() -> str:
         "STEPPER_COUNT",
         "STEPPER_MAX_SPEED",
         "STEPPER_MAX_ACCEL",
+        "BOARD_PAGE_BYTES",
     ):
         out.append(f"#define AIO_{name} {getattr(c, name)}u")
     out += ["", "/* Table III: bit n set when pin (or analog channel) n can do it. */"]
     for function in Function:
         out.append(f"#define AIO_PINS_{function.name} 0x{pin_mask(function):04X}u")
+    out += _boards()
     out += [
         "",
         "/* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.",
@@ -150,6 +158,33 @@ def render() -> str:
     out += _profiles()
     out += ["", "#endif /* AIO_PROTOCOL_H */", ""]
     return "\n".join(out)
+
+
+def _boards() -> list[str]:
+    """Board models and their description tables (protocol/boards.py): a board's
+    board_<model>.c puts AIO_BOARD_TABLE_<MODEL> in flash and pages it by
+    AIO_BOARD_PAGE_LEN_<MODEL> (whole maps a page)."""
+    out = ["", "/* Board models (READ_BOARD_DESCRIPTION) and functions in wire order. */"]
+    out += _enum("AIO_BOARD", c.BoardModelId)
+    out += [f"#define AIO_FUNCTION_{f.name} {i}u" for i, f in enumerate(WIRE_FUNCTIONS)]
+    out.append(f"#define AIO_BOARD_FUNCTIONS {len(WIRE_FUNCTIONS)}u")
+    out += [
+        "/* Description tables: model, digital pins, analog pins, functions, then per",
+        " * function (wire order) a bitmap of ceil(pins / 8) bytes, pin n in bit n % 8 of",
+        " * byte n / 8 (Arduino numbering: An is digital pins + n). */",
+    ]
+    for model in BOARD_MODELS.values():
+        table = model.table()
+        rows = [
+            ", ".join(f"0x{b:02X}u" for b in table[i : i + 12]) for i in range(0, len(table), 12)
+        ]
+        name = c.BoardModelId(model.model_id).name
+        out.append(f"#define AIO_BOARD_TABLE_{name} {{ \\")
+        out += [f"    {row}, \\" for row in rows]
+        out.append("}")
+        page_len = model.maps_per_page * model.map_bytes
+        out.append(f"#define AIO_BOARD_PAGE_LEN_{name} {page_len}u")
+    return out
 
 
 def _profiles() -> list[str]:

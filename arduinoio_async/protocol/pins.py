@@ -1,4 +1,4 @@
-"""The Uno's pins and what each can do: the paper's Table III.
+"""The pins, and what each of the Uno's can do: the paper's Table III.
 
 Pins are enum members so that ``Literal`` types can name the pins a function accepts
 (``ServoPin = Literal[DigitalPin.D9, DigitalPin.D10]``): mypy then rejects
@@ -21,6 +21,16 @@ __all__ = [
     "A3",
     "A4",
     "A5",
+    "A6",
+    "A7",
+    "A8",
+    "A9",
+    "A10",
+    "A11",
+    "A12",
+    "A13",
+    "A14",
+    "A15",
     "D2",
     "D3",
     "D4",
@@ -33,7 +43,49 @@ __all__ = [
     "D11",
     "D12",
     "D13",
+    "D14",
+    "D15",
+    "D16",
+    "D17",
+    "D18",
+    "D19",
+    "D20",
+    "D21",
+    "D22",
+    "D23",
+    "D24",
+    "D25",
+    "D26",
+    "D27",
+    "D28",
+    "D29",
+    "D30",
+    "D31",
+    "D32",
+    "D33",
+    "D34",
+    "D35",
+    "D36",
+    "D37",
+    "D38",
+    "D39",
+    "D40",
+    "D41",
+    "D42",
+    "D43",
+    "D44",
+    "D45",
+    "D46",
+    "D47",
+    "D48",
+    "D49",
+    "D50",
+    "D51",
+    "D52",
+    "D53",
     "TABLE_III",
+    "UNO_ANALOG",
+    "UNO_DIGITAL",
     "AnalogPin",
     "CounterPin",
     "DigitalPin",
@@ -51,7 +103,12 @@ __all__ = [
 
 
 class DigitalPin(IntEnum):
-    """Digital header pins; the value is the Arduino pin number sent on the wire."""
+    """Digital header pins; the value is the Arduino pin number sent on the wire.
+
+    D2-D13 are the Uno's, D14-D53 the Mega 2560's (protocol/boards.py): which a board has
+    is its model's business, checked before anything is sent; the Uno's handle methods
+    take the Literal types below, so mypy refuses a Mega pin there.
+    """
 
     D2 = 2
     D3 = 3
@@ -65,13 +122,54 @@ class DigitalPin(IntEnum):
     D11 = 11
     D12 = 12
     D13 = 13
+    D14 = 14
+    D15 = 15
+    D16 = 16
+    D17 = 17
+    D18 = 18
+    D19 = 19
+    D20 = 20
+    D21 = 21
+    D22 = 22
+    D23 = 23
+    D24 = 24
+    D25 = 25
+    D26 = 26
+    D27 = 27
+    D28 = 28
+    D29 = 29
+    D30 = 30
+    D31 = 31
+    D32 = 32
+    D33 = 33
+    D34 = 34
+    D35 = 35
+    D36 = 36
+    D37 = 37
+    D38 = 38
+    D39 = 39
+    D40 = 40
+    D41 = 41
+    D42 = 42
+    D43 = 43
+    D44 = 44
+    D45 = 45
+    D46 = 46
+    D47 = 47
+    D48 = 48
+    D49 = 49
+    D50 = 50
+    D51 = 51
+    D52 = 52
+    D53 = 53
 
     def __str__(self) -> str:
         return self.name
 
 
 class AnalogPin(IntEnum):
-    """Analog header pins; the value is the ADC channel sent on the wire."""
+    """Analog header pins; the value is the ADC channel sent on the wire (A0-A5 on the
+    Uno, A0-A15 on the Mega 2560)."""
 
     A0 = 0
     A1 = 1
@@ -79,6 +177,16 @@ class AnalogPin(IntEnum):
     A3 = 3
     A4 = 4
     A5 = 5
+    A6 = 6
+    A7 = 7
+    A8 = 8
+    A9 = 9
+    A10 = 10
+    A11 = 11
+    A12 = 12
+    A13 = 13
+    A14 = 14
+    A15 = 15
 
     def __str__(self) -> str:
         return self.name
@@ -98,12 +206,62 @@ D10: Final = DigitalPin.D10
 D11: Final = DigitalPin.D11
 D12: Final = DigitalPin.D12
 D13: Final = DigitalPin.D13
+D14: Final = DigitalPin.D14
+D15: Final = DigitalPin.D15
+D16: Final = DigitalPin.D16
+D17: Final = DigitalPin.D17
+D18: Final = DigitalPin.D18
+D19: Final = DigitalPin.D19
+D20: Final = DigitalPin.D20
+D21: Final = DigitalPin.D21
+D22: Final = DigitalPin.D22
+D23: Final = DigitalPin.D23
+D24: Final = DigitalPin.D24
+D25: Final = DigitalPin.D25
+D26: Final = DigitalPin.D26
+D27: Final = DigitalPin.D27
+D28: Final = DigitalPin.D28
+D29: Final = DigitalPin.D29
+D30: Final = DigitalPin.D30
+D31: Final = DigitalPin.D31
+D32: Final = DigitalPin.D32
+D33: Final = DigitalPin.D33
+D34: Final = DigitalPin.D34
+D35: Final = DigitalPin.D35
+D36: Final = DigitalPin.D36
+D37: Final = DigitalPin.D37
+D38: Final = DigitalPin.D38
+D39: Final = DigitalPin.D39
+D40: Final = DigitalPin.D40
+D41: Final = DigitalPin.D41
+D42: Final = DigitalPin.D42
+D43: Final = DigitalPin.D43
+D44: Final = DigitalPin.D44
+D45: Final = DigitalPin.D45
+D46: Final = DigitalPin.D46
+D47: Final = DigitalPin.D47
+D48: Final = DigitalPin.D48
+D49: Final = DigitalPin.D49
+D50: Final = DigitalPin.D50
+D51: Final = DigitalPin.D51
+D52: Final = DigitalPin.D52
+D53: Final = DigitalPin.D53
 A0: Final = AnalogPin.A0
 A1: Final = AnalogPin.A1
 A2: Final = AnalogPin.A2
 A3: Final = AnalogPin.A3
 A4: Final = AnalogPin.A4
 A5: Final = AnalogPin.A5
+A6: Final = AnalogPin.A6
+A7: Final = AnalogPin.A7
+A8: Final = AnalogPin.A8
+A9: Final = AnalogPin.A9
+A10: Final = AnalogPin.A10
+A11: Final = AnalogPin.A11
+A12: Final = AnalogPin.A12
+A13: Final = AnalogPin.A13
+A14: Final = AnalogPin.A14
+A15: Final = AnalogPin.A15
 
 ServoPin = Literal[DigitalPin.D9, DigitalPin.D10]
 SoftPwmPin = Literal[
@@ -143,15 +301,19 @@ class Function(Enum):
     SPI = "SPI"
     SPI_CS = "SPI chip select"
     PULSE_IN = "pulse-width input"
+    SONAR = "sonar"
 
 
-_DIGITAL = tuple(DigitalPin)
+#: The Uno's header: D2-D13 (D0/D1 carry the link) and A0-A5.
+UNO_DIGITAL: Final = tuple(pin for pin in DigitalPin if pin <= 13)
+UNO_ANALOG: Final = tuple(pin for pin in AnalogPin if pin <= 5)
+_DIGITAL = UNO_DIGITAL
 
 #: Table III of the paper: which pins can do what.
 TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.DIGITAL_INPUT: _DIGITAL,
     Function.DIGITAL_OUTPUT: _DIGITAL,
-    Function.ANALOG_INPUT: tuple(AnalogPin),
+    Function.ANALOG_INPUT: UNO_ANALOG,
     Function.SOFT_PWM: (D2, D3, D4, D5, D6, D7),
     Function.SERVO_PWM: (D9, D10),
     Function.I2C: (A4, A5),
@@ -165,6 +327,8 @@ TABLE_III: Final[dict[Function, tuple[Pin, ...]]] = {
     Function.SPI_CS: (D2, D3, D4, D5, D6, D7, D8, D9, D10),
     #: Pin-change interrupts on every digital pin.
     Function.PULSE_IN: _DIGITAL,
+    #: Trigger (an output) and echo (pin-change interrupts) on any digital pin.
+    Function.SONAR: _DIGITAL,
 }
 
 

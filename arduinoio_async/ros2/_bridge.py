@@ -36,7 +36,7 @@ from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
 from ._endpoints import Context, Node, Publisher
-from ._sources import INPUTS
+from ._sources import INPUTS, RangeReading, range_payload
 from ._stream import StreamedInputs, streamed
 from ._wire import Attachment
 
@@ -340,6 +340,9 @@ class BoardNode:
         if source.kind == "imu":
             await self._publish_imu(source, publisher, task_status)
             return
+        if source.kind == "sonar":
+            await self._publish_sonar(source, publisher, task_status)
+            return
         if source.kind == "counter":
             counter = await self.board.counter(cast("CounterPin", source.pin))
             task_status.started()
@@ -419,6 +422,27 @@ class BoardNode:
                     reading.linear_acceleration,
                 )
                 self._put(publisher, payload)
+            await anyio.sleep(source.period)
+
+    async def _publish_sonar(
+        self, source: InputConfig, publisher: Publisher, task_status: anyio.abc.TaskStatus[None]
+    ) -> None:
+        """An HC-SR04 fired by the board, its latest reading published every ``period`` as
+        a Range (no echo: +inf), stamped when it was measured; none before the first."""
+        assert source.echo is not None
+        sonar = await self.board.sonar(cast("DigitalPin", source.pin), source.echo)
+        task_status.started()
+        while True:
+            try:
+                reading = await sonar.read()
+            except ArduinoIOError as exc:
+                await self._read_failed(source.topic, exc)
+            else:
+                if reading.distance_mm is not None or reading.no_echo:
+                    metres = None if reading.distance_mm is None else reading.distance_mm / 1000
+                    stamp = msgs.Stamp(time.time_ns() - reading.age_ms * 1_000_000)
+                    payload = range_payload(stamp, self.config.frame_id, RangeReading(metres))
+                    self._put(publisher, payload)
             await anyio.sleep(source.period)
 
     # ---- diagnostics ---------------------------------------------------------------------

@@ -19,7 +19,7 @@ import yaml
 
 from ..errors import UsageError
 from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
-from ..protocol.pins import AnalogPin, DigitalPin, Function, capable_pins
+from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function, capable_pins
 from ..protocol.timers import TIMER_OF, Timer
 from ._sources import INPUTS, OUTPUTS, PIN_NEEDS
 from ._wire import fully_qualified
@@ -56,6 +56,7 @@ class InputConfig:
     counts_per_rev: float = 0.0
     mode: str = "x4"  # encoder: x1, x2 or x4
     joint: str = ""  # encoder: the JointState's joint name
+    echo: DigitalPin | None = None  # sonar: the echo pin (``pin`` is the trigger)
 
 
 @dataclass(frozen=True)
@@ -256,10 +257,12 @@ def _positive(value: object, where: str) -> float:
     return float(value)
 
 
+#: The Uno's pin names (the bridge's configuration describes Uno boards).
+_UNO_PIN_NAMES = frozenset(pin.name for pin in (*UNO_DIGITAL, *UNO_ANALOG))
+
+
 def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | AnalogPin:
-    if not isinstance(value, str) or (
-        value not in DigitalPin.__members__ and value not in AnalogPin.__members__
-    ):
+    if not isinstance(value, str) or value not in _UNO_PIN_NAMES:
         raise ConfigError(f"{where}.pin: unknown pin {value!r} (D2-D13, A0-A5)")
     pin: DigitalPin | AnalogPin = (
         DigitalPin[value] if value in DigitalPin.__members__ else AnalogPin[value]
@@ -272,6 +275,7 @@ def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | Analog
         "duty": pin in capable_pins(Function.DUTY_PWM),
         "i2c": pin is AnalogPin.A4,
         "encoder": pin in capable_pins(Function.ENCODER),
+        "sonar": pin in capable_pins(Function.SONAR),
     }[need]
     if not ok:
         raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({_PIN_TEXT[need]} can)")
@@ -312,6 +316,10 @@ def _input(
     kind = _kind(item.get("type"), INPUT_KINDS, where)
     if kind == "encoder":
         return _encoder(item, where, node_ns, topics, pins)
+    if kind == "sonar":
+        return _sonar(item, where, node_ns, topics, pins)
+    if "echo" in item:
+        raise ConfigError(f"{where}.echo: only a sonar takes 'echo'")
     stray = sorted(_ENCODER_KEYS & item.keys())
     if stray:
         raise ConfigError(f"{where}.{stray[0]}: only an encoder takes {stray[0]!r}")
@@ -451,3 +459,22 @@ def _encoder(
         mode=str(mode),
         joint=joint,
     )
+
+
+def _sonar(
+    item: Mapping[str, Any], where: str, node_ns: str, topics: dict[str, str], pins: set[int]
+) -> InputConfig:
+    """An HC-SR04 (trigger ``pin``, ``echo``), published as a Range every ``period``."""
+    stray = sorted(_ENCODER_KEYS & item.keys())
+    if stray:
+        raise ConfigError(f"{where}.{stray[0]}: only an encoder takes {stray[0]!r}")
+    pin = _pin(item.get("pin"), "sonar", "sonar", where)
+    _claim(pin, pins, where)
+    if "echo" not in item:
+        raise ConfigError(f"{where}.echo: a sonar needs its echo pin")
+    echo = _pin(item["echo"], "sonar", "sonar", f"{where}.echo")
+    _claim(echo, pins, f"{where}.echo")
+    assert isinstance(pin, DigitalPin) and isinstance(echo, DigitalPin)
+    period = _positive(item.get("period", 0.1), f"{where}.period")
+    topic = _topic(item.get("topic"), node_ns, topics, where)
+    return InputConfig(pin, "sonar", topic, period=period, echo=echo)

@@ -56,6 +56,7 @@ PIN_NEEDS = {
     "duty": "D3, D5, D6, D9, D10",
     "i2c": "A4",
     "encoder": "D2-D13",
+    "sonar": "D2-D13",
 }
 
 INPUTS: dict[str, Kind] = {
@@ -70,6 +71,8 @@ INPUTS: dict[str, Kind] = {
         streamed=True,
         keys=frozenset({"pin_b", "counts_per_rev", "mode", "joint", "period"}),
     ),
+    #: An HC-SR04: ``pin`` is the trigger, ``echo`` the echo pin (the sensing image).
+    "sonar": Kind(msgs.RANGE, "sonar", keys=frozenset({"echo", "period"})),
 }
 OUTPUTS: dict[str, Kind] = {
     "bool": Kind(msgs.BOOL, "digital", keys=frozenset({"timeout", "safe"})),

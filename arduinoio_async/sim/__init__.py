@@ -12,6 +12,7 @@ faults, unplug/replug) through the harness's control socket.  See
 from ._demo import example_arguments, example_board, port_or_virtual_uno
 from ._quadrature import QuadratureGenerator
 from ._rcpulse import RcPulseSource
+from ._sonar import SonarModel, SonarStatus, SonarTrigger
 from ._spi_device import SpiDeviceStatus, SpiFrame
 from .harness import (
     SimulatorError,
@@ -39,6 +40,9 @@ __all__ = [
     "RcPulseSource",
     "SimulatorError",
     "SimulatorNotAvailable",
+    "SonarModel",
+    "SonarStatus",
+    "SonarTrigger",
     "SpiDeviceStatus",
     "SpiFrame",
     "UsbBridge",

@@ -29,6 +29,7 @@ from ..protocol import DEFAULT_BAUD
 from ..protocol.profiles import DEFAULT_PROFILE
 from ._quadrature import QuadratureMethods
 from ._rcpulse import RcPulseMethods
+from ._sonar import SonarModelMethods
 from ._spi_device import SpiDeviceMethods
 from .harness import (
     INSTALL_HINT,
@@ -112,7 +113,7 @@ def _pin_arg(pin: PinName) -> PinName:
     return pin
 
 
-class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods):
+class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods, SonarModelMethods):
     """One simulated Uno: starts the harness process and wraps its control commands.
 
     Use as ``async with VirtualUno(board_id=1) as uno:`` and open ``uno.port`` with pyserial.

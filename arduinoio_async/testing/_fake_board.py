@@ -20,21 +20,20 @@ import anyio
 import anyio.abc
 
 from .. import protocol as p
+from ..protocol.boards import UNO_R3, BoardModel
+from ..protocol.pins import Function
 from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
 from ._fake_i2c_blocks import I2CBlockModels
 from ._fake_pulse_in import PulseInModels
+from ._fake_sonar import SonarModels
 from ._fake_spi import SpiModels
 from ._fake_stepper import FakeSteppers
 from ._fake_transaction import split_items
 from ._fake_wire import FakeWire
 from ._faults import Faults
 from ._peripherals import (
-    DIGITAL,
-    DUTY,
-    INPUT,
-    PULSE,
     PinModel,
     check_pulse,
     has,
@@ -50,7 +49,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWire):
+class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, PulseInModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -84,10 +83,17 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
     crc_capable: bool = True
     #: The framing in force (XOR after every boot).
     framing: p.Framing = p.Framing.XOR
+    #: The board model it describes (READ_BOARD_DESCRIPTION; protocol/boards.py).
+    model: BoardModel = UNO_R3
+    #: False models an image older than the description (no Feature.BOARD_DESCRIPTION:
+    #: the library falls back to the Uno's Table III).
+    describes: bool = True
 
     def __post_init__(self) -> None:
         self.host_stream, self._board_stream = memory_link()
-        self._pins = {n: PinModel() for n in range(2, 14)}
+        self.levels += [False] * (self.model.digital_pins - len(self.levels))
+        self.analog += [0] * (self.model.analog_pins - len(self.analog))
+        self._pins = {n: PinModel() for n in range(2, self.model.digital_pins)}
         #: The I2C bridge's speed, None while it is off (tests may switch it on directly).
         self.i2c_speed: p.I2CSpeed | None = None
         self._random = random.Random(self.faults.seed)
@@ -121,13 +127,14 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
             p.SetLowLatency: self._set_low_latency,
             p.SetFraming: self._set_framing,
             p.ReadPinRoles: self._pin_roles,
+            p.ReadBoardDescription: self._describe,
             p.GpioConfig: self._gpio_config,
             p.GpioRead: self._gpio_read,
             p.GpioWrite: self._gpio_write,
             p.GpioWatch: self._gpio_watch,
             p.PinRelease: self._release,
             p.AnalogRead: self._analog_read,
-            p.AnalogReadAll: lambda r: p.AnalogReadAllReply(tuple(self.analog)),
+            p.AnalogReadAll: self._analog_read_all,
             p.AnalogWatch: self._analog_watch,
             p.I2CConfig: self._i2c_config,
             p.I2CRead: self._i2c_read,
@@ -141,6 +148,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
             p.CounterReset: self._counter_read,
             p.CounterWatch: self._counter_watch,
             **self._encoder_handlers(),
+            **self._sonar_handlers(),
             **self._spi_handlers(),
             **self._pulse_in_handlers(),
             **self._i2c_block_handlers(),
@@ -223,7 +231,7 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
             self.changes_dropped += 1
 
     def role(self, pin: int) -> str:
-        """What the fake board set ``pin`` (2-13) up as: ``free``, ``input``,
+        """What the fake board set ``pin`` (D2 up to its model's last) up as: ``free``, ``input``,
         ``output``, ``pwm`` or ``counter``, for a test's assertions."""
         return self._pins[pin].role
 
@@ -299,10 +307,11 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
     def reboot(self) -> None:
         """A fresh boot (watchdog, power loss, the reset button): RAM state is gone, the
         subscriptions and their sequence numbers with it; the EEPROM's ID stays."""
-        self._pins = {n: PinModel() for n in range(2, 14)}
+        self._pins = {n: PinModel() for n in range(2, self.model.digital_pins)}
         self.steppers.reset()
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
+        self.sonars.clear()
         self.pulse_inputs.clear()
         self.spi_config = None
         self.change_sequence = 0
@@ -335,21 +344,21 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
             features |= int(feature)
         if not self.crc_capable:
             features &= ~p.Feature.CRC16
+        if not self.describes:
+            features &= ~p.Feature.BOARD_DESCRIPTION
         return p.ReadCapabilitiesReply(
             p.PROTOCOL_VERSION, *p.FIRMWARE_VERSION, features, self.baud, p.RX_FIFO_SIZE
         )
 
+    def _describe(self, request: p.ReadBoardDescription) -> p.Frame:
+        if not self.describes:
+            return self._error(request, p.ErrorCode.UNKNOWN_DESCRIPTOR)
+        reply = self.model.reply(request.page)
+        return reply or self._error(request, p.ErrorCode.VALUE_OUT_OF_RANGE)
+
     def _write_id(self, request: p.WriteId) -> p.Frame:
         self.board_id = request.board_id
         return p.WriteIdReply(request.board_id)
-
-    def _pin_roles(self, request: p.ReadPinRoles) -> p.Frame:
-        def mask(role: str) -> int:
-            return sum(1 << n for n, pin in self._pins.items() if pin.role == role)
-
-        pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
-        roles = (mask("input"), mask("output"), pwm, mask("counter"))
-        return p.ReadPinRolesReply(*roles, mask("pulse-input"))
 
     def _set_decoder(self, framing: p.Framing) -> None:
         self.framing = framing
@@ -388,7 +397,11 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
 
     def _stream_start(self, request: p.StreamStart) -> p.Frame:
         error = self.stream.check(
-            request, self.baud, self.i2c_speed is not None, self.i2c_block_bytes()
+            request,
+            self.baud,
+            self.i2c_speed is not None,
+            self.i2c_block_bytes(),
+            max(self.sonars, default=-1) + 1,
         )
         if error is None and self._duty_timer_busy(Timer.TIMER0):
             error = E.PIN_BUSY  # duty PWM on D5/D6 holds the alarm timer
@@ -423,9 +436,12 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
                     return
 
     def _sample(self, request: p.StreamStart) -> p.StreamSample:
-        levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(INPUT, n))
+        inputs = self._mask(Function.DIGITAL_INPUT)
+        levels = sum(1 << n for n, high in enumerate(self.levels) if high and has(inputs, n))
         board_us = int((anyio.current_time() - self._booted) * 1_000_000)
         i2c = self.i2c_block_payload() if request.flags & p.StreamFlags.I2C else b""
+        if request.flags & p.StreamFlags.SONAR:
+            i2c = self.sonar_block() + i2c  # the sonar block comes before the I2C blocks
         return self.stream.sample(
             request, self.analog, levels, self.counters, board_us, self.encoder_counts(), i2c
         )
@@ -438,10 +454,10 @@ class FakeBoard(I2CBlockModels, SpiModels, EncoderModels, PulseInModels, FakeWir
         pin = request.pin
         error = self.failsafe.set_safe_state(
             request,
-            digital=has(DIGITAL, pin),
-            pulse_capable=has(PULSE, pin),
+            digital=has(self._mask(Function.DIGITAL_OUTPUT), pin),
+            pulse_capable=has(self._mask(Function.SOFT_PWM) | self._mask(Function.SERVO_PWM), pin),
             check_pulse=check_pulse,
-            duty_capable=has(DUTY, pin),
+            duty_capable=has(self._mask(Function.DUTY_PWM), pin),
         )
         if error is not None:
             return self._error(request, error)

@@ -18,14 +18,13 @@ from typing import Any
 import anyio
 
 from .. import protocol as p
-from ..protocol.pins import Function, pin_mask
+from ..protocol.pins import Function
 from ._gpio import GpioModels
 from ._peripherals import PinModel, has
 
 __all__ = ["EncoderModels", "EncoderSlot"]
 
 E = p.ErrorCode
-ENCODER_PINS = pin_mask(Function.ENCODER)
 
 #: Counting positions per mode: a step into one of these going forward (or out of it
 #: going back) changes the count (encoder.c's ``steps``).
@@ -129,7 +128,7 @@ class EncoderModels(GpioModels):
         slot, a, b = request.slot, request.pin_a, request.pin_b
         if slot >= p.ENCODER_SLOTS:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
-        if not has(ENCODER_PINS, a) or not has(ENCODER_PINS, b):
+        if not has(self._mask(Function.ENCODER), a) or not has(self._mask(Function.ENCODER), b):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if a == b or int(request.mode) not in (1, 2, 4):
             return self._error(request, E.VALUE_OUT_OF_RANGE)

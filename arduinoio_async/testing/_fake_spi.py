@@ -14,14 +14,13 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from .. import protocol as p
-from ..protocol.pins import Function, pin_mask
+from ..protocol.pins import Function
 from ._gpio import GpioModels
 from ._peripherals import PinModel, has
 
 __all__ = ["FakeMcp3008", "SpiModels"]
 
 E = p.ErrorCode
-CS_PINS = pin_mask(Function.SPI_CS)
 SPI_PINS = (11, 12, 13)
 
 
@@ -73,7 +72,7 @@ class SpiModels(GpioModels):
                 self._pins[pin] = PinModel()
 
     def _spi_config(self, request: p.SpiConfig) -> p.Frame:
-        if not has(CS_PINS, request.cs):
+        if not has(self._mask(Function.SPI_CS), request.cs):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if request.mode > 3 or request.clock > max(p.SpiClock) or request.order > 1:
             return self._error(request, E.VALUE_OUT_OF_RANGE)

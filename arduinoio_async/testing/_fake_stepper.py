@@ -18,7 +18,8 @@ from typing import Any, Protocol
 import anyio
 
 from .. import protocol as p
-from ._peripherals import DIGITAL, INPUT, PinModel, has
+from ..protocol.pins import Function
+from ._peripherals import PinModel, has
 
 __all__ = ["FakeSteppers"]
 
@@ -56,6 +57,8 @@ class _Board(Protocol):
     _booted: float
 
     async def push(self, frame: p.Frame) -> None: ...
+
+    def _mask(self, function: Function) -> int: ...
 
 
 class FakeSteppers:
@@ -118,8 +121,8 @@ class FakeSteppers:
                 return index, "limit"
         return None
 
-    def _claim(self, index: int, pin: int, capable: int, use: str) -> p.ErrorCode | None:
-        if not has(capable, pin):
+    def _claim(self, index: int, pin: int, capable: Function, use: str) -> p.ErrorCode | None:
+        if not has(self._board._mask(capable), pin):
             return E.PIN_NOT_CAPABLE
         role = self._pins[pin].role
         if role not in ("free", "stepper"):
@@ -135,7 +138,7 @@ class FakeSteppers:
         if request.index >= p.STEPPER_COUNT or request.step_pin == request.dir_pin:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         for pin in (request.step_pin, request.dir_pin):
-            error = self._claim(request.index, pin, DIGITAL, "motor")
+            error = self._claim(request.index, pin, Function.DIGITAL_OUTPUT, "motor")
             if error is not None:
                 return self._error(request, error)
         old = self.slots[request.index]
@@ -227,7 +230,7 @@ class FakeSteppers:
             return slot
         pin, side = request.pin, int(request.positive)
         if pin:
-            error = self._claim(request.index, pin, INPUT, "limit")
+            error = self._claim(request.index, pin, Function.DIGITAL_INPUT, "limit")
             if error is not None:
                 return self._error(request, error)
         old = slot.limits.pop(side, None)

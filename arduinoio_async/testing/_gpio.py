@@ -11,8 +11,9 @@ import anyio
 from anyio.streams.memory import MemoryObjectSendStream
 
 from .. import protocol as p
+from ..protocol.pins import Function
 from ._fake_stepper import FakeSteppers
-from ._peripherals import DIGITAL, PeripheralModels, PinModel, has
+from ._peripherals import PeripheralModels, PinModel, has
 from ._timed import StreamModel
 
 __all__ = ["GpioModels"]
@@ -35,7 +36,7 @@ class GpioModels(PeripheralModels):
     _changes_in: MemoryObjectSendStream[p.Event]
 
     def _gpio_config(self, request: p.GpioConfig) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role not in ("free", "input", "output"):
@@ -57,7 +58,7 @@ class GpioModels(PeripheralModels):
         return p.GpioConfigReply(request.pin, request.flags)
 
     def _gpio_read(self, request: p.GpioRead) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role not in ("input", "output"):
@@ -69,7 +70,7 @@ class GpioModels(PeripheralModels):
         return p.GpioReadReply(request.pin, state)
 
     def _gpio_write(self, request: p.GpioWrite) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if self._pins[request.pin].role != "output":
             return self._error(request, E.PIN_NOT_CONFIGURED)
@@ -77,7 +78,7 @@ class GpioModels(PeripheralModels):
         return p.GpioWriteReply(request.pin, request.value)
 
     def _gpio_watch(self, request: p.GpioWatch) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         pin = self._pins[request.pin]
         if pin.role != "input":
@@ -86,7 +87,7 @@ class GpioModels(PeripheralModels):
         return p.GpioWatchReply(request.pin, request.enable)
 
     def _release(self, request: p.PinRelease) -> p.Frame:
-        if not has(DIGITAL, request.pin):
+        if not has(self._mask(Function.DIGITAL_OUTPUT), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if self._pins[request.pin].role == "stepper":
             self.steppers.release(request.pin)
@@ -95,19 +96,30 @@ class GpioModels(PeripheralModels):
         self.duties.pop(request.pin, None)
         return p.PinReleaseReply(request.pin)
 
+    def _analog_refusal(self, channel: int) -> p.ErrorCode | None:
+        """Why the model refuses analog ``channel``: not an input, or an I2C pin while the
+        bus is on (A4/A5 on an Uno); None when it may be read."""
+        number = self.model.digital_pins + channel
+        if number not in self.model.pin_numbers(Function.ANALOG_INPUT):
+            return E.PIN_NOT_CAPABLE
+        if self.i2c_speed is not None and number in self.model.pin_numbers(Function.I2C):
+            return E.PIN_BUSY
+        return None
+
+    def _analog_read_all(self, request: p.AnalogReadAll) -> p.Frame:
+        return p.AnalogReadAllReply(tuple(self.analog[: p.ANALOG_CHANNELS]))
+
     def _analog_read(self, request: p.AnalogRead) -> p.Frame:
-        if request.channel >= p.ANALOG_CHANNELS:
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self.i2c_speed is not None and request.channel in (4, 5):
-            return self._error(request, E.PIN_BUSY)
+        refusal = self._analog_refusal(request.channel)
+        if refusal is not None:
+            return self._error(request, refusal)
         return p.AnalogReadReply(request.channel, self.analog[request.channel])
 
     def _analog_watch(self, request: p.AnalogWatch) -> p.Frame:
         channel, deadband = request.channel, request.deadband
-        if channel >= p.ANALOG_CHANNELS:
-            return self._error(request, E.PIN_NOT_CAPABLE)
-        if self.i2c_speed is not None and channel in (4, 5):
-            return self._error(request, E.PIN_BUSY)
+        refusal = self._analog_refusal(channel) if channel < p.ANALOG_CHANNELS else None
+        if channel >= p.ANALOG_CHANNELS or refusal is not None:  # watches: 6 channels
+            return self._error(request, refusal or E.PIN_NOT_CAPABLE)
         if deadband > p.ANALOG_MAX:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         stream = self.stream.request
@@ -140,3 +152,11 @@ class GpioModels(PeripheralModels):
             self._changes_in.send_nowait(report)
         except anyio.WouldBlock:
             self.changes_dropped += 1
+
+    def _pin_roles(self, request: p.ReadPinRoles) -> p.Frame:
+        def mask(role: str) -> int:  # the reply's u16 masks hold D0-D15 (a Mega's others: none)
+            return sum(1 << n for n, pin in self._pins.items() if pin.role == role and n < 16)
+
+        pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
+        roles = (mask("input"), mask("output"), pwm, mask("counter"))
+        return p.ReadPinRolesReply(*roles, mask("pulse-input"))

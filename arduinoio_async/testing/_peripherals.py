@@ -10,16 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .. import protocol as p
+from ..protocol.boards import BoardModel
 from ..protocol.pins import DigitalPin, Function, pin_mask
 from ..protocol.timers import DUTY_FREQUENCIES, TIMER_OF, Timer
 
 __all__ = [
-    "COUNTER",
-    "DIGITAL",
-    "DUTY",
-    "INPUT",
-    "PULSE",
-    "SERVO",
     "SOFT_PWM",
     "PeripheralModels",
     "PinModel",
@@ -29,17 +24,13 @@ __all__ = [
 
 E = p.ErrorCode
 
-DIGITAL = pin_mask(Function.DIGITAL_OUTPUT)
+#: The Uno's software PWM pins (their widths are checked in SOFT_PWM_STEP_US steps); the
+#: other pin checks ask the fake's model (``PeripheralModels._mask``).
 SOFT_PWM = pin_mask(Function.SOFT_PWM)
-SERVO = pin_mask(Function.SERVO_PWM)
-PULSE = SOFT_PWM | SERVO
-COUNTER = pin_mask(Function.COUNTER)
-DUTY = pin_mask(Function.DUTY_PWM)
-INPUT = pin_mask(Function.DIGITAL_INPUT)
 
 
 def has(mask: int, pin: int) -> bool:
-    return 0 <= pin < 16 and bool(mask & (1 << pin))
+    return pin >= 0 and bool(mask >> pin & 1)
 
 
 @dataclass
@@ -60,11 +51,17 @@ class PeripheralModels:
     """The I2C bridge, the pulse outputs and the counters (mixed into the FakeBoard)."""
 
     _pins: dict[int, PinModel]
+    #: The board model the fake is (protocol/boards.py): its pins per function.
+    model: BoardModel
     pulses: dict[int, int]
     duties: dict[int, tuple[int, int]]
     counters: dict[int, int]
     i2c_speed: p.I2CSpeed | None
     i2c_devices: dict[int, bytearray]
+
+    def _mask(self, function: Function) -> int:
+        """Bit n set when digital pin Dn of the fake's model can do ``function``."""
+        return sum(1 << n for n in self.model.pin_numbers(function) if n < self.model.digital_pins)
 
     @staticmethod
     def _error(request: p.Frame, code: p.ErrorCode) -> p.ErrorReply:
@@ -104,8 +101,8 @@ class PeripheralModels:
 
     def _pwm(self, request: p.PwmConfig | p.PwmSet) -> p.Frame:
         pin, pulse = request.pin, request.pulse_us
-        soft = has(SOFT_PWM, pin)
-        if not (soft or has(SERVO, pin)):
+        soft = has(self._mask(Function.SOFT_PWM), pin)
+        if not (soft or has(self._mask(Function.SERVO_PWM), pin)):
             return self._error(request, E.PIN_NOT_CAPABLE)
         state = self._pins[pin]
         if isinstance(request, p.PwmConfig):
@@ -148,7 +145,7 @@ class PeripheralModels:
 
     def _duty(self, request: p.PwmDutyConfig | p.PwmDutySet) -> p.Frame:
         pin = request.pin
-        if not has(DUTY, pin):
+        if not has(self._mask(Function.DUTY_PWM), pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         state = self._pins[pin]
         if isinstance(request, p.PwmDutySet):
@@ -168,7 +165,7 @@ class PeripheralModels:
         return p.PwmDutyConfigReply(pin, request.frequency_hz, request.duty)
 
     def _counter_config(self, request: p.CounterConfig) -> p.Frame:
-        if not has(COUNTER, request.pin):
+        if not has(self._mask(Function.COUNTER), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         state = self._pins[request.pin]
         if state.role not in ("free", "counter"):
@@ -182,7 +179,7 @@ class PeripheralModels:
         return p.CounterConfigReply(request.pin, request.edge)
 
     def _counter_read(self, request: p.CounterRead | p.CounterReset) -> p.Frame:
-        if not has(COUNTER, request.pin):
+        if not has(self._mask(Function.COUNTER), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         if self._pins[request.pin].role != "counter":
             return self._error(request, E.PIN_NOT_CONFIGURED)
@@ -193,7 +190,7 @@ class PeripheralModels:
         return p.CounterReadReply(request.pin, count)
 
     def _counter_watch(self, request: p.CounterWatch) -> p.Frame:
-        if not has(COUNTER, request.pin):
+        if not has(self._mask(Function.COUNTER), request.pin):
             return self._error(request, E.PIN_NOT_CAPABLE)
         state = self._pins[request.pin]
         if state.role != "counter":

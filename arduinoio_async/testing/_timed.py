@@ -39,7 +39,12 @@ class StreamModel:
     positions: Callable[[], Sequence[int]] = lambda: [0] * p.STEPPER_COUNT
 
     def check(
-        self, request: p.StreamStart, baud: int, i2c_on: bool, i2c_bytes: int = 0
+        self,
+        request: p.StreamStart,
+        baud: int,
+        i2c_on: bool,
+        i2c_bytes: int = 0,
+        sonars: int = 0,
     ) -> p.ErrorCode | None:
         """The firmware's checks of a START request, in its order."""
         mask, flags, period = request.analog_mask, int(request.flags), request.period_us
@@ -49,6 +54,7 @@ class StreamModel:
             | p.StreamFlags.COUNTERS
             | p.StreamFlags.STEPPERS
             | p.StreamFlags.ENCODERS
+            | p.StreamFlags.SONAR
             | p.StreamFlags.I2C
         )
         if (
@@ -57,14 +63,14 @@ class StreamModel:
             or (mask == 0 and flags == 0)
             or not p.STREAM_MIN_PERIOD_US <= period <= p.STREAM_MAX_PERIOD_US
             or period % p.STREAM_PERIOD_STEP_US
-            or p.sample_payload_size(mask, request.flags, i2c_bytes) > p.STREAM_MAX_VALUES
+            or p.sample_payload_size(mask, request.flags, i2c_bytes, sonars) > p.STREAM_MAX_VALUES
         ):
             return E.VALUE_OUT_OF_RANGE
         if i2c_on and mask & 0x30:  # A4/A5 carry SDA/SCL while the bridge is on
             return E.PIN_BUSY
         if flags & p.StreamFlags.I2C and not i2c_on:
             return E.I2C_NOT_CONFIGURED
-        size = p.sample_payload_size(mask, request.flags, i2c_bytes)
+        size = p.sample_payload_size(mask, request.flags, i2c_bytes, sonars)
         if not p.stream_fits_link(p.STREAM_FRAME_OVERHEAD + size, period, baud):
             return E.LINK_CAPACITY
         return None
@@ -96,7 +102,7 @@ class StreamModel:
         if request.flags & p.StreamFlags.ENCODERS:
             counts = tuple(encoders) + (0,) * (p.ENCODER_SLOTS - len(encoders))
             payload += struct.pack(f">{p.ENCODER_SLOTS}i", *counts)
-        payload += i2c  # the I2C blocks' part (lengths, statuses, bytes), if any
+        payload += i2c  # the sonar block and the I2C blocks' part, if any
         return p.StreamSample(mask, request.flags, self.sequence, board_us & 0xFFFFFFFF, payload)
 
     def stop(self) -> int:

@@ -19,6 +19,7 @@
 #define AIO_CT_FAILSAFE 0x08u
 #define AIO_CT_STEPPER 0x09u
 #define AIO_CT_ENCODER 0x0Au
+#define AIO_CT_SONAR 0x0Bu
 #define AIO_CT_PULSE_IN 0x0Cu
 #define AIO_CT_SPI 0x0Du
 #define AIO_CT_EVENT 0x40u
@@ -36,6 +37,7 @@
 #define AIO_DT_MISC_TRANSACTION 0x09u
 #define AIO_DT_MISC_SET_LOW_LATENCY 0x0Au
 #define AIO_DT_MISC_SET_FRAMING 0x0Bu
+#define AIO_DT_MISC_READ_BOARD_DESCRIPTION 0x0Cu
 #define AIO_DT_GPIO_CONFIG 0x01u
 #define AIO_DT_GPIO_READ 0x02u
 #define AIO_DT_GPIO_WRITE 0x03u
@@ -74,6 +76,9 @@
 #define AIO_DT_ENCODER_READ 0x02u
 #define AIO_DT_ENCODER_PRESET 0x03u
 #define AIO_DT_ENCODER_WATCH 0x04u
+#define AIO_DT_SONAR_CONFIG 0x01u
+#define AIO_DT_SONAR_READ 0x02u
+#define AIO_DT_SONAR_TIMING 0x03u
 #define AIO_DT_PULSE_IN_CONFIG 0x01u
 #define AIO_DT_PULSE_IN_READ 0x02u
 #define AIO_DT_SPI_CONFIG 0x01u
@@ -126,6 +131,7 @@
 #define AIO_STREAM_COUNTERS 0x04u
 #define AIO_STREAM_STEPPERS 0x08u
 #define AIO_STREAM_ENCODERS 0x10u
+#define AIO_STREAM_SONAR 0x20u
 #define AIO_STREAM_PULSE_IN 0x40u
 #define AIO_STREAM_I2C 0x80u
 #define AIO_SAFE_NONE 0x00u
@@ -171,9 +177,11 @@
 #define AIO_FEATURE_CRC16 0x10000u
 #define AIO_FEATURE_STEPPER 0x20000u
 #define AIO_FEATURE_ENCODER 0x40000u
+#define AIO_FEATURE_SONAR 0x80000u
 #define AIO_FEATURE_PULSE_IN 0x100000u
 #define AIO_FEATURE_SPI 0x200000u
 #define AIO_FEATURE_I2C_STREAM 0x400000u
+#define AIO_FEATURE_BOARD_DESCRIPTION 0x800000u
 
 /* Limits. */
 #define AIO_INTER_BYTE_GAP_MS 10u
@@ -199,6 +207,11 @@
 #define AIO_I2C_BLOCK_SLOTS 2u
 #define AIO_I2C_BLOCK_BYTES 16u
 #define AIO_PULSE_IN_SLOTS 6u
+#define AIO_SONAR_SLOTS 4u
+#define AIO_SONAR_NO_ECHO 65535u
+#define AIO_SONAR_NO_READING 65534u
+#define AIO_SONAR_TIMEOUT_US 30000u
+#define AIO_SONAR_DEFAULT_SPEED_DM_S 3430u
 #define AIO_FAILSAFE_MIN_TIMEOUT_MS 20u
 #define AIO_FAILSAFE_MAX_TIMEOUT_MS 10000u
 #define AIO_EEPROM_ID_ADDRESS 0u
@@ -207,6 +220,7 @@
 #define AIO_STEPPER_COUNT 4u
 #define AIO_STEPPER_MAX_SPEED 10000u
 #define AIO_STEPPER_MAX_ACCEL 1000000u
+#define AIO_BOARD_PAGE_BYTES 29u
 
 /* Table III: bit n set when pin (or analog channel) n can do it. */
 #define AIO_PINS_DIGITAL_INPUT 0x3FFCu
@@ -221,6 +235,49 @@
 #define AIO_PINS_SPI 0x3800u
 #define AIO_PINS_SPI_CS 0x07FCu
 #define AIO_PINS_PULSE_IN 0x3FFCu
+#define AIO_PINS_SONAR 0x3FFCu
+
+/* Board models (READ_BOARD_DESCRIPTION) and functions in wire order. */
+#define AIO_BOARD_UNO_R3 0x01u
+#define AIO_BOARD_MEGA2560 0x02u
+#define AIO_FUNCTION_DIGITAL_INPUT 0u
+#define AIO_FUNCTION_DIGITAL_OUTPUT 1u
+#define AIO_FUNCTION_ANALOG_INPUT 2u
+#define AIO_FUNCTION_SOFT_PWM 3u
+#define AIO_FUNCTION_SERVO_PWM 4u
+#define AIO_FUNCTION_I2C 5u
+#define AIO_FUNCTION_COUNTER 6u
+#define AIO_FUNCTION_DUTY_PWM 7u
+#define AIO_FUNCTION_ENCODER 8u
+#define AIO_FUNCTION_SPI 9u
+#define AIO_FUNCTION_SPI_CS 10u
+#define AIO_FUNCTION_PULSE_IN 11u
+#define AIO_FUNCTION_SONAR 12u
+#define AIO_BOARD_FUNCTIONS 13u
+/* Description tables: model, digital pins, analog pins, functions, then per
+ * function (wire order) a bitmap of ceil(pins / 8) bytes, pin n in bit n % 8 of
+ * byte n / 8 (Arduino numbering: An is digital pins + n). */
+#define AIO_BOARD_TABLE_UNO_R3 { \
+    0x01u, 0x0Eu, 0x06u, 0x0Du, 0xFCu, 0x3Fu, 0x00u, 0xFCu, 0x3Fu, 0x00u, 0x00u, 0xC0u, \
+    0x0Fu, 0xFCu, 0x00u, 0x00u, 0x00u, 0x06u, 0x00u, 0x00u, 0x00u, 0x0Cu, 0x0Cu, 0x00u, \
+    0x00u, 0x68u, 0x06u, 0x00u, 0xFCu, 0x3Fu, 0x00u, 0x00u, 0x38u, 0x00u, 0xFCu, 0x07u, \
+    0x00u, 0xFCu, 0x3Fu, 0x00u, 0xFCu, 0x3Fu, 0x00u, \
+}
+#define AIO_BOARD_PAGE_LEN_UNO_R3 27u
+#define AIO_BOARD_TABLE_MEGA2560 { \
+    0x02u, 0x36u, 0x10u, 0x0Du, 0xFCu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0x3Fu, 0x00u, \
+    0x00u, 0xFCu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0x3Fu, 0x00u, 0x00u, 0x00u, 0x00u, \
+    0x00u, 0x00u, 0x00u, 0x00u, 0xC0u, 0xFFu, 0x3Fu, 0x00u, 0x00u, 0xC0u, 0x3Fu, 0x00u, \
+    0x00u, 0x00u, 0x00u, 0x00u, 0xECu, 0x19u, 0x00u, 0x00u, 0x00u, 0x70u, 0x00u, 0x00u, \
+    0x00u, 0x00u, 0x00u, 0x30u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x0Cu, 0x00u, \
+    0x3Cu, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0xECu, 0x19u, 0x00u, 0x00u, 0x00u, \
+    0x70u, 0x00u, 0x00u, 0x00u, 0x0Cu, 0xFCu, 0x3Cu, 0x00u, 0x00u, 0x00u, 0x3Cu, 0xC0u, \
+    0x3Fu, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x1Cu, 0x00u, 0x00u, 0xFCu, 0xFFu, \
+    0xFFu, 0xFFu, 0xFFu, 0xFFu, 0x23u, 0x00u, 0x00u, 0x0Cu, 0xFCu, 0x3Cu, 0x00u, 0x00u, \
+    0x00u, 0x3Cu, 0xC0u, 0x3Fu, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, 0x00u, \
+    0x00u, \
+}
+#define AIO_BOARD_PAGE_LEN_MEGA2560 27u
 
 /* Request framing: X(CLASS, NAME, ct, dt, data_len, len_pos) per request.
  * data_len: data bytes between DT and CS without the variable part;
@@ -238,6 +295,7 @@
     X(MISC, TRANSACTION, 0x01u, 0x09u, 2, 1) \
     X(MISC, SET_LOW_LATENCY, 0x01u, 0x0Au, 1, -1) \
     X(MISC, SET_FRAMING, 0x01u, 0x0Bu, 1, -1) \
+    X(MISC, READ_BOARD_DESCRIPTION, 0x01u, 0x0Cu, 1, -1) \
     X(GPIO, CONFIG, 0x02u, 0x01u, 2, -1) \
     X(GPIO, READ, 0x02u, 0x02u, 1, -1) \
     X(GPIO, WRITE, 0x02u, 0x03u, 2, -1) \
@@ -276,6 +334,9 @@
     X(ENCODER, READ, 0x0Au, 0x02u, 1, -1) \
     X(ENCODER, PRESET, 0x0Au, 0x03u, 5, -1) \
     X(ENCODER, WATCH, 0x0Au, 0x04u, 3, -1) \
+    X(SONAR, CONFIG, 0x0Bu, 0x01u, 3, -1) \
+    X(SONAR, READ, 0x0Bu, 0x02u, 1, -1) \
+    X(SONAR, TIMING, 0x0Bu, 0x03u, 4, -1) \
     X(PULSE_IN, CONFIG, 0x0Cu, 0x01u, 4, -1) \
     X(PULSE_IN, READ, 0x0Cu, 0x02u, 1, -1) \
     X(SPI, CONFIG, 0x0Du, 0x01u, 4, -1) \
@@ -293,6 +354,7 @@
 #define AIO_REPLY_LEN_MISC_TRANSACTION 2u
 #define AIO_REPLY_LEN_MISC_SET_LOW_LATENCY 1u
 #define AIO_REPLY_LEN_MISC_SET_FRAMING 1u
+#define AIO_REPLY_LEN_MISC_READ_BOARD_DESCRIPTION 6u
 #define AIO_REPLY_LEN_GPIO_CONFIG 2u
 #define AIO_REPLY_LEN_GPIO_READ 2u
 #define AIO_REPLY_LEN_GPIO_WRITE 2u
@@ -331,6 +393,9 @@
 #define AIO_REPLY_LEN_ENCODER_READ 11u
 #define AIO_REPLY_LEN_ENCODER_PRESET 15u
 #define AIO_REPLY_LEN_ENCODER_WATCH 3u
+#define AIO_REPLY_LEN_SONAR_CONFIG 3u
+#define AIO_REPLY_LEN_SONAR_READ 9u
+#define AIO_REPLY_LEN_SONAR_TIMING 4u
 #define AIO_REPLY_LEN_PULSE_IN_CONFIG 4u
 #define AIO_REPLY_LEN_PULSE_IN_READ 6u
 #define AIO_REPLY_LEN_SPI_CONFIG 4u

@@ -18,6 +18,7 @@
 #include "sim_irq.h"
 
 #include "circuit.h"
+#include "sonar_model.h"
 #include "pacing.h"
 #include "steps.h"
 
@@ -290,6 +291,7 @@ static void record_level(int p, int level)
 		}
 		c->falls++;
 	}
+	sonar_model_edge(p, level, t);
 }
 
 /* Every raise of a pin's IRQ: a PORT/DDR write, the circuit, a compare output.

@@ -34,6 +34,7 @@
 #include "spi_device.h"
 #include "mpu6050.h"
 #include "rcpulse.h"
+#include "sonar_model.h"
 #include "wire.h"
 
 static char ctl_path[600];
@@ -300,6 +301,8 @@ static const struct command commands[] = {
 	{"rcpulse", 0, cmd_rcpulse},
 	{"rcpulse_status", 1, cmd_rcpulse_status},
 	{"rcpulse_stop", 0, cmd_rcpulse_stop},
+	{"sonar", 0, cmd_sonar},
+	{"sonar_status", 1, cmd_sonar_status},
 	{"set_latency_timer", 0, cmd_set_latency_timer},
 	{"step_log", 0, cmd_step_log},
 	{"steps", 1, cmd_steps},

@@ -36,6 +36,7 @@
 #include "pty.h"
 #include "quadrature.h"
 #include "rcpulse.h"
+#include "sonar_model.h"
 #include "trace.h"
 #include "wire.h"
 
@@ -233,6 +234,7 @@ void recompute_next_event(void)
 	schedule_pulses();
 	schedule_quadrature();
 	schedule_rcpulse();
+	schedule_sonar_model();
 }
 
 void run_events(void)
@@ -244,6 +246,7 @@ void run_events(void)
 		progress |= run_pulses(now);
 		progress |= run_quadrature(now);
 		progress |= run_rcpulse(now);
+		progress |= run_sonar_model(now);
 	}
 	recompute_next_event();
 	wire_events_done();

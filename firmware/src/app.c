@@ -23,6 +23,7 @@
 #include "encoder.h"
 #include "spi.h"
 #include "pulse_in.h"
+#include "sonar.h"
 #include "duty.h"
 #include "dispatch.h"
 #include "failsafe.h"
@@ -79,6 +80,7 @@ void app_init(void)
     encoder_init();
     spi_init();
     pulse_in_init();
+    sonar_init();
     stream_init();
     analog_init();
     failsafe_init();
@@ -154,6 +156,7 @@ uint8_t app_step(void)
     stepper_poll();
     encoder_poll();
     pulse_in_poll();
+    sonar_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

@@ -8,6 +8,7 @@
 #include "encoder.h"
 #include "spi.h"
 #include "pulse_in.h"
+#include "sonar.h"
 #include "failsafe.h"
 #include "gpio.h"
 #include "i2c.h"
@@ -60,6 +61,9 @@ static aio_handler_t handler(uint8_t ct)
 #endif
 #if AIO_WITH_PULSE_IN
     case AIO_CT_PULSE_IN: return pulse_in_handle;
+#endif
+#if AIO_WITH_SONAR
+    case AIO_CT_SONAR: return sonar_handle;
 #endif
     default: return 0;
     }

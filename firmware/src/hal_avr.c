@@ -133,7 +133,7 @@ void hal_edge_watch(uint16_t mask)
 void isr_gpio(void) __attribute__((used, externally_visible, noinline));
 void isr_gpio(void) { gpio_pin_change(hal_pin_levels()); }
 ISR_TRAMPOLINE(isr_gpio_call, isr_gpio);
-#if AIO_WITH_PULSE_IN
+#if AIO_WITH_PULSE
 void isr_pulse(void) __attribute__((used, externally_visible, noinline));
 void isr_pulse(void) { pulse_edges(hal_pin_levels()); }
 ISR_TRAMPOLINE(isr_pulse_call, isr_pulse);
@@ -145,7 +145,7 @@ ISR_TRAMPOLINE(isr_pulse_call, isr_pulse);
 ISR(PCINT0_vect)
 {
     encoder_pin_change(hal_pin_levels());
-#if AIO_WITH_PULSE_IN
+#if AIO_WITH_PULSE
     if (pulse_active) /* pulse.h: a call only while a pulse input is in use */
         ISR_CALL(isr_pulse_call);
 #endif

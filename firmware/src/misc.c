@@ -4,6 +4,7 @@
 #include "misc.h"
 
 #include "analog.h"
+#include "board.h"
 #include "failsafe.h"
 #include "hal.h"
 #include "parser.h"
@@ -20,10 +21,10 @@
      AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
      AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE | AIO_FEATURE_GPIO_CHANGES | \
      AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS | AIO_FEATURE_ANALOG_CHANGES | \
-     AIO_FEATURE_LOW_LATENCY | AIO_FEATURE_DUTY_PWM | AIO_FEATURE_CRC16 | \
+     AIO_FEATURE_LOW_LATENCY | AIO_FEATURE_DUTY_PWM | AIO_FEATURE_CRC16 | AIO_FEATURE_BOARD_DESCRIPTION | \
      (AIO_WITH_STEPPER ? AIO_FEATURE_STEPPER : 0u) | (AIO_WITH_ENCODER ? AIO_FEATURE_ENCODER : 0u) | \
      (AIO_WITH_SPI ? AIO_FEATURE_SPI : 0u) | (AIO_WITH_I2C_STREAM ? AIO_FEATURE_I2C_STREAM : 0u) | \
-     (AIO_WITH_PULSE_IN ? AIO_FEATURE_PULSE_IN : 0u))
+     (AIO_WITH_PULSE_IN ? AIO_FEATURE_PULSE_IN : 0u) | (AIO_WITH_SONAR ? AIO_FEATURE_SONAR : 0u))
 
 uint8_t misc_reset_pending;
 uint8_t misc_low_latency;
@@ -103,6 +104,8 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         parser_crc = rq->data[0];
         *p++ = parser_crc;
         break;
+    case AIO_DT_MISC_READ_BOARD_DESCRIPTION:
+        return board_describe(rq->data[0], rp);
     case AIO_DT_MISC_READ_PIN_ROLES:
         p = aio_put16(p, role_mask(ROLE_GPIO_IN));
         p = aio_put16(p, role_mask(ROLE_GPIO_OUT));

@@ -36,7 +36,7 @@ uint8_t parser_seal(uint8_t *frame, uint8_t len)
  * table is a compile error in the initializer. */
 #define FR_KNOWN 0x80u
 #define FR_ROWS 14u /* up to CT 0x0D (SPI) */
-#define FR_COLS 12u
+#define FR_COLS 13u /* up to DT 0x0C (MISC READ_BOARD_DESCRIPTION) */
 #define FR_ENC(data_len, lpos) ((uint8_t)(FR_KNOWN | (data_len) | (uint8_t)((lpos) + 1) << 4))
 
 #pragma GCC diagnostic push

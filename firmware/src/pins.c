@@ -8,6 +8,7 @@
 #include "duty.h"
 #include "encoder.h"
 #include "pulse_in.h"
+#include "sonar.h"
 #include "gpio.h"
 #include "hal.h"
 #include "pwm.h"
@@ -64,6 +65,9 @@ void pins_release(uint8_t pin)
         break;
     case ROLE_PULSE_IN:
         pulse_in_release(pin);
+        break;
+    case ROLE_SONAR:
+        sonar_release(pin); /* and its other pin */
         break;
     case ROLE_GPIO_IN:
     case ROLE_GPIO_OUT:

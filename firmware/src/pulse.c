@@ -13,7 +13,7 @@
 #include "gpio.h"
 #include "hal.h"
 
-#if AIO_WITH_PULSE_IN
+#if AIO_WITH_PULSE
 
 #define BARRIER() __asm__ volatile("" ::: "memory")
 
@@ -93,4 +93,4 @@ void pulse_init(void)
     pulse_active = 0;
 }
 
-#endif /* AIO_WITH_PULSE_IN */
+#endif /* AIO_WITH_PULSE */

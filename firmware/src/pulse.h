@@ -12,9 +12,13 @@
 
 #include "aio.h"
 
-#if AIO_WITH_PULSE_IN
+/* the layer is in an image with either user */
+#define AIO_WITH_PULSE (AIO_WITH_PULSE_IN || AIO_WITH_SONAR)
 
-#define PULSE_CHANNELS AIO_PULSE_IN_SLOTS
+#if AIO_WITH_PULSE
+
+/* the pulse inputs' slots, then one channel the sonars share (one measures at a time) */
+#define PULSE_CHANNELS ((AIO_WITH_PULSE_IN ? AIO_PULSE_IN_SLOTS : 0u) + (AIO_WITH_SONAR ? 1u : 0u))
 
 typedef struct {
     uint16_t mask;             /* the pin's bit in hal_pin_levels(); 0: channel free */
@@ -43,6 +47,6 @@ void pulse_init(void);
 #else
 static inline uint16_t pulse_pcint_mask(void) { return 0; }
 static inline void pulse_init(void) {}
-#endif /* AIO_WITH_PULSE_IN */
+#endif /* AIO_WITH_PULSE */
 
 #endif

@@ -31,6 +31,7 @@
 #include "i2c.h"
 #include "stepper.h"
 #include "i2cblock.h"
+#include "sonar.h"
 #include "pulse_in.h"
 
 #ifndef BAUD
@@ -44,10 +45,16 @@
 #define STREAM_FLAGS                                                                     \
     (AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS |                        \
      (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u) | \
-     (AIO_WITH_PULSE_IN ? AIO_STREAM_PULSE_IN : 0u) | (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
+     (AIO_WITH_SONAR ? AIO_STREAM_SONAR : 0u) | (AIO_WITH_PULSE_IN ? AIO_STREAM_PULSE_IN : 0u) | \
+     (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
+#if AIO_WITH_SONAR
+static uint8_t sonars;               /* the sonar slots the samples carry (frozen at START) */
+#else
+#define sonars 0u
+#endif
 #if AIO_WITH_PULSE_IN
 static uint8_t pulse_ins;            /* the pulse input slots the samples carry (frozen at START) */
 #else
@@ -81,7 +88,8 @@ uint8_t stream_running(void) { return running; }
 
 uint8_t stream_converts(void) { return running && mask; }
 
-static uint8_t value_bytes_n(uint8_t m, uint8_t f, uint8_t pins_n)
+/* `sn`: the sonar slots, if f holds SONAR; `pn`: the pulse input slots, if PULSE_IN */
+static uint8_t value_bytes(uint8_t m, uint8_t f, uint8_t sn, uint8_t pn)
 {
     uint8_t n = 0;
     for (; m; m >>= 1)
@@ -100,19 +108,24 @@ static uint8_t value_bytes_n(uint8_t m, uint8_t f, uint8_t pins_n)
     if (f & AIO_STREAM_ENCODERS)
         n += 4u * AIO_ENCODER_SLOTS;
 #endif
+#if AIO_WITH_SONAR
+    if (f & AIO_STREAM_SONAR)
+        n += 1u + 3u * sn;
+#else
+    (void)sn;
+#endif
 #if AIO_WITH_PULSE_IN
     if (f & AIO_STREAM_PULSE_IN)
-        n += 1u + 3u * pins_n;
+        n += 1u + 3u * pn;
+#else
+    (void)pn;
 #endif
-    (void)pins_n;
 #if AIO_WITH_I2C_STREAM
     if (f & AIO_STREAM_I2C)
         n += i2cblock_bytes();
 #endif
     return n;
 }
-
-static uint8_t value_bytes(uint8_t m, uint8_t f) { return value_bytes_n(m, f, pulse_ins); }
 
 uint8_t stream_admit(uint8_t len, uint16_t period_us, uint32_t baud)
 {
@@ -170,7 +183,7 @@ void stream_adc_done(uint16_t value)
 static void sample(void)
 {
     uint8_t *p = frame;
-    uint8_t len = value_bytes(mask, flags);
+    uint8_t len = value_bytes(mask, flags, sonars, pulse_ins);
     uint16_t r, f;
 
     *p++ = AIO_CT_EVENT;
@@ -182,7 +195,7 @@ static void sample(void)
     p = aio_put32(p, instant);
     *p++ = len;
     pos = (uint8_t)(p - frame);
-    p += (uint8_t)(len - value_bytes(0, flags)); /* analog values come from the chain */
+    p += (uint8_t)(len - value_bytes(0, flags, sonars, pulse_ins)); /* analog values come from the chain */
     if (flags & AIO_STREAM_LEVELS)
         p = aio_put16(p, hal_pin_levels() & AIO_PINS_DIGITAL_INPUT);
     if (flags & AIO_STREAM_EDGES) {
@@ -204,7 +217,12 @@ static void sample(void)
         for (r = 0; r < AIO_ENCODER_SLOTS; r++)
             p = aio_put32(p, (uint32_t)encoder_peek((uint8_t)r));
 #endif
-    /* (the sonar block goes here, before the pulse inputs') */
+#if AIO_WITH_SONAR
+    if (flags & AIO_STREAM_SONAR) {
+        *p++ = sonars;
+        p = sonar_stream_put(p, sonars);
+    }
+#endif
 #if AIO_WITH_PULSE_IN
     if (flags & AIO_STREAM_PULSE_IN) {
         *p++ = pulse_ins;
@@ -302,7 +320,7 @@ static void stop(void)
 
 uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
-    uint8_t m, f, s, shift, n;
+    uint8_t m, f, s, shift, sn = sonar_stream_count(), pn;
     uint16_t period, r;
 
     if (rq->dt != AIO_DT_STREAM_START && rq->dt != AIO_DT_STREAM_STOP)
@@ -317,13 +335,13 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     f = rq->data[1];
     period = aio_be16(rq->data + 2);
 #if AIO_WITH_PULSE_IN
-    n = pulse_in_stream_slots();
+    pn = pulse_in_stream_slots();
 #else
-    n = 0;
+    pn = 0;
 #endif
     if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
         f & ~STREAM_FLAGS ||
-        (m == 0 && f == 0) || value_bytes_n(m, f, n) > AIO_STREAM_MAX_VALUES ||
+        (m == 0 && f == 0) || value_bytes(m, f, sn, pn) > AIO_STREAM_MAX_VALUES ||
         period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
         period % AIO_STREAM_PERIOD_STEP_US)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
@@ -335,9 +353,9 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_PIN_BUSY; /* duty PWM on D5/D6 holds the alarm timer */
     if (m && analog_watched())
         return AIO_ERR_PIN_BUSY; /* the ADC samples watched channels */
-    if (!stream_admit(value_bytes_n(m, f, n), period, BAUD))
+    if (!stream_admit(value_bytes(m, f, sn, pn), period, BAUD))
         return AIO_ERR_LINK_CAPACITY;
-    shift = stream_adc_clock((uint8_t)(value_bytes(m, 0) / 2u), period);
+    shift = stream_adc_clock((uint8_t)(value_bytes(m, 0, 0, 0) / 2u), period);
     if (!shift)
         return AIO_ERR_VALUE_OUT_OF_RANGE; /* not reached: 6 channels take 78 us at 1 MHz */
     stop();
@@ -345,8 +363,11 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     s = hal_irq_save();
     mask = m;
     flags = f;
+#if AIO_WITH_SONAR
+    sonars = sn;
+#endif
 #if AIO_WITH_PULSE_IN
-    pulse_ins = n;
+    pulse_ins = pn;
 #endif
     adc_shift = shift;
     channel_count = 0;

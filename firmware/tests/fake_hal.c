@@ -202,7 +202,7 @@ void fake_drive(uint8_t pin, uint8_t level)
     fake_driven[pin] = 1;
     if (fake_edge_watch >> pin & 1u) { /* hal_avr.c's pin-change interrupt */
         encoder_pin_change(hal_pin_levels());
-#if AIO_WITH_PULSE_IN
+#if AIO_WITH_PULSE
         if (pulse_active)
             pulse_edges(hal_pin_levels());
 #endif

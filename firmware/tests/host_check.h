@@ -45,6 +45,7 @@ void check(const char *file, int line, const uint8_t *req, size_t rn, const uint
 void test_table(void);
 void test_misc(void);
 void test_low_latency(void);
+void test_board_description(void);
 void test_gpio(void);
 void test_gpio_changes(void);
 void test_transaction(void);
@@ -58,6 +59,7 @@ void test_encoder(void);
 void test_spi(void);
 void test_i2cblock(void);
 void test_pulse_in(void);
+void test_sonar(void);
 void test_stream(void);
 void test_failsafe(void);
 void test_stepper(void);

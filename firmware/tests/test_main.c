@@ -10,6 +10,7 @@ int main(void)
     test_table();
     test_misc();
     test_low_latency();
+    test_board_description();
     test_gpio();
     test_gpio_changes();
     test_transaction();
@@ -23,6 +24,7 @@ int main(void)
     test_spi();
     test_i2cblock();
     test_pulse_in();
+    test_sonar();
     test_stream();
     test_failsafe();
     test_stepper();

@@ -18,7 +18,7 @@ void test_misc(void)
 
     fake_adc[8] = 0x0137;
     CHECK(B(1, 3), B(1, 3, 0x01, 0x37));
-    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, (0x07 | AIO_FEATURE_SPI >> 16 | AIO_FEATURE_I2C_STREAM >> 16 | AIO_FEATURE_PULSE_IN >> 16), 0xFF, 0xFF, 0x00,
+    CHECK(B(1, 4), B(1, 4, 1, AIO_FIRMWARE_MAJOR, AIO_FIRMWARE_MINOR, 0x00, (0x07 | AIO_FEATURE_SPI >> 16 | AIO_FEATURE_I2C_STREAM >> 16 | AIO_FEATURE_PULSE_IN >> 16 | AIO_FEATURE_BOARD_DESCRIPTION >> 16 | AIO_FEATURE_SONAR >> 16), 0xFF, 0xFF, 0x00,
                      0x01, 0xC2, 0x00, 128));
     CHECK(B(1, 6), B(1, 6, 0, 0, 0));
     CHECK(B(1, 7, 0xBE, 0xEF), B(1, 7, 0xBE, 0xEF));
@@ -38,6 +38,39 @@ void test_misc(void)
     take();
     EXPECT(outn == 3 && out[0] == 1 && out[1] == 1 && out[2] == 0);
     EXPECT(fake_reset_done);
+}
+
+/* READ_BOARD_DESCRIPTION: the Uno's table in two pages, each with the 4-byte head */
+void test_board_description(void)
+{
+    static const uint8_t table[] = AIO_BOARD_TABLE_UNO_R3;
+    uint8_t want[2 + 1 + 4 + 1 + AIO_BOARD_PAGE_LEN_UNO_R3];
+    uint8_t page, at = 4, n;
+
+    board();
+    EXPECT(sizeof table == 4u + AIO_BOARD_FUNCTIONS * 3u);
+    for (page = 0; page < 2; page++) {
+        n = (uint8_t)(sizeof table - at < AIO_BOARD_PAGE_LEN_UNO_R3 ? sizeof table - at : AIO_BOARD_PAGE_LEN_UNO_R3);
+        want[0] = 1;
+        want[1] = AIO_DT_MISC_READ_BOARD_DESCRIPTION;
+        want[2] = page;
+        memcpy(&want[3], table, 4);
+        want[7] = n;
+        memcpy(&want[8], &table[at], n);
+        send_frame(B(1, AIO_DT_MISC_READ_BOARD_DESCRIPTION, page));
+        run();
+        take();
+        EXPECT(outn == 8u + n + 1u && !memcmp(out, want, 8u + n));
+        at = (uint8_t)(at + n);
+    }
+    EXPECT(at == sizeof table);
+    /* the head: the Uno, 14 digital pins, 6 analog, every function; D2-D13 digital */
+    EXPECT(table[0] == AIO_BOARD_UNO_R3 && table[1] == 14 && table[2] == 6 && table[3] == AIO_BOARD_FUNCTIONS);
+    EXPECT((table[4 + 3 * AIO_FUNCTION_DIGITAL_OUTPUT] | table[5 + 3 * AIO_FUNCTION_DIGITAL_OUTPUT] << 8) == AIO_PINS_DIGITAL_OUTPUT);
+    EXPECT((table[4 + 3 * AIO_FUNCTION_SERVO_PWM] | table[5 + 3 * AIO_FUNCTION_SERVO_PWM] << 8) == AIO_PINS_SERVO_PWM);
+    /* past the last page, and the highest page number (no wrap of the offset) */
+    CHECK(B(1, AIO_DT_MISC_READ_BOARD_DESCRIPTION, 2), B(0x81, AIO_DT_MISC_READ_BOARD_DESCRIPTION, AIO_ERR_VALUE_OUT_OF_RANGE));
+    CHECK(B(1, AIO_DT_MISC_READ_BOARD_DESCRIPTION, 255), B(0x81, AIO_DT_MISC_READ_BOARD_DESCRIPTION, AIO_ERR_VALUE_OUT_OF_RANGE));
 }
 
 /* SET_LOW_LATENCY: a burst of replies is padded to 97 bytes once the FIFO is dry */

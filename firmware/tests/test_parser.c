@@ -43,10 +43,10 @@ void test_framing(void)
     run();
     CHECK(B(1, 2), B(1, 2, 0x12, 0x34));
     /* unknown class, unknown descriptor */
-    fake_rx_push(B(0x0B));
+    fake_rx_push(B(0x3F));
     run();
     take();
-    EXPECT(outn == 4 && !memcmp(out, "\x8B\x00\x02\x89", 4));
+    EXPECT(outn == 4 && !memcmp(out, "\xBF\x00\x02\xBD", 4));
     fake_advance(101);
     run();
     fake_rx_push(B(0xC1));

@@ -1,10 +1,11 @@
 """The paper's real-time sensor system on one board: every sensor in one 1 kHz stream.
 
 The paper's robot needed a second firmware for its IMU and wheel encoders (Sec. V); here
-the sensing image streams four analog channels, two quadrature encoders and the
-MPU-6050's register block together, every period, while commands keep working.  The
-oracles are the harness's models: the analog fixture's voltages, the quadrature
-generators' positions, the bytes the MPU-6050 model served on each read.  The 60 s run
+the sensing image streams four analog channels, two quadrature encoders, the
+MPU-6050's register block and a sonar's latest distance together, every period, while
+commands keep working.  The oracles are the harness's models: the analog fixture's
+voltages, the quadrature generators' positions, the bytes the MPU-6050 model served on
+each read, the distance the sonar model answers for.  The 60 s run
 is ``python -m benchmarks.sensors_imu --encoders``; this one takes a few seconds.
 """
 
@@ -16,7 +17,7 @@ from typing import Any
 import anyio
 import pytest
 
-from arduinoio_async import A0, A1, A2, A3, D2, D3, D4, D12, I2CSpeed
+from arduinoio_async import A0, A1, A2, A3, D2, D3, D4, D7, D8, D12, I2CSpeed
 from arduinoio_async.board import Board
 from arduinoio_async.board.imu import MPU6050
 from arduinoio_async.board.streaming import Sample
@@ -42,13 +43,14 @@ async def served(uno: VirtualUno, first: int) -> list[bytes]:
             return out
 
 
-async def test_analog_encoders_and_imu_in_one_1khz_stream(
+async def test_analog_encoders_imu_and_sonar_in_one_1khz_stream(
     virtual_uno_factory: VirtualUnoFactory,
 ) -> None:
     """3,000 samples at 1 ms: no gap, no drop; every IMU block is the model's read of that
     period; the analog channels hold the fixture's voltages; the encoders' streamed counts
     end at the generators' positions, reached without a count going backwards on a
-    forward-only generator."""
+    forward-only generator; the sonar's distance in every sample once it has one is the
+    model's (within 1 %), each reading no older than the firing period allows."""
     uno = await virtual_uno_factory(profile="sensing", baud=1_000_000)
     for channel, mv in enumerate(MILLIVOLTS):
         await uno.set_analog(channel, mv)
@@ -59,11 +61,19 @@ async def test_analog_encoders_and_imu_in_one_1khz_stream(
         right = await board.encoder(a=D4, b=D12)
         imu = MPU6050(await board.i2c(I2CSpeed.KHZ_400))
         await imu.configure(accel_g=4, gyro_dps=500)
+        await uno.sonar("D7", "D8", distance_mm=1500)
+        await board.sonar(D7, D8)
+        await board.sonar_timing(period_ms=40)
         first_read = (await uno.command("imu"))["logged"]
         got: list[Sample] = []
         with anyio.fail_after(120):
             async with board.stream(
-                analog=ANALOG, encoders=True, i2c=[imu.block], period_ms=1, buffer=SAMPLES
+                analog=ANALOG,
+                encoders=True,
+                i2c=[imu.block],
+                sonars=True,
+                period_ms=1,
+                buffer=SAMPLES,
             ) as samples:
                 async for sample in samples:
                     got.append(sample)
@@ -96,3 +106,10 @@ async def test_analog_encoders_and_imu_in_one_1khz_stream(
         # The generators finished (2 s) before the last sample (3 s).
         assert (left_counts[-1], right_counts[-1]) == (position[2], position[4]) == (4000, -4000)
         assert ((await left.read()).count, (await right.read()).count) == (4000, -4000)
+        sonar = [s.sonars[0] for s in got if s.sonars is not None]
+        assert len(sonar) == SAMPLES
+        heard = [r for r in sonar if r.distance_mm is not None]
+        assert len(heard) >= SAMPLES - 100  # the first firing's echo comes within 100 ms
+        assert all(abs(r.distance_mm - 1500) <= 15 for r in heard if r.distance_mm is not None)
+        assert all(r.age_ms is not None and r.age_ms < 50 for r in heard)
+        assert (await uno.sonar_status()).on(7).echoes >= SAMPLES // 40 - 2

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 from collections.abc import AsyncIterator
@@ -315,3 +316,61 @@ async def test_rc_receiver(virtual_uno_factory: VirtualUnoFactory) -> None:
     truth = {s.pin: s for s in await uno.rcpulse_status()}
     assert abs(truth[4].last_width_us - 1750) < 0.1
     assert "last steering pulse: 175" in out, out  # 1749-1751 us
+
+
+async def test_sonar(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """The oracle: the harness's sonar models (the distances they are set to, the echo
+    widths they drove, no overlap between the two sonars)."""
+    uno = await virtual_uno_factory(profile="sensing")
+    await uno.sonar("D7", "D8", distance_mm=0)
+    await uno.sonar("D4", "D5", distance_mm=0)
+    async with run_example("sonar", "--port", uno.port, "--seconds", "1.5") as run:
+        await run.wait_for("ready")
+        await uno.sonar("D7", distance_mm=1500)
+        await uno.sonar("D4", distance_mm=250)
+        out = await run.finish()
+    last = re.fullmatch(r"front +(\d+) mm   rear +(\d+) mm", out.strip().splitlines()[-1])
+    assert last is not None, out
+    front, rear = int(last[1]), int(last[2])
+    # 20 C: the board uses 343.2 m/s, the model 343.0: 0.06 % apart
+    assert abs(front - 1500) <= 15 and abs(rear - 250) <= 3, out
+    status = await uno.sonar_status()
+    assert status.overlaps == 0
+    assert status.on(7).echoes >= 2 and status.on(4).echoes >= 2
+
+
+async def test_paper_robot(virtual_uno_factory: VirtualUnoFactory) -> None:
+    """Both boards of the paper's robot, each a virtual Uno; the oracles are the harness's
+    models: the quadrature generators' positions, the sonar's distance, the MPU-6050's
+    1 g on z, the servo widths the actuator board's timer drove (steering from the
+    wheels, ESC from the sonar), and those widths at 1,500 us once the host stops."""
+    actuators = await virtual_uno_factory(board_id=1)
+    sensors = await virtual_uno_factory(board_id=2, profile="sensing", fixture="open")
+    for pin in ("D2", "D3", "D4", "D5"):
+        await sensors.drive(pin, 0)  # where the generators start (AB = 00)
+    await sensors.sonar("D7", "D8", distance_mm=1000)
+    ports = ("--port", actuators.port, "--port", sensors.port)
+    async with run_example("paper_robot", *ports, "--seconds", "3") as run:
+        await run.wait_for("ready")
+        await sensors.quadrature("D2", "D3", edges=600, rate=3_000)
+        await sensors.quadrature("D4", "D5", edges=400, rate=2_000)
+        truth = {g.a: g.position for g in await sensors.wait_quadrature()}
+        assert truth == {2: 600, 4: 400}
+        # steering 1500 + (600 - 400); ESC 1500 + 300 * (1000 - 300) / 1000
+        for servo, width in ((9, 1700), (10, 1710)):
+            with anyio.fail_after(5):  # until the loop has seen the generators' last edges
+                while True:
+                    highs = (await captured_pulses(actuators, servo, 3)).high_us
+                    if all(abs(h - width) <= 1 for h in highs):
+                        break
+        out = await run.finish()
+    last = next(line for line in out.splitlines() if line.startswith("last: "))
+    assert "encoders left 600 right 400" in last, out
+    distance = int(last.split("sonar ")[1].split()[0])
+    assert abs(distance - 1000) <= 10, out
+    assert "accel z +9.81 m/s^2" in last and "steering 1700 us  ESC 1710 us" in last, out
+    assert "failsafe tripped" in out, out
+    for servo in (9, 10):
+        stats = await captured_pulses(actuators, servo, 3)
+        assert all(abs(h - 1500) <= 1 for h in stats.high_us), (servo, stats)
+    assert (await sensors.sonar_status()).on(7).echoes >= 10

@@ -101,3 +101,23 @@ async def test_a_motor_set_up_on_the_page_drives_its_pins(
         assert (await level(uno, "D7"), await level(uno, "D8")) == (1, 1)
         refused = await tab.call("motor_speed", index=3, speed=0.1)
         assert not refused["ok"] and "no motor 3" in refused["error"]
+
+
+async def test_a_sonar_set_up_on_the_page_shows_the_models_distance(
+    virtual_uno_factory: VirtualUnoFactory,
+) -> None:
+    """The oracle: the harness's sonar model (the distance it answers for)."""
+    uno = await virtual_uno_factory(profile="sensing")
+    await uno.sonar("D7", "D8", distance_mm=640)
+    async with monitored(uno) as tab:
+        made = await tab.call("sonar", trigger="D7", echo="D8")
+        assert made["ok"] and made["data"] == 0
+        with anyio.fail_after(10):
+            while True:
+                rows = (await tab.receive("board"))["sonars"]["rows"]
+                if rows and rows[0]["distance_mm"] is not None:
+                    break
+        assert rows[0]["pins"] == "D7/D8" and abs(rows[0]["distance_mm"] - 640) <= 7
+        assert (await uno.sonar_status()).on(7).echoes >= 1
+        again = await tab.call("sonar", trigger="D8", echo="D9")
+        assert not again["ok"] and "D8" in again["error"]  # the pin's other user, named

@@ -409,6 +409,45 @@ async def test_an_mpu6050_on_i2c_arrives_as_imu_in_si_units() -> None:
     assert sequences == list(range(sequences[0], sequences[0] + 20))
 
 
+async def test_a_sonar_arrives_as_range_in_metres_and_no_echo_as_inf() -> None:
+    """The fake board's sonar model: an object 1.234 m ahead, then nothing in range."""
+    config = parse(
+        {"boards": [{"name": "fake", "id": 1,
+                     "inputs": [{"pin": "D7", "echo": "D8", "type": "sonar",
+                                 "topic": "range", "period": 0.005}]}]}
+    )  # fmt: skip
+    key = topic_key(0, "/fake/range", msgs.RANGE, msgs.type_hash(msgs.RANGE))
+    received: list[bytes] = []
+    enough = anyio.Event()
+    async with FakeBoard(board_id=1) as fake, Board.connect(fake.host_stream) as board:
+        fake.set_sonar(7, 1234)
+        async with running_bridge(config, {1: board}) as (port, _):
+            config_ = zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])
+            listener = await anyio.to_thread.run_sync(zenoh.open, config_)
+            token = anyio.lowlevel.current_token()
+
+            def on_sample(sample: zenoh.Sample) -> None:
+                received.append(sample.payload.to_bytes())
+                ranges = [msgs.decode(msgs.RANGE, r).range for r in received]
+                if any(math.isinf(r) for r in ranges):
+                    anyio.from_thread.run_sync(enough.set, token=token)
+                elif len(received) == 5:
+                    fake.set_sonar(7, None)
+
+            try:
+                subscriber = listener.declare_subscriber(key, on_sample)
+                with anyio.fail_after(DEADLINE):
+                    await enough.wait()
+                undeclare(subscriber)
+            finally:
+                await anyio.to_thread.run_sync(listener.close)
+    messages = [msgs.decode(msgs.RANGE, payload) for payload in received]
+    assert messages[0].range == pytest.approx(1.234)
+    assert messages[0].radiation_type == 0 and messages[0].max_range == pytest.approx(4.0)
+    assert math.isinf(messages[-1].range)
+    assert fake.role(7) == "sonar" and fake.role(8) == "sonar"
+
+
 async def test_the_example_robot_comes_up_on_two_fake_boards() -> None:
     """examples/ros2_two_boards.yaml sets up every pin it names on boards 1 and 2."""
     config = load(Path(__file__).parents[2] / "examples" / "ros2_two_boards.yaml")
@@ -424,6 +463,7 @@ async def test_the_example_robot_comes_up_on_two_fake_boards() -> None:
             assert [n.config.name for n in nodes] == ["front", "rear"]
             assert front_board.failsafe is not None and rear_board.failsafe is not None
             assert front.role(13) == "output" and rear.role(4) == "output"
+            assert front.role(7) == front.role(8) == "sonar"
 
 
 async def test_an_unplugged_board_leaves_the_bridge_up_and_says_so() -> None:

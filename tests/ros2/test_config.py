@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from arduinoio_async import A0, D2, D3, D4, D5, D9
+from arduinoio_async import A0, D2, D3, D4, D5, D7, D8, D9
 from arduinoio_async.ros2 import ConfigError, load, parse
 
 EXAMPLE = Path(__file__).parents[2] / "examples" / "ros2_two_boards.yaml"
@@ -70,7 +70,8 @@ def test_the_example_configuration_loads() -> None:
                      {"pin": "D3", "type": "bool", "topic": "b"}]},
          r"inputs\[1\]\.pin: D3 is used twice on this board"),
         ({"inputs": [{"pin": "D3", "type": "switch", "topic": "a"}]},
-         r"inputs\[0\]\.type: 'switch' is not one of battery, bool, counter, encoder, imu, volts"),
+         r"inputs\[0\]\.type: 'switch' is not one of battery, bool, counter, encoder, imu, "
+         r"sonar, volts"),
         ({"inputs": [{"pin": "D3", "type": "bool", "topic": "a", "pullup": True}]},
          r"inputs\[0\]: unknown key 'pullup'"),
         ({"outputs": [{"pin": "D2", "type": "bool", "topic": "a", "timeout": 0}]},
@@ -123,6 +124,18 @@ def test_the_example_configuration_loads() -> None:
          r"inputs\[0\]\.mode: 'x3' is not one of x1, x2, x4"),
         ({"inputs": [{"pin": "D2", "type": "bool", "topic": "b", "counts_per_rev": 8}]},
          r"inputs\[0\]\.counts_per_rev: only an encoder takes 'counts_per_rev'"),
+        # Sonars (Range): a trigger pin and an echo pin.
+        ({"inputs": [{"pin": "D7", "type": "sonar", "topic": "s"}]},
+         r"inputs\[0\]\.echo: a sonar needs its echo pin"),
+        ({"inputs": [{"pin": "D7", "echo": "D7", "type": "sonar", "topic": "s"}]},
+         r"inputs\[0\]\.echo\.pin: D7 is used twice on this board"),
+        ({"inputs": [{"pin": "D7", "echo": "A1", "type": "sonar", "topic": "s"}]},
+         r"inputs\[0\]\.echo\.pin: A1 cannot be a 'sonar' \(D2-D13 can\)"),
+        ({"inputs": [{"pin": "D2", "type": "bool", "topic": "b", "echo": "D3"}]},
+         r"inputs\[0\]\.echo: only a sonar takes 'echo'"),
+        ({"inputs": [{"pin": "D2", "echo": "D3", "type": "sonar", "topic": "s",
+                      "counts_per_rev": 8}]},
+         r"inputs\[0\]\.counts_per_rev: only an encoder takes 'counts_per_rev'"),
         # The stream's samples are timed by Timer0, which a motor's duty PWM on D5/D6 holds.
         ({"inputs": [{"pin": "D2", "pin_b": "D3", "type": "encoder", "topic": "e",
                       "counts_per_rev": 8}],
@@ -145,6 +158,13 @@ def test_an_encoder_entry() -> None:
     assert (source.pin, source.pin_b, source.kind) == (D4, D5, "encoder")
     assert (source.counts_per_rev, source.mode, source.joint) == (800.0, "x4", "wheel")
     assert source.topic == "/robot/front/wheel" and source.period == 1.0
+
+
+def test_a_sonar_entry() -> None:
+    entry = {"pin": "D7", "echo": "D8", "type": "sonar", "topic": "range_front", "period": 0.05}
+    source = parse(config(inputs=[entry])).boards[0].inputs[0]
+    assert (source.pin, source.echo, source.kind) == (D7, D8, "sonar")
+    assert source.topic == "/robot/front/range_front" and source.period == 0.05
 
 
 def test_duplicate_nodes_and_board_ids() -> None:

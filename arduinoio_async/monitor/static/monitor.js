@@ -183,6 +183,12 @@
       control(view, "rc_input", { pin: rc.pin.value.trim().toUpperCase(), timeout_ms: Number(rc.timeout.value) },
         (slot) => `RC input ${rc.pin.value} in slot ${slot}`));
 
+    const sonars = root.querySelector("form.sonars");
+    sonars.querySelector(".sonar-add").addEventListener("click", () =>
+      control(view, "sonar",
+        { trigger: sonars.trigger.value.trim().toUpperCase(), echo: sonars.echo.value.trim().toUpperCase() },
+        (slot) => `sonar ${sonars.trigger.value}/${sonars.echo.value} in slot ${slot}`));
+
     const imu = root.querySelector("form.imu");
     imu.querySelector(".imu-add").addEventListener("click", () =>
       control(view, "imu",
@@ -244,6 +250,7 @@
       (s.moving ? `, ${s.speed} steps/s` : ", at rest")).join("; ") || "none";
     for (const pin of snapshot.pins) renderPin(view, pin);
     renderEncoders(view, snapshot.encoders);
+    renderSonars(view, snapshot.sonars);
     renderMotors(view, snapshot.motors);
     renderSpi(view, snapshot.spi);
     renderImu(view, snapshot.imu);
@@ -362,6 +369,24 @@
     }));
   }
 
+  // Sonars: the board's latest distance of each (or "no echo"), its age and readings.
+  function renderSonars(view, sonars) {
+    const form = view.root.querySelector("form.sonars");
+    const list = form.querySelector(".sonar-rows");
+    form.dataset.supported = sonars && sonars.supported ? "true" : "false";
+    if (!sonars || !sonars.supported) {
+      list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "not in this firmware" }));
+      return;
+    }
+    list.replaceChildren(...sonars.rows.map((s) => {
+      const what = s.distance_mm !== null ? `${s.distance_mm} mm` : s.no_echo ? "no echo" : "waiting";
+      return Object.assign(document.createElement("li"), {
+        className: "sonar-reading",
+        textContent: `slot ${s.slot} (${s.pins}): ${what} · ${s.age_ms} ms ago · ${s.readings} readings`,
+      });
+    }));
+  }
+
   function renderStream(view, stream) {
     const el = view.root.querySelector('[data-fact="stream"]');
     el.dataset.running = stream.running ? "true" : "false";
@@ -473,7 +498,10 @@
     const view = boards[message.board];
     if (!view) return;
     for (const [name, state] of Object.entries(view.pins)) {
-      const bit = 1 << Number(name.slice(1));
+      // The level masks are 32-bit numbers here: a Mega's pins above D30 have no bit
+      // (the stream's and the change events' masks carry D0-D15 today).
+      const number = Number(name.slice(1));
+      const bit = number <= 30 ? 1 << number : 0;
       // data-source says where the level comes from: "changes" (pushed events) or "stream".
       state.row.dataset.source = message.watched & bit ? "changes" : message.known & bit ? "stream" : "";
       state.led.dataset.level = message.known & bit ? (message.levels & bit ? "1" : "0") : "";

@@ -25,6 +25,7 @@ from . import (
     misc,
     pulse_in,
     pwm,
+    sonar,
     spi,
     stepper,
     stream,
@@ -46,6 +47,7 @@ MODULES = (
     stepper,
     transaction,
     encoder,
+    sonar,
     spi,
     pulse_in,
 )

@@ -33,6 +33,7 @@ from . import (
     misc,
     pulse_in,
     pwm,
+    sonar,
     spi,
     stepper,
     stream,
@@ -108,6 +109,7 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
     misc.ReadStatus: lambda rq: "report its status",
     misc.SetSession: lambda rq: f"take the session tag 0x{rq.session:04X}",
     misc.ReadPinRoles: lambda rq: "report its pin roles",
+    misc.ReadBoardDescription: lambda rq: f"describe its pins (page {rq.page})",
     transaction.Transaction: lambda rq: "run a transaction",
     misc.SetLowLatency: lambda rq: f"turn low-latency mode {'on' if rq.enabled else 'off'}",
     misc.SetFraming: lambda rq: (
@@ -187,6 +189,14 @@ DESCRIPTIONS: dict[type[Request[Any]], Callable[[Any], str]] = {
         f"make {_pin(rq.pin)} pulse-width input {rq.slot} (signal lost after {rq.timeout_ms} ms)"
     ),
     pulse_in.PulseInRead: lambda rq: f"read pulse-width input {rq.slot}",
+    sonar.SonarConfig: lambda rq: (
+        f"make sonar {rq.slot} with its trigger on {_pin(rq.trigger)} and its echo on "
+        f"{_pin(rq.echo)}"
+    ),
+    sonar.SonarRead: lambda rq: f"read sonar {rq.slot}",
+    sonar.SonarTiming: lambda rq: (
+        f"fire a sonar every {rq.period_ms} ms at {rq.speed_dm_s / 10:g} m/s"
+    ),
     stream.StreamStart: _stream_start,
     stream.StreamStop: lambda rq: "stop the stream",
     failsafe.FailsafeArm: lambda rq: f"arm the failsafe ({rq.timeout_ms} ms)",

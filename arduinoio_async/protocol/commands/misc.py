@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Annotated
 
 from .._constants import (
+    BOARD_PAGE_BYTES,
     TEMP_MV_AT_25C,
     TEMP_MV_PER_C,
     TEMP_REFERENCE_MV,
@@ -17,10 +18,12 @@ from .._constants import (
     Framing,
     StatusFlags,
 )
-from .._layout import U8, U16, U32
+from .._layout import U8, U16, U32, Blob
 from .._messages import Reply, Request, check_10_bit, echo, reply_frame, request_frame
 
 __all__ = [
+    "ReadBoardDescription",
+    "ReadBoardDescriptionReply",
     "ReadCapabilities",
     "ReadCapabilitiesReply",
     "ReadId",
@@ -209,4 +212,37 @@ class SetFraming(_Framing, Request[SetFramingReply]):
     later request in it.  Back to ``XOR`` after every boot.  The session sends it itself
     (:class:`~arduinoio_async.protocol.session.Session`, ``framing=``), with nothing else
     in flight.
+    """
+
+
+@echo
+class _Page:
+    page: Annotated[int, U8]
+
+
+@reply_frame(ClassTag.MISC, 0x0C)
+class ReadBoardDescriptionReply(_Page, Reply):
+    """One page of the board's description (protocol/boards.py).
+
+    Every page repeats the head (model, digital and analog pin counts, function count) so
+    any page read alone names the board; ``maps`` holds as many whole function bitmaps
+    (``ceil((digital_pins + analog_pins) / 8)`` bytes each, wire order) as fit in
+    BOARD_PAGE_BYTES, from function ``page * (BOARD_PAGE_BYTES // width)`` on.
+    """
+
+    model: Annotated[int, U8]
+    digital_pins: Annotated[int, U8]
+    analog_pins: Annotated[int, U8]
+    functions: Annotated[int, U8]
+    maps: Annotated[bytes, Blob(BOARD_PAGE_BYTES)]
+
+
+@request_frame(ReadBoardDescriptionReply, extension=True, reads_only=True)
+class ReadBoardDescription(_Page, Request[ReadBoardDescriptionReply]):
+    """Page ``page`` of the board's model and pins per function (Feature.BOARD_DESCRIPTION).
+
+    A request of its own rather than a longer capabilities reply: a host that predates it
+    decodes the capabilities reply by its fixed length, and the Mega's 70-pin maps (9
+    bytes a function) need several frames anyway.  A page past the last one is refused
+    with VALUE_OUT_OF_RANGE.
     """
