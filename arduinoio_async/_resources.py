@@ -40,6 +40,7 @@ import subprocess
 import tempfile
 from importlib import resources
 from pathlib import Path
+from typing import Final
 
 from .errors import ArduinoIOError
 from .protocol import FIRMWARE_BAUDS  # the Makefile's BAUDS: built and shipped
@@ -98,13 +99,33 @@ def source_tree() -> Path | None:
     return None
 
 
-def firmware_image(baud: int, kind: str = "hex", profile: str = DEFAULT_PROFILE) -> Path:
+#: Boards with a firmware image of their own (``board=``): the Uno's profiles, or the
+#: Mega 2560's one image with every class (``arduinoio-mega2560-<baud>``, make -C firmware mega).
+BOARDS: Final = ("uno", "mega2560")
+
+
+def board_image_stem(baud: int, profile: str = DEFAULT_PROFILE, board: str = "uno") -> str:
+    """The image file's name without extension for ``board`` (ValueError for an unknown
+    board, or a profile other than the default for a board with one image)."""
+    if board not in BOARDS:
+        raise ValueError(f"no firmware for board {board!r} (boards: {', '.join(BOARDS)})")
+    if board == "uno":
+        return image_stem(baud, profile)
+    if profile != DEFAULT_PROFILE:
+        raise ValueError(f"the {board} image has every class: it has no profile {profile!r}")
+    return f"arduinoio-{board}-{baud}"
+
+
+def firmware_image(
+    baud: int, kind: str = "hex", profile: str = DEFAULT_PROFILE, board: str = "uno"
+) -> Path:
     """The image of build ``profile`` for ``baud`` (kind ``hex`` or ``elf``), searched as
     the module says: ``arduinoio-<baud>.<kind>`` for the standard profile,
-    ``arduinoio-<profile>-<baud>.<kind>`` for the others (protocol/profiles.py)."""
+    ``arduinoio-<profile>-<baud>.<kind>`` for the others (protocol/profiles.py);
+    ``board="mega2560"``: ``arduinoio-mega2560-<baud>.<kind>`` (one image, no profiles)."""
     if kind not in ("hex", "elf"):
         raise ValueError(f"firmware image kind is 'hex' or 'elf', not {kind!r}")
-    name = f"{image_stem(baud, profile)}.{kind}"
+    name = f"{board_image_stem(baud, profile, board)}.{kind}"
     env = os.environ.get(ENV_FIRMWARE_DIR)
     if env:
         path = Path(env) / name

@@ -136,7 +136,9 @@ def host_cpu_us(framing: str, iterations: int) -> float:
     session = Session(framing=p.Framing.CRC16 if crc else p.Framing.XOR)
     if crc:  # switch it as a link to a CRC board would be
         session.send(p.ReadCapabilities())
-        session.receive_data(p.ReadCapabilitiesReply(1, 0, 1, 0xFFFF, args_baud(), 128).encode())
+        session.receive_data(
+            p.ReadCapabilitiesReply(1, 0, 1, int(p.Feature.CRC16), args_baud(), 128).encode()
+        )
         session.receive_data(p.crc_framed(p.SetFramingReply(p.Framing.CRC16).encode()))
     assert session.framing.current is (p.Framing.CRC16 if crc else p.Framing.XOR)
     reply = p.ReadIdReply(7).encode()

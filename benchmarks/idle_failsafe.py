@@ -29,6 +29,7 @@ load).  Several fault levels may run at once (one process each); each adds its l
 from __future__ import annotations
 
 import argparse
+import collections
 import json
 import os
 import sys
@@ -41,6 +42,7 @@ import anyio
 from arduinoio_async import D4
 from arduinoio_async.manager import BoardManager, ManagerEvent
 from arduinoio_async.sim import VirtualUno
+from arduinoio_async.transport import TraceRecord
 
 from ._results import command_line, merge_result
 
@@ -55,6 +57,22 @@ STALL = 0.05
 STALL_TO_TRIP = 1.0
 
 
+#: Link trace records kept for --trace-trips (about 25 s of an idle keepalive's traffic).
+TRACE_KEPT = 2000
+#: How much of the trace before a reported trip --trace-trips records.
+TRACE_BEFORE_S = 1.5
+
+
+def trace_before(records: collections.deque[TraceRecord], now_ns: int) -> list[str]:
+    """The frames of the last TRACE_BEFORE_S seconds, each as ``ms-before-now dir item``."""
+    since = now_ns - int(TRACE_BEFORE_S * 1e9)
+    return [
+        f"{(record.time_ns - now_ns) / 1e6:9.3f} {record.direction} {record.item!r}"
+        for record in list(records)
+        if record.time_ns >= since
+    ]
+
+
 async def watch_stalls(stalls: list[tuple[float, float]], stop: anyio.Event) -> None:
     """Record when (end, monotonic) and how long the host's event loop did not run: the
     OS (or the hypervisor) not running the process, which no keepalive can cover."""
@@ -62,6 +80,8 @@ async def watch_stalls(stalls: list[tuple[float, float]], stop: anyio.Event) -> 
         before = time.monotonic()
         await anyio.sleep(STALL_TICK)
         now = time.monotonic()
+        if stop.is_set():  # the host's deliberate stop at the end is not a stall
+            return
         if now - before - STALL_TICK >= STALL:
             stalls.append((now, now - before - STALL_TICK))
 
@@ -71,10 +91,15 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
     trip_times: list[float] = []
     stalls: list[tuple[float, float]] = []
 
+    recent: collections.deque[TraceRecord] = collections.deque(maxlen=TRACE_KEPT)
+    trip_traces: list[list[str]] = []
+
     def on_event(event: ManagerEvent) -> None:
         events.append(event)
         if event.kind == "failsafe":
             trip_times.append(time.monotonic())
+            if args.trace_trips:
+                trip_traces.append(trace_before(recent, time.perf_counter_ns()))
 
     async with (
         VirtualUno(board_id=BOARD_ID, baud=args.baud, seed=args.seed) as uno,
@@ -83,6 +108,8 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
     ):
         boards.subscribe(on_event)
         board = await boards.get(BOARD_ID, timeout=10)
+        if args.trace_trips:
+            board.link.trace = recent.append
         led = await board.digital_output(D4, initial=True)
         await board.arm_failsafe(args.timeout_ms, {led: False})
         await uno.clear_pulse_stats("D4")
@@ -136,6 +163,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         "host_stalls_over_50ms": len(stalls),
         "longest_host_stall_ms": round(max((n for _, n in stalls), default=0.0) * 1000, 1),
         "trips_right_after_a_host_stall": explained,
+        **({"trip_traces": trip_traces} if args.trace_trips else {}),
         "reaction_when_host_stops_ms": reaction_ms,
         "sim_over_wall_clock": round(sim_s / wall_s, 4) if wall_s else None,
         "host_scheduling": scheduling(),
@@ -196,6 +224,11 @@ def main() -> None:
     parser.add_argument("--timeout-ms", type=int, default=100)
     parser.add_argument("--baud", type=int, default=1_000_000)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--trace-trips",
+        action="store_true",
+        help=f"record the link's frames in the {TRACE_BEFORE_S:g} s before each reported trip",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     args.argv = sys.argv[1:]

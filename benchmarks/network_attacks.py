@@ -217,6 +217,8 @@ async def run_phase(
                 await anyio.sleep(args.baseline_seconds)
             else:
                 command = [*SELF, "--attack", kind, "--endpoint", endpoint]
+                if args.attacker_nice:  # its CPU is not the others' (as on another machine)
+                    command = ["nice", "-n", str(args.attacker_nice), *command]
                 command += ["--count", str(counts[kind]), "--window", str(args.window)]
                 command += ["--oversize-mb", str(args.oversize_mb)]
                 result = await anyio.run_process(command, check=True)
@@ -253,6 +255,7 @@ async def bench(args: argparse.Namespace) -> dict[str, Any]:
             "python": platform.python_version(),
         },
         "baud": args.baud,
+        "attacker_nice": args.attacker_nice,
         "clock": "wall (time.perf_counter) for every latency; memory is the server's VmRSS",
         "phases": phases,
     }
@@ -272,6 +275,13 @@ def main() -> None:
     parser.add_argument("--flood", type=int, default=20000, help="flood queries")
     parser.add_argument("--window", type=int, default=1000, help="attacker's unanswered queries")
     parser.add_argument("--rest", type=float, default=2.0, help="seconds after each phase")
+    parser.add_argument(
+        "--attacker-nice",
+        type=int,
+        default=0,
+        help="run the attacker at this nice level: on a shared machine its CPU is then not "
+        "taken from the server and the legitimate client, as with an attacker elsewhere",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     if args.attack:

@@ -116,7 +116,7 @@ def test_the_pages_fit_the_largest_reply() -> None:
     """Fixed fields + length byte + maps within the firmware's reply data (MAX_BLOB + 3)."""
     layout = p.ReadBoardDescriptionReply.LAYOUT
     assert layout.data_size + p.BOARD_PAGE_BYTES <= p.MAX_BLOB + 3
-    assert (UNO_R3.pages, MEGA2560.pages) == (2, 4)
+    assert (UNO_R3.pages, MEGA2560.pages) == (2, 5)
 
 
 def test_the_uno_model_is_table_iii() -> None:

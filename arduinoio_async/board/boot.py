@@ -26,7 +26,9 @@ from ..errors import (
     LinkError,
 )
 from ..transport import DEFAULT_TIMEOUT, LinkAttribute, TraceHook, Transport, open_serial_stream
+from ..transport._link_types import default_framing
 from ..transport._ready import wait_ready
+from ..transport._streams import abilities_of
 
 __all__ = [
     "READY_TIMEOUT",
@@ -56,8 +58,12 @@ async def start_link(
     The stream is closed if the board never answers or the wait is cancelled: the caller
     only owns it again once it is inside a transport.
     """
-    name = name or stream.extra(LinkAttribute.port, "") or "board"
+    port = stream.extra(LinkAttribute.port, "")
+    name = name or port or "board"
+    framing = None  # the transport's own default (a relaying stream keeps XOR)
     try:
+        if port and not abilities_of(stream).relays:  # by the port's bridge: sysfs, blocking
+            framing = await anyio.to_thread.run_sync(default_framing, port)
         await wait_ready(stream, deadline=anyio.current_time() + ready_timeout, name=name)
     except (anyio.BrokenResourceError, anyio.ClosedResourceError, anyio.EndOfStream) as exc:
         with anyio.CancelScope(shield=True):
@@ -67,7 +73,7 @@ async def start_link(
         with anyio.CancelScope(shield=True):
             await stream.aclose()
         raise
-    return Transport(stream, timeout=timeout, trace=trace, name=name)
+    return Transport(stream, timeout=timeout, trace=trace, name=name, framing=framing)
 
 
 async def read_id_retrying(link: Transport, deadline: float) -> int:

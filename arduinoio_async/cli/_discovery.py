@@ -211,6 +211,8 @@ async def board_info(args: argparse.Namespace, console: Console) -> int:
         board = target.board
         caps = board.capabilities
         state = await board_state(board)
+        # the ATmega2560 has no temperature sensor: its image does not offer the reading
+        sensor = bool(caps.features & p.Feature.TEMPERATURE)
         raw = {
             **state,
             "firmware": f"{caps.firmware_major}.{caps.firmware_minor}",
@@ -218,7 +220,7 @@ async def board_info(args: argparse.Namespace, console: Console) -> int:
             "baud": caps.baud,
             "rx_buffer": caps.rx_buffer,
             "features": _features(caps.features),
-            "temperature_c": round(await board.temperature(), 1),
+            "temperature_c": round(await board.temperature(), 1) if sensor else None,
             "model": _model_raw(board.model),
         }
     bridge_raw, bridge_shown = _usb_bridge(board.port)
@@ -234,7 +236,7 @@ async def board_info(args: argparse.Namespace, console: Console) -> int:
         "receive FIFO": f"{caps.rx_buffer} bytes",
         "features": ", ".join(raw["features"]),
         **_state_text(state),
-        "temperature": f"{raw['temperature_c']:.1f} C",
+        "temperature": f"{raw['temperature_c']:.1f} C" if sensor else "no sensor",
         "model": f"{board.model.name} ({board.model.mcu})",
         **{f"pins: {f.value}": board.model.pin_ranges(f) for f in Function},
     }

@@ -24,6 +24,8 @@ from ..board import Board
 from ..errors import ArduinoIOError
 from ..manager import candidate_ports
 from ..protocol.profiles import DEFAULT_PROFILE, UNO_PROFILES
+from ..transport._bridges import MEGA2560_USB_IDS
+from ..transport._latency import port_usb_ids
 from ._entry import ToolMissing  # exit code 2 (cli/_entry.py)
 from ._target import board_id
 
@@ -75,6 +77,14 @@ def add_commands(sub: Any) -> None:
         help="which image (docs: firmware profiles): standard (default: encoders, steppers) "
         "or sensing (encoders, sonar, RC inputs, SPI, I2C blocks in the stream; no steppers)",
     )
+    flash.add_argument(
+        "--board",
+        choices=_resources.BOARDS,
+        default=None,
+        help="uno (optiboot, STK500v1) or mega2560 (its stk500v2 bootloader, avrdude -c wiring; "
+        "one image with every class: no --profile); default: a Mega 2560 when the port's USB "
+        "IDs are one, else an Uno",
+    )
     flash.add_argument("--hex", type=Path, default=None, help="flash this Intel hex file instead")
     flash.add_argument(
         "--baud",
@@ -95,14 +105,22 @@ def add_commands(sub: Any) -> None:
     flash.set_defaults(handler=flash_firmware)
 
 
-def avrdude_command(avrdude: str, port: str, image: Path, baud: int) -> list[str]:
-    """The avrdude invocation for an Uno's bootloader (STK500v1, "arduino" programmer)."""
+#: Per board: avrdude's part and programmer for its bootloader (the Uno's optiboot speaks
+#: STK500v1, "arduino"; the Mega 2560's stk500v2 bootloader is avrdude's "wiring").
+_AVRDUDE_TARGET = {"uno": ("atmega328p", "arduino"), "mega2560": ("atmega2560", "wiring")}
+
+
+def avrdude_command(
+    avrdude: str, port: str, image: Path, baud: int, board: str = "uno"
+) -> list[str]:
+    """The avrdude invocation for the board's bootloader (no chip erase: -D)."""
+    part, programmer = _AVRDUDE_TARGET[board]
     return [
         avrdude,
         "-p",
-        "atmega328p",
+        part,
         "-c",
-        "arduino",
+        programmer,
         "-P",
         port,
         "-b",
@@ -130,13 +148,23 @@ def _error_lines(output: str) -> list[str]:
     return errors or lines[-5:]
 
 
+def _board_of(port: str) -> str:
+    """The board behind ``port`` by its USB IDs: a Mega 2560, else (pty, unknown) an Uno.
+    Blocking (sysfs)."""
+    return "mega2560" if port_usb_ids(port) in MEGA2560_USB_IDS else "uno"
+
+
 async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
+    port = args.port or _only_port()
+    board = args.board or await anyio.to_thread.run_sync(_board_of, port)
     image = args.hex
     if image is None:
         try:
-            image = _resources.firmware_image(args.firmware_baud, "hex", args.profile)
+            image = _resources.firmware_image(args.firmware_baud, "hex", args.profile, board=board)
         except _resources.ResourceNotFound as exc:
             raise ToolMissing(str(exc)) from exc
+        except ValueError as exc:  # a profile for the Mega's one image
+            raise ArduinoIOError(str(exc)) from exc
     elif not image.is_file():
         raise ToolMissing(f"{image} does not exist")
     avrdude = shutil.which(args.avrdude or "avrdude")
@@ -144,8 +172,7 @@ async def flash_firmware(args: argparse.Namespace, console: Console) -> int:
         raise ToolMissing(f"--avrdude {args.avrdude}: no such executable program")
     if avrdude is None:
         raise ToolMissing("avrdude is not installed: sudo apt-get install avrdude")
-    port = args.port or _only_port()
-    command = avrdude_command(avrdude, port, image, args.baud)
+    command = avrdude_command(avrdude, port, image, args.baud, board)
     if args.dry_run:
         console.print(" ".join(command), highlight=False, soft_wrap=True)
         return 0

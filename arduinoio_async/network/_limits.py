@@ -13,11 +13,15 @@ legitimate client's latency under each attack):
   waited.)
 * **Queries in progress, per client.**  A client (its attachment, if its liveliness
   token is up; all other queries -- no attachment, or a made-up one -- share one client)
-  has at most :data:`CLIENT_QUERIES` queries on their way to the board at once; later
-  ones wait in the client's own queue, in order, and go on as its earlier ones are
-  answered.  So a client flooding the server holds at most that many places
-  ahead of anyone else's request, whatever it sends, and a library client (64 requests in
-  flight at most) is slowed, never refused.  Past :data:`CLIENT_BACKLOG` waiting queries
+  has at most :data:`CLIENT_QUERIES` queries on their way to the board at once, and
+  while other clients are active (a query of theirs on the board, or one in the last
+  :data:`ACTIVE_WINDOW` seconds) an equal part of them (``CLIENT_QUERIES // active``, at least
+  :data:`MIN_SHARE`); later ones wait in the client's own queue, in order, and go on as
+  its earlier ones are answered.  So a client flooding the server holds at most that many
+  places ahead of anyone else's request, whatever it sends -- half of them while one other
+  client calls, so a control loop calling one request after another waits behind 8 of the
+  flood's requests, not 16, each time -- and a library client (64 requests in flight at
+  most) is slowed, never refused.  Past :data:`CLIENT_BACKLOG` waiting queries
   of one client, or :data:`SERVER_BACKLOG` for the whole board, a query is refused with a
   ``UsageError`` (it was not sent to the board).
 * **Records per client, bounded and expiring.**  The virtual session tags and the times
@@ -41,6 +45,7 @@ from __future__ import annotations
 
 import collections
 import threading
+import time
 from collections.abc import Callable, Iterator, Set
 from typing import Generic, TypeVar
 
@@ -49,6 +54,7 @@ import zenoh
 from .. import protocol as p
 
 __all__ = [
+    "ACTIVE_WINDOW",
     "CLIENT_BACKLOG",
     "CLIENT_EXPIRY",
     "CLIENT_QUERIES",
@@ -56,6 +62,7 @@ __all__ = [
     "LIVE_CLIENTS",
     "MAX_ATTACHMENT",
     "MAX_PAYLOAD",
+    "MIN_SHARE",
     "SERVER_BACKLOG",
     "ClientQueues",
     "ClientRecords",
@@ -69,6 +76,12 @@ MAX_PAYLOAD = 2 * max(request.LAYOUT.max_size for request in p.REQUEST_TYPES.val
 MAX_ATTACHMENT = 64
 #: Queries of one client on their way to the board at once; later ones wait their turn.
 CLIENT_QUERIES = 16
+#: Queries of one client on the board at once while others are active, at least (keeps
+#: a client's requests pipelined on the link).
+MIN_SHARE = 2
+#: Seconds after its last query during which a client counts as active (a control loop at
+#: 10 Hz and up is active all the time).
+ACTIVE_WINDOW = 0.1
 #: Queries of one client waiting their turn at most; past this a query is refused.
 CLIENT_BACKLOG = 256
 #: Queries of a board waiting their turn at most, all clients together.
@@ -117,8 +130,14 @@ class ClientQueues:
     threads (:meth:`admit`) and from the loop (:meth:`done`).
     """
 
-    def __init__(self, per_client: int = CLIENT_QUERIES) -> None:
+    def __init__(
+        self, per_client: int = CLIENT_QUERIES, now: Callable[[], float] = time.monotonic
+    ) -> None:
         self.per_client = per_client
+        self._now = now
+        #: Clients by the time of their last query, oldest first (those within
+        #: ACTIVE_WINDOW: at most one per live client, plus the shared one).
+        self._active: collections.OrderedDict[bytes, float] = collections.OrderedDict()
         self._running: dict[bytes, int] = {}
         self._waiting: dict[bytes, collections.deque[zenoh.Query]] = {}
         self._key_of: dict[int, bytes] = {}  # id() of each query in progress: its client
@@ -127,9 +146,10 @@ class ClientQueues:
     def admit(self, key: bytes, query: zenoh.Query) -> bool | str:
         """True: ``query`` goes on now; False: it waits its turn (:meth:`done` returns it
         later); a string: it is refused, for this reason."""
+        self._touch(key)
         waiting = self._waiting.get(key)
         running = self._running.get(key, 0)
-        if waiting is None and running < self.per_client:
+        if waiting is None and running < self.share():
             self._running[key] = running + 1
             self._key_of[id(query)] = key
             return True
@@ -146,26 +166,31 @@ class ClientQueues:
         self._backlog += 1
         return False
 
-    def done(self, query: zenoh.Query) -> zenoh.Query | None:
-        """An admitted ``query`` was answered: its client's next waiting query, now admitted
-        (None: none waits, or ``query`` was never admitted)."""
+    def done(self, query: zenoh.Query) -> list[zenoh.Query]:
+        """An admitted ``query`` was answered: its client's next waiting queries, now
+        admitted, up to its share (none: none waits, the client is over its share since
+        another became active, or ``query`` was never admitted)."""
         key = self._key_of.pop(id(query), None)
         if key is None:
-            return None
+            return []
+        running = self._running.get(key, 0) - 1
         waiting = self._waiting.get(key)
+        following = []
         if waiting:
-            following = waiting.popleft()
-            self._backlog -= 1
+            share = self.share()
+            while waiting and running < share:  # the share may have grown: fill it again
+                admitted = waiting.popleft()
+                self._backlog -= 1
+                self._key_of[id(admitted)] = key
+                following.append(admitted)
+                running += 1
             if not waiting:
                 del self._waiting[key]
-            self._key_of[id(following)] = key
-            return following  # takes the finished query's place: the count stays
-        running = self._running.get(key, 0) - 1
         if running > 0:
             self._running[key] = running
         else:
             self._running.pop(key, None)
-        return None
+        return following
 
     def drain(self) -> Iterator[zenoh.Query]:
         """Every waiting query, removed (the board is going away)."""
@@ -175,6 +200,23 @@ class ClientQueues:
         self._running.clear()
         self._key_of.clear()
         self._backlog = 0
+
+    def _touch(self, key: bytes) -> None:
+        """``key`` sent a query now: it is active; clients quiet for ACTIVE_WINDOW are not."""
+        now = self._now()
+        active = self._active
+        active[key] = now
+        active.move_to_end(key)
+        while active and next(iter(active.values())) < now - ACTIVE_WINDOW:
+            active.popitem(last=False)
+
+    def share(self) -> int:
+        """Queries one client may have on the board now: an equal part of
+        ``per_client`` among the active clients: those with a query on the board, and
+        those whose last query came in the last ACTIVE_WINDOW seconds."""
+        active = self._active
+        count = len(active) + sum(1 for key in self._running if key not in active)
+        return max(MIN_SHARE, self.per_client // max(1, count))
 
     @property
     def clients(self) -> int:

@@ -408,12 +408,11 @@ class ServedBoard(FailsafeOwner):
     ) -> None:
         """Answer ``query`` with the reply frame, the board's error reply or a fault;
         ``looped``: the query came through the loop (the count of those goes down).  The
-        client's next waiting query, if any, goes on in its place."""
+        client's next waiting queries, up to its share, go on in its place."""
         with self._lock:
             if looped:
                 self._in_loop -= 1
-            following = self._queues.done(query)
-            if following is not None:
+            for following in self._queues.done(query):
                 self._in_loop += 1
                 self._loop.call_soon(self._admit, following)
         with query, contextlib.suppress(zenoh.ZError):  # ZError: the session is closing

@@ -208,6 +208,8 @@ MEGA2560: Final = BoardModel(
         Function.SPI: _MEGA_SPI,
         Function.SPI_CS: tuple(n for n in _MEGA_DIGITAL if n not in _MEGA_SPI),
         Function.PULSE_IN: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
+        #: The echo is timed from pin-change stamps, as a pulse input's is.
+        Function.SONAR: tuple(sorted({*_MEGA_INT, *_MEGA_PCINT})),
     },
 )
 

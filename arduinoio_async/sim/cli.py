@@ -46,6 +46,12 @@ def build_parser(prog: str = "arduinoio sim") -> argparse.ArgumentParser:
         default=None,
         help="board ID (repeat for several boards; 0x prefix allowed)",
     )
+    p.add_argument(
+        "--board",
+        choices=["uno", "mega2560"],
+        default="uno",
+        help="the MCU and its image: uno (ATmega328P) or mega2560 (ATmega2560, one image)",
+    )
     p.add_argument("--fixture", choices=["open", "loopback", "r2r"], default="open")
     p.add_argument("--baud", type=int, choices=FIRMWARE_BAUDS, default=DEFAULT_BAUD)
     p.add_argument("--fast", action="store_true", help="run unpaced, as fast as possible")
@@ -107,6 +113,7 @@ async def _run(args: argparse.Namespace) -> None:
         "r2r_tolerance": args.r2r_tolerance,
         "elf": args.elf,
         "profile": args.profile,
+        "board": args.board,
         "bootloader": args.bootloader,
     }
     ids: list[int | None] = list(args.ids) if args.ids else [None]

@@ -57,11 +57,11 @@ def find_harness_binary() -> Path:
         ) from exc
 
 
-def find_firmware_elf(baud: int, profile: str = DEFAULT_PROFILE) -> Path:
-    """Locate the project firmware ELF of build ``profile`` for ``baud``
+def find_firmware_elf(baud: int, profile: str = DEFAULT_PROFILE, board: str = "uno") -> Path:
+    """Locate the project firmware ELF of build ``profile`` (``board``'s) for ``baud``
     (``$ARDUINOIO_FIRMWARE_DIR`` overrides the directory)."""
     try:
-        return _resources.firmware_image(baud, "elf", profile)
+        return _resources.firmware_image(baud, "elf", profile, board)
     except (_resources.ResourceNotFound, ValueError) as exc:
         raise SimulatorNotAvailable(str(exc)) from exc
 

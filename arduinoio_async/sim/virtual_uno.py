@@ -2,9 +2,8 @@
 
 The harness is a separate C process because simavr is a C library that is not thread safe
 and must be paced against the wall clock in a tight loop; Python only starts it, reads the
-one JSON line it prints when ready, and talks to its JSON-lines control socket.  Tests then
-open :attr:`VirtualUno.port` with pyserial exactly as they would open a real Uno.  Where
-the harness binary and the firmware come from is :mod:`.harness`.
+one JSON line it prints when ready, and talks to its JSON-lines control socket.  Tests open
+:attr:`VirtualUno.port` as a real Uno's; :mod:`.harness` finds the binary and firmware.
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ import signal
 import tempfile
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager, suppress
-from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal, cast
@@ -29,6 +27,7 @@ from ..protocol import DEFAULT_BAUD
 from ..protocol.profiles import DEFAULT_PROFILE
 from ._quadrature import QuadratureMethods
 from ._rcpulse import RcPulseMethods
+from ._readings import CircuitPin, FirmwareCycles, PulseStats
 from ._sonar import SonarModelMethods
 from ._spi_device import SpiDeviceMethods
 from .harness import (
@@ -58,56 +57,6 @@ _USB_BRIDGES = ("none", "16u2", "ftdi", "ch340")
 PinName = int | str
 
 
-@dataclass(frozen=True, slots=True)
-class CircuitPin:
-    """A pin as the simulated circuit sees it (DDR/PORT bits and the resulting level)."""
-
-    pin: int
-    ddr: int
-    port: int
-    level: int
-    mv: int | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class PulseStats:
-    """Recent pulses captured on a pin; times are simulated microseconds.
-
-    ``high_us`` and ``period_us`` hold the last 32 values; ``highs`` and ``periods`` count
-    all values recorded since the last clear, so a poller can tell which entries are new.
-    """
-
-    pin: int
-    count: int
-    falls: int
-    level: int
-    high_us: tuple[float, ...]
-    period_us: tuple[float, ...]
-    highs: int = 0
-    periods: int = 0
-    #: Simulated time of the rise that started each entry of ``high_us``.
-    rise_us: tuple[float, ...] = ()
-    #: Simulated time of the pin's last level change (None: it never changed).
-    last_edge_us: float | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class FirmwareCycles:
-    """Simulated CPU cycles from the firmware reading a request's last byte from UDR0 to its
-    first reply byte written to UDR0 (the firmware's own work, independent of the baud rate).
-
-    ``last`` is ``None`` until a request got a reply.  16 cycles are one microsecond.
-    """
-
-    samples: tuple[int, ...]
-    last: int | None
-
-    @property
-    def samples_us(self) -> tuple[float, ...]:
-        """The samples in microseconds, which is what latency budgets are written in."""
-        return tuple(s / 16.0 for s in self.samples)
-
-
 def _pin_arg(pin: PinName) -> PinName:
     """Pins go to the harness as 0..19 or "D9"/"A0"; both are accepted unchanged."""
     return pin
@@ -118,7 +67,8 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods, SonarModel
 
     Use as ``async with VirtualUno(board_id=1) as uno:`` and open ``uno.port`` with pyserial.
     The process is stopped (SIGTERM, then SIGKILL) when the context exits, also on
-    cancellation, so tests never leak simulator processes.
+    cancellation, so tests never leak simulator processes.  ``board="mega2560"``: an
+    ATmega2560 running the Mega image (jumpers D2-D15, ADC0-15; no R2R ladders yet).
     """
 
     def __init__(
@@ -143,9 +93,12 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods, SonarModel
         binary: str | os.PathLike[str] | None = None,
         control_path: str | os.PathLike[str] | None = None,
         start_timeout: float = 10.0,
+        board: str = "uno",
     ) -> None:
         if board_id is not None and not 0 <= board_id <= 0xFFFF:
             raise ValueError(f"board_id must be 0..65535, got {board_id}")
+        if board not in ("uno", "mega2560"):
+            raise ValueError(f"unknown board {board!r} (uno or mega2560)")
         if fixture not in ("open", "loopback", "r2r"):
             raise ValueError(f"unknown fixture {fixture!r}")
         if usb_bridge not in _USB_BRIDGES:
@@ -168,13 +121,13 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods, SonarModel
         self.seed = seed
         self.r2r_tolerance = r2r_tolerance
         self._elf = Path(elf) if elf is not None else None
-        #: The firmware build profile the board runs when no ``elf`` is given
-        #: (protocol/profiles.py: ``standard``, ``sensing``).
+        #: The build profile run when no ``elf`` is given (protocol/profiles.py).
         self.profile = profile
         self.bootloader = Path(bootloader) if bootloader is not None else None
         self._binary = Path(binary) if binary is not None else None
         self._control_request = Path(control_path) if control_path is not None else None
         self.start_timeout = start_timeout
+        self.board = board  #: the harness's MCU: uno or mega2560
         self.port: str = ""
         self.control_path: str = ""
         self.pid: int | None = None
@@ -205,13 +158,13 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods, SonarModel
             args += ["--bootloader", str(self.bootloader)]
         elf = self._elf
         if elf is None and self.bootloader is None:
-            elf = find_firmware_elf(self.baud, self.profile)
+            elf = find_firmware_elf(self.baud, self.profile, self.board)
         if elf is not None:
             if not elf.is_file():
                 raise SimulatorNotAvailable(f"firmware ELF not found at {elf}: {INSTALL_HINT}")
             args += ["--elf", str(elf)]
         args += ["--baud", str(self.baud), "--fixture", self.fixture]
-        args += ["--usb-bridge", self.usb_bridge, "--exit-with-parent"]
+        args += ["--usb-bridge", self.usb_bridge, "--exit-with-parent", "--board", self.board]
         if self.ftdi_latency_ms is not None:
             args += ["--ftdi-latency-ms", str(self.ftdi_latency_ms)]
         if self.board_id is not None:
@@ -367,7 +320,7 @@ class VirtualUno(QuadratureMethods, SpiDeviceMethods, RcPulseMethods, SonarModel
         return await self.command("status")
 
     async def set_analog(self, channel: int, mv: float) -> None:
-        """Set the voltage on ADC ``channel`` (0..7) in millivolts; an R2R ladder overrides it."""
+        """Voltage on ADC ``channel`` (0..7, Mega 0..15) in mV; an R2R ladder overrides it."""
         await self.command("set_analog", channel=channel, mv=mv)
 
     async def set_temperature(self, celsius: float) -> None:

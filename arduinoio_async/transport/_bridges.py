@@ -23,10 +23,13 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 __all__ = [
+    "BOOT_QUIET_S",
     "BRIDGES",
     "DISCOVERY_IDS",
+    "MEGA2560_USB_IDS",
     "Bridge",
     "BridgeKind",
+    "boot_quiet_for_ids",
     "bridge_for_ids",
 ]
 
@@ -139,3 +142,22 @@ def bridge_for_ids(vid: int | None, pid: int | None) -> Bridge | None:
             if b_pid is None and wildcard is None:
                 wildcard = bridge
     return wildcard
+
+
+#: Boards whose bootloader takes any byte of its boot window for a programmer's and then
+#: stays in programming mode until seconds of silence: Arduino's stk500v2 on the Mega 2560
+#: (its window ends 0.84 s after a reset, measured on the virtual Mega running it; the Uno's
+#: optiboot instead leaves at the first byte it does not understand).  Opening the port
+#: resets such a board (DTR), so the host keeps quiet this long first, in seconds.
+#: The Arduino Mega 2560's USB IDs (its 8U2, then 16U2 running arduino-usbserial): the
+#: board ``arduinoio flash`` picks the Mega's image and bootloader protocol for.
+MEGA2560_USB_IDS: Final = ((0x2341, 0x0010), (0x2341, 0x0042))
+
+BOOT_QUIET_S: Final[dict[tuple[int, int], float]] = {ids: 1.2 for ids in MEGA2560_USB_IDS}
+
+
+def boot_quiet_for_ids(vid: int | None, pid: int | None) -> float:
+    """Seconds to keep quiet after opening a board with these USB IDs (0: none)."""
+    if vid is None or pid is None:
+        return 0.0
+    return BOOT_QUIET_S.get((vid, pid), 0.0)

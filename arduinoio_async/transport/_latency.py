@@ -32,7 +32,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ._bridges import Bridge, bridge_for_ids
+from ._bridges import Bridge, boot_quiet_for_ids, bridge_for_ids
 
 __all__ = ["SYSFS_ROOT", "LinkTuning", "last_tuning", "port_bridge", "tune_link"]
 
@@ -107,9 +107,9 @@ def _read_id(path: str) -> int | None:
         return None
 
 
-def port_bridge(port: str, sysfs_root: str | None = None) -> Bridge | None:
-    """The bridge ``port`` sits behind, from its USB device's IDs in sysfs; None when it
-    has no USB device (pty, URL, on-board UART) or an unknown one.  Blocking (sysfs)."""
+def port_usb_ids(port: str, sysfs_root: str | None = None) -> tuple[int, int | None] | None:
+    """(vendor, product) of the USB device ``port`` belongs to, from sysfs; None when it
+    has none (pty, URL, on-board UART).  Blocking (sysfs)."""
     root = SYSFS_ROOT if sysfs_root is None else sysfs_root
     device = os.path.join(root, "class", "tty", _tty_name(port), "device")
     if not os.path.exists(device):
@@ -120,9 +120,23 @@ def port_bridge(port: str, sysfs_root: str | None = None) -> Bridge | None:
     for _ in range(3):
         vid = _read_id(os.path.join(path, "idVendor"))
         if vid is not None:
-            return bridge_for_ids(vid, _read_id(os.path.join(path, "idProduct")))
+            return vid, _read_id(os.path.join(path, "idProduct"))
         path = os.path.dirname(path)
     return None
+
+
+def port_bridge(port: str, sysfs_root: str | None = None) -> Bridge | None:
+    """The bridge ``port`` sits behind, from its USB device's IDs in sysfs; None when it
+    has no USB device (pty, URL, on-board UART) or an unknown one.  Blocking (sysfs)."""
+    ids = port_usb_ids(port, sysfs_root)
+    return bridge_for_ids(*ids) if ids is not None else None
+
+
+def port_boot_quiet(port: str, sysfs_root: str | None = None) -> float:
+    """Seconds to keep quiet after opening ``port`` (a Mega's bootloader window,
+    ``_bridges.BOOT_QUIET_S``); 0 for every other port.  Blocking (sysfs)."""
+    ids = port_usb_ids(port, sysfs_root)
+    return boot_quiet_for_ids(*ids) if ids is not None else 0.0
 
 
 def _set_low_latency_flag(fd: int, ioctl: IoctlFn) -> str:

@@ -12,6 +12,7 @@ from typing import Literal
 from .. import protocol as p
 from ..errors import UsageError
 from ..protocol.session import SessionState
+from ._usb import tick_holding_bridge
 
 __all__ = [
     "DEFAULT_TIMEOUT",
@@ -37,20 +38,28 @@ MAX_DRAIN = 0.25
 #: Longest pause between probes that got no answer.
 MAX_PROBE_BACKOFF = 1.0
 #: Environment variable that picks the framing a link asks for when ``framing`` is not
-#: given: ``xor`` (the paper's, the default) or ``crc16``.
+#: given: ``xor`` (the paper's) or ``crc16``; unset, the link decides (``default_framing``).
 FRAMING_ENV = "ARDUINOIO_FRAMING"
 
 
-def default_framing() -> p.Framing:
-    """The framing a link asks for by default: the paper's XOR unless
-    ``ARDUINOIO_FRAMING=crc16``.
+def default_framing(port: str = "") -> p.Framing:
+    """The framing a link asks for by default: ``ARDUINOIO_FRAMING`` if set, else CRC-16
+    behind a bridge that holds replies for a timer tick (an Uno's or a Mega's 16U2, known
+    by ``port``'s USB IDs), else the paper's XOR.  Blocking when ``port`` is given (it
+    reads sysfs): run it in a worker thread.
 
-    CRC-16 framing catches what the XOR byte passes, but at 1,000,000 baud on the
-    virtual Uno it costs more than the 5 % the project allows a default (docs/protocol.md
-    7.7 has the derivation and the measured cost), so it is asked for, not assumed; a
-    board without it keeps XOR framing whatever is asked.
+    The two check bytes CRC-16 adds cost their byte times on the wire: at 1,000,000 baud
+    that is more than the 5 % the project allows a default on a direct line (20 us of a
+    185 us round trip), but about 1 % behind the 16U2, whose 4.096 ms tick and USB frames
+    dominate every round trip (docs/protocol.md 7.7 has the arithmetic and the measured
+    cost).  A board without the feature keeps XOR framing whatever is asked.
     """
-    value = os.environ.get(FRAMING_ENV, "xor").strip().lower()
+    value = os.environ.get(FRAMING_ENV)
+    if value is None:
+        if port and tick_holding_bridge(port) is not None:
+            return p.Framing.CRC16
+        return p.Framing.XOR
+    value = value.strip().lower()
     try:
         return p.Framing[value.upper()]
     except KeyError:

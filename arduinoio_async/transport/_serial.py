@@ -27,7 +27,7 @@ import serial
 
 from ..errors import BoardDisconnectedError, PortBusyError
 from ..protocol import DEFAULT_BAUD
-from ._latency import tune_link
+from ._latency import port_boot_quiet, tune_link
 from ._streams import (
     CollectedWrites,
     ImmediateSender,
@@ -402,7 +402,8 @@ async def open_serial_stream(
     and :class:`BoardDisconnectedError` when it cannot be opened for any other reason.
     Behind a USB bridge with a latency timer (FTDI) the timer is lowered to 1 ms
     (:func:`~arduinoio_async.transport._latency.tune_link`; a warning says how to allow it
-    when it cannot be).
+    when it cannot be).  A Mega 2560 (its USB IDs) resets on the open into a bootloader that
+    any byte of its first second traps: this returns once that second has passed.
     """
     serial_options.setdefault("exclusive", True)
     try:
@@ -421,6 +422,10 @@ async def open_serial_stream(
     # the port: returned, it would stay open and locked with nobody to close it.
     try:
         await anyio.to_thread.run_sync(tune_link, url, port.fd)
+        # A Mega resets on this open into stk500v2, which a byte in its window traps.
+        quiet = await anyio.to_thread.run_sync(port_boot_quiet, url)
+        if quiet:
+            await anyio.sleep(quiet)
         await anyio.lowlevel.checkpoint_if_cancelled()
     except BaseException:
         with contextlib.suppress(OSError, serial.SerialException):

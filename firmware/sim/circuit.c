@@ -17,6 +17,7 @@
 #include "sim_io.h"
 #include "sim_irq.h"
 
+#include "board_map.h"
 #include "circuit.h"
 #include "sonar_model.h"
 #include "pacing.h"
@@ -26,30 +27,32 @@
 #include "mpu6050.h"
 
 #define NEDGE 32
+#define ADC_SLOTS 17 /* ADC0-15 (the Mega's; the Uno uses 0-7) and the temperature */
+#define ADC_SLOT_TEMP (ADC_SLOTS - 1)
 
 static const char *const fixture_names[] = {"open", "loopback", "r2r"};
 static int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
-static int analog_mv[8];
-static int adc_sent[9];
+static int analog_mv[ADC_SLOTS - 1];
+static int adc_sent[ADC_SLOTS]; /* the last slot: the temperature sensor */
 static double temperature_c = 25.0;
 static i2c_eeprom_t i2c_ee;
 static double r2r_res[6][4];    /* per ladder: Ra (B0-N0), Rg (N0-GND), Rs (N0-OUT), Rb (B1-OUT) */
 static double r2r_mv[6];
 static int in_circuit, circuit_again;
-static uint8_t sh_ddr[3], sh_port[3];   /* shadows, index 0=B 1=C 2=D */
-static const char port_names[3] = {'B', 'C', 'D'};
-static const uint8_t addr_pin[3] = {0x23, 0x26, 0x29};
-static const uint8_t addr_ddr[3] = {0x24, 0x27, 0x2A};
-static const uint8_t addr_port[3] = {0x25, 0x28, 0x2B};
+static uint8_t sh_ddr[NPORTS_MAX], sh_port[NPORTS_MAX]; /* shadows, by board_map port index */
+#define port_names (board->port_names)
+#define addr_pin(pi) (board->addr_pin[pi])
+#define addr_ddr(pi) (board->addr_pin[pi] + 1u)
+#define addr_port(pi) (board->addr_pin[pi] + 2u)
 static avr_irq_t *pin_irq[NPINS];
 static avr_irq_t *adc_irq_base;
-static avr_irq_t *port_irq_base[3];   /* per port: base of its IOPORT IRQs */
+static avr_irq_t *port_irq_base[NPORTS_MAX];   /* per port: base of its IOPORT IRQs */
 
 
 extern const char *const fixture_names[];
 extern int drive_level[NPINS];  /* -1 released, 0/1 driven from outside */
-extern int analog_mv[8];
-extern int adc_sent[9];
+extern int analog_mv[ADC_SLOTS - 1];
+extern int adc_sent[ADC_SLOTS];
 extern double temperature_c;
 extern i2c_eeprom_t i2c_ee;
 
@@ -70,12 +73,12 @@ struct capture {
 static struct capture cap[NPINS];
 
 
-static int pin_port(int p) { return p < 8 ? 2 : (p < 14 ? 0 : 1); }
-static int pin_bit(int p) { return p < 8 ? p : (p < 14 ? p - 8 : p - 14); }
+static int pin_port(int p) { return board->pin_port[p]; }
+static int pin_bit(int p) { return board->pin_bit[p]; }
 
 int loop_partner(int p)
 {
-	if (opt->fixture != FIX_LOOPBACK || p < 2 || p > 13)
+	if (opt->fixture != FIX_LOOPBACK || p < 2 || p > board->last_jumpered)
 		return -1;
 	return (p % 2 == 0) ? p + 1 : p - 1;
 }
@@ -96,19 +99,8 @@ int port_bit(int p) { return (sh_port[pin_port(p)] >> pin_bit(p)) & 1; }
  * A write of COMnx itself moves the pin to the compare output's level or back to
  * the PORT bit at that instant (tccr_write).  (Not modelled: the PIN register bit
  * the firmware would read.) */
-struct oc_pin {
-	int pin;
-	char timer;
-	int comp;       /* AVR_TIMER_COMPA / COMPB */
-	uint8_t tccr;   /* TCCRnA's data address */
-	int shift;      /* of COMnx1:0 in TCCRnA */
-};
-static const struct oc_pin oc_pins[] = {
-	{6, '0', AVR_TIMER_COMPA, 0x44, 6}, {5, '0', AVR_TIMER_COMPB, 0x44, 4},
-	{9, '1', AVR_TIMER_COMPA, 0x80, 6}, {10, '1', AVR_TIMER_COMPB, 0x80, 4},
-	{11, '2', AVR_TIMER_COMPA, 0xB0, 6}, {3, '2', AVR_TIMER_COMPB, 0xB0, 4},
-};
-#define N_OC_PINS ((int)(sizeof oc_pins / sizeof oc_pins[0]))
+#define oc_pins (board->oc)  /* board_map.c */
+#define N_OC_PINS (board->n_oc)
 static int oc_of[NPINS];      /* 1 + index in oc_pins, 0: no compare output */
 static int oc_level[NPINS];   /* the compare output's level, connected or not */
 
@@ -176,7 +168,7 @@ static int input_level(int p)
 int pin_level(int p)
 {
 	if (p < 2) /* UART pins: report the PIN register */
-		return (avr->data[addr_pin[2]] >> p) & 1;
+		return (avr->data[addr_pin(board->uart_port)] >> pin_bit(p)) & 1;
 	return is_out(p) ? out_level(p) : input_level(p);
 }
 
@@ -185,17 +177,35 @@ static int pin_managed(int p)
 	return p >= 2; /* D0/D1 belong to the UART */
 }
 
+/* simavr 1.6 keeps 8 input voltages (adc_values[8]): its ADC8-ADC15 IRQs are dropped
+ * and a conversion of ADC8-15 (the ATmega2560's MUX5 = 1, mux 0x20-0x27) reads past the
+ * array.  The harness gives those mux entries the voltage as a fixed "reference" source
+ * instead (ADC_MUX_REF converts mux.src mV), so A8-A15 read what the fixture applies. */
+static avr_adc_t *find_adc(void)
+{
+	for (avr_io_t *io = avr->io_port; io; io = io->next)
+		if (io->kind && !strcmp(io->kind, "adc"))
+			return (avr_adc_t *)io;
+	return NULL;
+}
+
 static void send_adc(int ch, int mv)
 {
 	if (adc_sent[ch] == mv)
 		return;
 	adc_sent[ch] = mv;
-	avr_raise_irq(adc_irq_base + (ch == 8 ? ADC_IRQ_TEMP : ADC_IRQ_ADC0 + ch), (uint32_t)mv);
+	if (ch >= 8 && ch < 16) {
+		avr_adc_t *adc = find_adc();
+		if (adc)
+			adc->muxmode[0x20 + ch - 8] = (avr_adc_mux_t){.kind = ADC_MUX_REF, .src = (unsigned)mv};
+		return;
+	}
+	avr_raise_irq(adc_irq_base + (ch == ADC_SLOT_TEMP ? ADC_IRQ_TEMP : ADC_IRQ_ADC0 + ch), (uint32_t)mv);
 }
 
 void update_analog(void)
 {
-	for (int ch = 0; ch < 8; ch++) {
+	for (int ch = 0; ch < board->adc_channels; ch++) {
 		int mv = analog_mv[ch];
 		if (opt->fixture == FIX_R2R && ch < 6) {
 			r2r_mv[ch] = r2r_output(ch);
@@ -203,7 +213,7 @@ void update_analog(void)
 		}
 		send_adc(ch, mv);
 	}
-	send_adc(8, (int)lround(314.0 + (temperature_c - 25.0) * 1.0));
+	send_adc(ADC_SLOT_TEMP, (int)lround(314.0 + (temperature_c - 25.0) * 1.0));
 }
 
 /* Recompute every input pin from the circuit and push it into simavr.
@@ -221,7 +231,7 @@ void apply_circuit(void)
 		circuit_again = 0;
 		if (opt->fixture == FIX_R2R)
 			update_analog();
-		for (int pi = 0; pi < 3; pi++) {
+		for (int pi = 0; pi < board->nports; pi++) {
 			uint8_t mask = 0, value = 0;
 			for (int p = 0; p < NPINS; p++) {
 				if (pin_port(p) != pi || !pin_managed(p) || is_out(p))
@@ -332,9 +342,9 @@ static void oc_hook(avr_irq_t *irq, uint32_t value, void *param)
 
 static void read_shadows(void)
 {
-	for (int pi = 0; pi < 3; pi++) {
-		sh_ddr[pi] = avr->data[addr_ddr[pi]];
-		sh_port[pi] = avr->data[addr_port[pi]];
+	for (int pi = 0; pi < board->nports; pi++) {
+		sh_ddr[pi] = avr->data[addr_ddr(pi)];
+		sh_port[pi] = avr->data[addr_port(pi)];
 	}
 }
 
@@ -355,7 +365,7 @@ void circuit_attach(void)
 	i2c_eeprom_attach(avr, &i2c_ee, AVR_IOCTL_TWI_GETIRQ(0));
 	mpu6050_attach();
 	adc_irq_base = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, 0);
-	for (int pi = 0; pi < 3; pi++) {
+	for (int pi = 0; pi < board->nports; pi++) {
 		avr_irq_t *base = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port_names[pi]), 0);
 		port_irq_base[pi] = base;
 		avr_irq_register_notify(base + IOPORT_IRQ_DIRECTION_ALL, ddr_hook, (void *)(intptr_t)pi);
@@ -383,16 +393,16 @@ void circuit_after_reset(void)
 	/* avr_reset() zeroes DDRx/PORTx but not the values cached in their IRQs; a
 	 * firmware that then writes the value it had before the reset would raise no
 	 * notification and the shadows would stay at 0.  Align the caches. */
-	for (int pi = 0; pi < 3; pi++) {
+	for (int pi = 0; pi < board->nports; pi++) {
 		if (!port_irq_base[pi])
 			continue;
-		port_irq_base[pi][IOPORT_IRQ_DIRECTION_ALL].value = avr->data[addr_ddr[pi]];
-		port_irq_base[pi][IOPORT_IRQ_REG_PORT].value = avr->data[addr_port[pi]];
+		port_irq_base[pi][IOPORT_IRQ_DIRECTION_ALL].value = avr->data[addr_ddr(pi)];
+		port_irq_base[pi][IOPORT_IRQ_REG_PORT].value = avr->data[addr_port(pi)];
 	}
 	read_shadows();
 	for (int p = 0; p < NPINS; p++)
 		oc_level[p] = 0; /* OCnx are cleared by a reset */
-	for (int ch = 0; ch < 9; ch++)
+	for (int ch = 0; ch < ADC_SLOTS; ch++)
 		adc_sent[ch] = -1;
 	apply_circuit();
 	update_analog();

@@ -26,7 +26,7 @@ int run_pulses(uint64_t now);
 
 /* the control channel: stimuli and reports on the circuit's own state */
 const char *fixture_name(void);
-void circuit_set_analog(int ch, int mv);    /* channel 0..7: A0..A5, 6-7 unused */
+void circuit_set_analog(int ch, int mv);    /* channel 0..7 (Uno: A0..A5, 6-7 unused), 0..15 (Mega) */
 void circuit_set_temperature(double celsius);
 void circuit_drive(int p, int level);        /* -1 released, 0/1 driven from outside */
 /* the same, several pins at one instant: the caller calls apply_circuit() after the last */

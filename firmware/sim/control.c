@@ -7,6 +7,7 @@
  * its wall time.  The commands and their replies: README.md, "Control channel".
  */
 #include "harness.h"
+#include "board_map.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -87,8 +88,10 @@ static void cmd_status(struct jobj *o, struct sbuf *r)
 static void cmd_set_analog(struct jobj *o, struct sbuf *r)
 {
 	double ch, mv;
-	if (!get_num(o, "channel", &ch) || !get_num(o, "mv", &mv) || ch < 0 || ch > 7 || mv < 0 || mv > 5500) {
-		sb_add(r, "{\"ok\": false, \"error\": \"set_analog needs channel 0..7 and mv 0..5500\"}");
+	if (!get_num(o, "channel", &ch) || !get_num(o, "mv", &mv) || ch < 0 || ch >= board->adc_channels ||
+	    mv < 0 || mv > 5500) {
+		sb_add(r, "{\"ok\": false, \"error\": \"set_analog needs channel 0..%d and mv 0..5500\"}",
+		       board->adc_channels - 1);
 		return;
 	}
 	circuit_set_analog((int)ch, (int)lround(mv));
@@ -129,8 +132,8 @@ static void cmd_pin(struct jobj *o, struct sbuf *r)
 	if (p < 0) { sb_add(r, "{\"ok\": false, \"error\": \"bad pin\"}"); return; }
 	sb_add(r, "{\"ok\": true, \"pin\": %d, \"ddr\": %d, \"port\": %d, \"level\": %d",
 	       p, is_out(p), port_bit(p), pin_level(p));
-	if (p >= 14) {
-		int ch = p - 14;
+	if (p >= board->first_analog_pin) {
+		int ch = p - board->first_analog_pin;
 		sb_add(r, ", \"mv\": %d", circuit_adc_mv(ch));
 	}
 	sb_add(r, "}");

@@ -72,6 +72,8 @@ struct harness_options {
 	int exit_with_parent;
 	pid_t parent_pid;           /* for --exit-with-parent */
 	uint64_t seed;
+	int mega2560;               /* --board mega2560: the ATmega2560 core (first stage: the
+	                               link, the ADC, the pins the Uno fixture's ports reach) */
 };
 extern const struct harness_options *const opt;
 

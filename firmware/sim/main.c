@@ -10,6 +10,7 @@
  * ready line.
  */
 #include "harness.h"
+#include "board_map.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -93,16 +94,20 @@ double rng_unit(void) { return (double)(rng_next() >> 11) / 9007199254740992.0; 
  * (EIMSK bit set, ISCn1:0 = 00); checked after every slice and reset. */
 #define EIMSK_ADDR 0x3D
 #define EICRA_ADDR 0x69
+#define EICRB_ADDR 0x6A /* the ATmega2560's INT4-INT7 (its D2/D3 are INT4/INT5) */
 static int extint_strict[2] = {-1, -1};
 
 void update_extint_strict(void)
 {
-	uint8_t eimsk = avr->data[EIMSK_ADDR], eicra = avr->data[EICRA_ADDR];
+	/* the board's counter interrupts 0/1: INT0/INT1 (Uno), INT4/INT5 (Mega) */
+	int first = options.mega2560 ? 4 : 0;
+	uint8_t eimsk = avr->data[EIMSK_ADDR];
+	uint8_t eicr = avr->data[options.mega2560 ? EICRB_ADDR : EICRA_ADDR];
 	for (int n = 0; n < 2; n++) {
-		int want = ((eimsk >> n) & 1) && ((eicra >> (2 * n)) & 3) == 0;
+		int want = ((eimsk >> (first + n)) & 1) && ((eicr >> (2 * n)) & 3) == 0;
 		if (want != extint_strict[n]) {
 			extint_strict[n] = want;
-			avr_extint_set_strict_lvl_trig(avr, (uint8_t)n, (uint8_t)want);
+			avr_extint_set_strict_lvl_trig(avr, (uint8_t)(first + n), (uint8_t)want);
 		}
 	}
 }
@@ -262,6 +267,7 @@ static void usage(void)
 {
 	fprintf(stderr,
 		"usage: virtual-uno --elf PATH|--bootloader HEX [--elf PATH] [--id N] [--baud 115200|1000000] [--fixture open|loopback|r2r]\n"
+		"       [--board uno|mega2560]\n"
 		"       [--r2r-tolerance PCT] [--fast] [--reset-on-open] [--boot-delay-ms MS]\n"
 		"       [--usb-bridge none|16u2|ftdi|ch340] [--ftdi-latency-ms MS] [--fault-drop P] [--fault-insert P] [--fault-flip P]\n"
 		"       [--seed N] [--control SOCKET_PATH] [--exit-with-parent]\n");
@@ -285,6 +291,12 @@ static int parse_args(int argc, char **argv)
 			else { logf_("bad --fixture %s", v); return -1; }
 		}
 		else if (!strcmp(a, "--r2r-tolerance")) { NEEDV(); options.r2r_tol = atof(v); }
+		else if (!strcmp(a, "--board")) {
+			NEEDV();
+			if (!strcmp(v, "uno")) options.mega2560 = 0;
+			else if (!strcmp(v, "mega2560")) options.mega2560 = 1;
+			else { logf_("bad --board %s (uno or mega2560)", v); return -1; }
+		}
 		else if (!strcmp(a, "--fast")) options.fast = 1;
 		else if (!strcmp(a, "--reset-on-open")) options.reset_on_open = 1;
 		else if (!strcmp(a, "--exit-with-parent")) options.exit_with_parent = 1;
@@ -333,8 +345,14 @@ int main(int argc, char **argv)
 		logf_("cannot read firmware ELF %s", options.elf);
 		return 2;
 	}
-	avr = avr_make_mcu_by_name("atmega328p");
-	if (!avr) { logf_("simavr does not know atmega328p"); return 2; }
+	const char *mcu = options.mega2560 ? "atmega2560" : "atmega328p";
+	if (options.mega2560 && options.fixture == FIX_R2R) {
+		logf_("--fixture r2r is the Uno's (A0-A5 ladders); the Mega has open and loopback");
+		return 2;
+	}
+	board_map_select(options.mega2560);
+	avr = avr_make_mcu_by_name(mcu);
+	if (!avr) { logf_("simavr does not know %s", mcu); return 2; }
 	avr_init(avr);
 	avr->log = LOG_WARNING;
 	if (options.elf)

@@ -7,6 +7,9 @@
 #include <stdint.h>
 
 #include "aio_protocol.h"
+#ifdef AIO_BUILD_MEGA2560
+#include "board_pins_mega2560.h" /* the Mega's pin checks replace the Uno's */
+#endif
 
 /* Constant tables the AVR build keeps in flash only (read with lpm, one cycle more than
  * from RAM): a `static const` table is otherwise copied into RAM at boot, and RAM is what

@@ -114,6 +114,11 @@ static uint8_t watch(const aio_request_t *rq, aio_reply_t *rp)
     uint8_t ch = rq->data[0], bit = (uint8_t)(1u << ch), s;
     uint16_t band = aio_be16(rq->data + 1), v;
 
+    /* A board with more analog inputs than watch slots (the Mega: 16 and 6) watches the
+     * first AIO_ANALOG_CHANNELS; folds away where every input has a slot (the Uno). */
+    if ((AIO_PINS_ANALOG_INPUT >> AIO_ANALOG_CHANNELS) && ch >= AIO_ANALOG_CHANNELS)
+        return AIO_ERR_PIN_NOT_CAPABLE;
+
     if (band > AIO_ANALOG_MAX)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
     if (band && stream_converts())

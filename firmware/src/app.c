@@ -157,6 +157,7 @@ uint8_t app_step(void)
     encoder_poll();
     pulse_in_poll();
     sonar_poll();
+    gpio_poll();
     if (pending_len) {
         if (!hal_tx_send(pending, pending_len))
             return 0;

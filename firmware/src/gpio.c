@@ -43,7 +43,7 @@ static void report(uint16_t changed, uint16_t levels)
     uint8_t frame[AIO_REPLY_LEN_EVENT_GPIO_CHANGE + 2u + AIO_CHECK_MAX], *p, pin;
     uint32_t now = hal_micros();
 
-    for (pin = 2; pin < 14; pin++) {
+    for (pin = PINS_FIRST; pin < PINS_COUNT; pin++) {
         if (!(changed >> pin & 1u))
             continue;
         p = frame;
@@ -69,6 +69,16 @@ void gpio_pin_change(uint16_t levels)
     s_fell |= (uint16_t)(changed & ~levels);
     if (changed & notify)
         report((uint16_t)(changed & notify), levels);
+}
+
+void gpio_poll(void)
+{
+    uint8_t s;
+    if (!AIO_PINS_POLLED_EDGES || !(AIO_PINS_POLLED_EDGES & gpio_watch))
+        return; /* (the first test folds: gpio_watch is volatile) */
+    s = hal_irq_save();
+    gpio_pin_change(hal_pin_levels());
+    hal_irq_restore(s);
 }
 
 void gpio_take_stream_edges(uint16_t *r, uint16_t *f)
@@ -185,6 +195,7 @@ static uint8_t gpio_handle_other(const aio_request_t *rq, aio_reply_t *rp)
     case AIO_DT_GPIO_READ:
         if (role != ROLE_GPIO_IN && role != ROLE_GPIO_OUT)
             return AIO_ERR_PIN_NOT_CONFIGURED;
+        gpio_poll(); /* an unlatched edge of a polled pin counts for this read */
         s = hal_irq_save();
         state = (hal_pin_levels() & bit) ? AIO_GPIO_STATE_HIGH : 0;
         if (rose & bit)

@@ -18,6 +18,9 @@ extern volatile uint16_t gpio_watch;
 uint16_t gpio_watch_mask(void);
 /* Pin-change interrupt: the levels of D2-D13 now (bit n = Dn). */
 void gpio_pin_change(uint16_t levels);
+/* Main loop: edges of watched inputs that have no edge interrupt (AIO_PINS_POLLED_EDGES);
+ * nothing on a board where every pin has one. */
+void gpio_poll(void);
 /* Edges of GPIO inputs since the previous call (for stream samples); clears them. */
 void gpio_take_stream_edges(uint16_t *rose, uint16_t *fell);
 

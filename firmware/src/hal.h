@@ -70,7 +70,15 @@ void hal_edge_watch(uint16_t mask);  /* pin-change interrupts on these pins (bit
 void hal_step_pins(uint16_t mask, uint8_t level);
 
 /* ---- ADC ---- */
+/* The ATmega328P's temperature sensor is ADC channel 8; the ATmega2560 has none (its
+ * channel 8 is A8): HAL_HAS_TEMPERATURE 0, and misc.c does not offer the reading. */
+#ifdef AIO_BUILD_MEGA2560
+#define HAL_HAS_TEMPERATURE 0
+#define HAL_ADC_TEMPERATURE 0xFFu
+#else
+#define HAL_HAS_TEMPERATURE 1
 #define HAL_ADC_TEMPERATURE 8u
+#endif
 uint16_t hal_adc_convert(uint8_t channel); /* blocking; channel 8 uses the 1.1 V reference */
 /* AVCC, interrupt: calls analog_adc_done().  The ADC clock is 16 MHz >>
  * clock_shift (7: 125 kHz, 104 us a conversion, full accuracy; each step

@@ -21,6 +21,7 @@
 #include "gpio.h"
 #include "aio_protocol.h"
 #include "hal.h"
+#include "hal_board.h"
 #include "pins.h"
 #include "pwm.h"
 #include "stream.h"
@@ -69,14 +70,14 @@ void hal_eeprom_write_u16(uint16_t address, uint16_t value)
 
 /* ---------------------------------------------------------------- pins */
 
-static volatile uint8_t *port_of(uint8_t pin) { return pin < 8u ? &PORTD : &PORTB; }
-static volatile uint8_t *ddr_of(uint8_t pin) { return pin < 8u ? &DDRD : &DDRB; }
+static volatile uint8_t *port_of(uint8_t pin) { return hal_board_port(pin); }
+static volatile uint8_t *ddr_of(uint8_t pin) { return hal_board_ddr(pin); }
 /* A byte table (pins_bit holds 16-bit masks): the GPIO WRITE path looks it up
  * once per request.  In RAM on purpose (8 bytes): in flash (AIO_FLASH) the lookups
  * became lpm sequences in the hot paths, +192 B of code, and four steppers at
  * 10,000 steps/s beside pipelined writes fell to 7,500 (benchmarks.motors_steppers). */
 static const uint8_t port_bit[8] = {0x01u, 0x02u, 0x04u, 0x08u, 0x10u, 0x20u, 0x40u, 0x80u};
-static uint8_t bit_of(uint8_t pin) { return port_bit[pin & 7u]; }
+static uint8_t bit_of(uint8_t pin) { return port_bit[HAL_BOARD_BIT_INDEX(pin)]; }
 
 void hal_pin_mode(uint8_t pin, uint8_t mode)
 {
@@ -106,14 +107,12 @@ __attribute__((always_inline)) inline void hal_pin_write(uint8_t pin, uint8_t le
 }
 
 /* Inlined into the interrupt vectors (LTO): the encoders read it every edge. */
-__attribute__((always_inline)) inline uint16_t hal_pin_levels(void) { return (uint16_t)((PIND & 0xFCu) | (uint16_t)(PINB & 0x3Fu) << 8); }
+__attribute__((always_inline)) inline uint16_t hal_pin_levels(void) { return HAL_BOARD_LEVELS(); }
 
 void hal_edge_watch(uint16_t mask)
 {
     uint8_t s = hal_irq_save();
-    PCMSK2 = (uint8_t)(mask & 0xFCu);
-    PCMSK0 = (uint8_t)((mask >> 8) & 0x3Fu);
-    PCICR = (uint8_t)((PCMSK2 ? _BV(PCIE2) : 0) | (PCMSK0 ? _BV(PCIE0) : 0));
+    hal_board_edge_watch(mask);
     hal_irq_restore(s);
 }
 
@@ -142,7 +141,7 @@ ISR_TRAMPOLINE(isr_pulse_call, isr_pulse);
 /* Both users of the vectors: the encoders (first: their next edge may be
  * close) and the GPIO watches, each on its own pins.  (The watches read the
  * levels a few cycles later: the same change, latched as before.) */
-ISR(PCINT0_vect)
+ISR(HAL_PCINT_A_vect)
 {
     encoder_pin_change(hal_pin_levels());
 #if AIO_WITH_PULSE
@@ -152,30 +151,24 @@ ISR(PCINT0_vect)
     if (gpio_watch)
         ISR_CALL(isr_gpio_call);
 }
-ISR(PCINT2_vect, ISR_ALIASOF(PCINT0_vect));
+ISR(HAL_PCINT_B_vect, ISR_ALIASOF(HAL_PCINT_A_vect));
 
 /* A port without a step pin in the mask is not written at all (most ticks of a
  * slow stepper have none). */
 void hal_step_pins(uint16_t mask, uint8_t level)
 {
-    uint8_t s, d = (uint8_t)mask, b = (uint8_t)(mask >> 8);
+    uint8_t s;
     if (!mask)
         return;
     s = hal_irq_save();
-    if (level) {
-        PORTD |= d;
-        PORTB |= b;
-    } else {
-        PORTD &= (uint8_t)~d;
-        PORTB &= (uint8_t)~b;
-    }
+    hal_board_step_pins(mask, level);
     hal_irq_restore(s);
 }
 
 void hal_softpwm_low(uint8_t mask)
 {
     uint8_t s = hal_irq_save();
-    PORTD &= (uint8_t)~mask;
+    HAL_SOFTPWM_PORT &= (uint8_t)~mask;
     hal_irq_restore(s);
 }
 
@@ -203,13 +196,15 @@ uint16_t hal_adc_convert(uint8_t channel)
         ADMUX = ADMUX_AVCC;
         return v;
     }
-    ADMUX = (uint8_t)(ADMUX_AVCC | (channel & 7u));
+    HAL_ADC_SELECT(channel);
+    ADMUX = (uint8_t)(ADMUX_AVCC | HAL_ADC_MUX(channel));
     return convert();
 }
 
 void hal_adc_start(uint8_t channel, uint8_t clock_shift)
 {
-    ADMUX = (uint8_t)(ADMUX_AVCC | (channel & 7u));
+    HAL_ADC_SELECT(channel);
+    ADMUX = (uint8_t)(ADMUX_AVCC | HAL_ADC_MUX(channel));
     ADCSRA = (uint8_t)(_BV(ADEN) | _BV(ADIF) | _BV(ADIE) | (clock_shift & 7u) | _BV(ADSC));
 }
 
@@ -346,7 +341,7 @@ ISR(TIMER0_COMPA_vect)
         return;
     }
     for (;;) {
-        PORTD = (uint8_t)((PORTD | pwm_soft_set) & pwm_soft_keep);
+        HAL_SOFTPWM_PORT = (uint8_t)((HAL_SOFTPWM_PORT | pwm_soft_set) & pwm_soft_keep);
         delay = pwm_soft_edge();
         if (!delay) {
             TIMSK0 &= (uint8_t)~_BV(OCIE0A);
@@ -418,15 +413,15 @@ ISR(TIMER0_COMPB_vect, ISR_NOBLOCK)
 void hal_counter_enable(uint8_t index, uint8_t rising)
 {
     uint8_t shift = (uint8_t)(index * 2u), s = hal_irq_save();
-    EICRA = (uint8_t)((EICRA & ~(3u << shift)) | ((rising ? 3u : 2u) << shift));
-    EIMSK |= (uint8_t)(1u << index);
+    HAL_EICR = (uint8_t)((HAL_EICR & ~(3u << shift)) | ((rising ? 3u : 2u) << shift));
+    EIMSK |= (uint8_t)(1u << (index + HAL_INT_FIRST));
     hal_irq_restore(s);
 }
 
 void hal_counter_disable(uint8_t index)
 {
     uint8_t s = hal_irq_save();
-    EIMSK &= (uint8_t)~(1u << index);
+    EIMSK &= (uint8_t)~(1u << (index + HAL_INT_FIRST));
     hal_irq_restore(s);
 }
 
@@ -437,12 +432,13 @@ static volatile uint8_t int_encoder;
 void hal_encoder_int(uint8_t index, uint8_t on)
 {
     uint8_t shift = (uint8_t)(index * 2u), bit = (uint8_t)(1u << index), s = hal_irq_save();
+    uint8_t ebit = (uint8_t)(1u << (index + HAL_INT_FIRST));
     if (on) {
-        EICRA = (uint8_t)((EICRA & ~(3u << shift)) | (1u << shift));
+        HAL_EICR = (uint8_t)((HAL_EICR & ~(3u << shift)) | (1u << shift));
         int_encoder |= bit;
-        EIMSK |= bit;
+        EIMSK |= ebit;
     } else {
-        EIMSK &= (uint8_t)~bit;
+        EIMSK &= (uint8_t)~ebit;
         int_encoder &= (uint8_t)~bit;
     }
     hal_irq_restore(s);
@@ -455,7 +451,7 @@ void isr_counter1(void) __attribute__((used, externally_visible, noinline));
 void isr_counter1(void) { counter_event(1); }
 ISR_TRAMPOLINE(isr_counter1_call, isr_counter1);
 
-ISR(INT0_vect)
+ISR(HAL_INT_A_vect)
 {
     if (int_encoder & 1u)
         encoder_int(0, hal_pin_levels());
@@ -463,7 +459,7 @@ ISR(INT0_vect)
         ISR_CALL(isr_counter0_call);
 }
 
-ISR(INT1_vect)
+ISR(HAL_INT_B_vect)
 {
     if (int_encoder & 2u)
         encoder_int(1, hal_pin_levels());

@@ -10,6 +10,7 @@
 
 #include "aio_protocol.h"
 #include "hal.h"
+#include "hal_board.h"
 
 /* ---------------------------------------------------------------- Timer1 servo */
 /*
@@ -44,8 +45,8 @@
 
 static volatile uint8_t servo_want; /* COM1A1 / COM1B1 wanted */
 
-static uint8_t com_bit(uint8_t pin) { return pin == 9u ? _BV(COM1A1) : _BV(COM1B1); }
-static uint8_t ocie_bit(uint8_t pin) { return pin == 9u ? _BV(OCIE1A) : _BV(OCIE1B); }
+static uint8_t com_bit(uint8_t pin) { return pin == HAL_SERVO_PIN_A ? _BV(COM1A1) : _BV(COM1B1); }
+static uint8_t ocie_bit(uint8_t pin) { return pin == HAL_SERVO_PIN_A ? _BV(OCIE1A) : _BV(OCIE1B); }
 
 /* Interrupts off (16-bit registers share the TEMP byte). */
 void hal_servo_set(uint8_t pin, uint16_t us)
@@ -53,7 +54,7 @@ void hal_servo_set(uint8_t pin, uint16_t us)
     uint8_t s = hal_irq_save();
     if (us) {
         uint16_t ocr = (uint16_t)(us * SERVO_COUNTS_PER_US - 1u);
-        if (pin == 9u)
+        if (pin == HAL_SERVO_PIN_A)
             OCR1A = ocr;
         else
             OCR1B = ocr;

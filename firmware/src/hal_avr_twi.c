@@ -7,6 +7,7 @@
 #include <util/delay.h>
 
 #include "hal.h"
+#include "hal_board.h"
 
 #define TWI_STEP_TICKS 20u /* 2 ms */
 
@@ -37,7 +38,7 @@ static uint8_t twi_byte_wait(void)
 
 void hal_twi_init(uint8_t fast)
 {
-    PORTC |= _BV(PORTC4) | _BV(PORTC5); /* internal pull-ups on SDA/SCL */
+    HAL_TWI_PULLUPS(); /* internal pull-ups on SDA/SCL */
     TWSR = 0;
     TWBR = fast ? 12u : 72u; /* (16 MHz / f - 16) / 2 */
     twi_fast = fast;

@@ -18,7 +18,7 @@
 
 #define FEATURES                                                                         \
     (AIO_FEATURE_GPIO | AIO_FEATURE_ANALOG | AIO_FEATURE_I2C | AIO_FEATURE_SERVO_PWM |   \
-     AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | AIO_FEATURE_TEMPERATURE |               \
+     AIO_FEATURE_SOFT_PWM | AIO_FEATURE_COUNTER | (HAL_HAS_TEMPERATURE ? AIO_FEATURE_TEMPERATURE : 0u) |               \
      AIO_FEATURE_EEPROM_ID | AIO_FEATURE_STREAM | AIO_FEATURE_FAILSAFE | AIO_FEATURE_GPIO_CHANGES | \
      AIO_FEATURE_TRANSACTIONS | AIO_FEATURE_COUNTER_REPORTS | AIO_FEATURE_ANALOG_CHANGES | \
      AIO_FEATURE_LOW_LATENCY | AIO_FEATURE_DUTY_PWM | AIO_FEATURE_CRC16 | AIO_FEATURE_BOARD_DESCRIPTION | \
@@ -62,6 +62,8 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         p = aio_put16(p, hal_eeprom_read_u16(AIO_EEPROM_ID_ADDRESS));
         break;
     case AIO_DT_MISC_READ_TEMPERATURE:
+        if (!HAL_HAS_TEMPERATURE)
+            return AIO_ERR_NOT_IN_IMAGE;
         p = aio_put16(p, analog_convert(HAL_ADC_TEMPERATURE));
         break;
     case AIO_DT_MISC_READ_CAPABILITIES:

@@ -8,9 +8,18 @@
 
 #include "aio.h"
 
+/* The pins a role can be on, D2..PINS_LAST (the Uno's; a board header included by aio.h,
+ * e.g. board_pins_mega2560.h, may set others: its AIO_PINS_* stay below PINS_COUNT). */
 #define PINS_FIRST 2u
+#ifndef PINS_LAST
 #define PINS_LAST 13u
-#define PINS_COUNT 14u
+#endif
+#define PINS_COUNT (PINS_LAST + 1u)
+/* Digital pins without an edge interrupt (none on the Uno; the Mega's D2-D9 among
+ * D2-D15): a GPIO input there has its edges found by polling (gpio_poll). */
+#ifndef AIO_PINS_POLLED_EDGES
+#define AIO_PINS_POLLED_EDGES 0u
+#endif
 
 enum {
     ROLE_FREE = 0, ROLE_GPIO_IN, ROLE_GPIO_OUT, ROLE_PWM, ROLE_COUNTER, ROLE_DUTY, ROLE_STEPPER,

@@ -30,6 +30,7 @@
  * filled (up to 255 bytes: the linker places .bss in order), RAM the stack needs. */
 #define AIO_RING_PLACEMENT __attribute__((section(".noinit.rings"), aligned(256)))
 #include "hal.h"
+#include "hal_board.h"
 #include "uart.h"
 
 #ifndef BAUD
@@ -107,7 +108,7 @@ void uart_init(void)
  * read, which clears RXC0.  No time stamp: the main loop stamps bytes when it
  * takes them (a later stamp only lengthens the quiet period it measures,
  * never shortens it). */
-ISR(USART_RX_vect, ISR_NAKED)
+ISR(HAL_USART_RX_vect, ISR_NAKED)
 {
     __asm__ volatile(
         "push r24\n\t"
@@ -189,7 +190,7 @@ bool hal_rx_take_overflow(void)
  * trusted to be zero in an interrupt: r30 is cleared), and then turns itself
  * off; those paths change flags and save SREG.  TXC0 is cleared when a frame
  * is queued. */
-ISR(USART_UDRE_vect, ISR_NAKED)
+ISR(HAL_USART_UDRE_vect, ISR_NAKED)
 {
     __asm__ volatile(
         "push r24\n\t"

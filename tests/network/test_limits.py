@@ -19,6 +19,7 @@ import json
 import threading
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
+from typing import cast
 
 import anyio
 import zenoh
@@ -34,10 +35,13 @@ from arduinoio_async.network._keys import (
     undeclare,
 )
 from arduinoio_async.network._limits import (
+    ACTIVE_WINDOW,
     CLIENT_QUERIES,
     CLIENT_RECORDS,
     MAX_ATTACHMENT,
     MAX_PAYLOAD,
+    MIN_SHARE,
+    ClientQueues,
     ClientRecords,
 )
 from arduinoio_async.network._served_board import KNOWN_FRAMES, ServedBoard
@@ -270,3 +274,66 @@ async def test_made_up_clients_share_one_share() -> None:
         assert waiting > 4 * CLIENT_QUERIES, "the flood was over too soon"
         assert ahead <= 2 * CLIENT_QUERIES
         undeclare(token)
+
+
+async def test_a_flooding_client_gets_half_the_link_while_another_client_is_active() -> None:
+    """Two clients active: the runaway holds only half of the queries a client may have on
+    the board at once, so a client calling one request after another (a control loop)
+    waits behind at most that half, not behind a whole client's share every time."""
+    async with served_fake(Faults(delay=(0.01, 0.01))) as (served, session):
+        replies = Replies()
+        flood = 400
+        token = session.liveliness().declare_token(client_key("legit"))
+        with anyio.fail_after(5):
+            while "legit" not in served.server.live_clients:  # noqa: ASYNC110 (no event)
+                await anyio.sleep(0.01)
+
+        def send_flood() -> None:
+            for _ in range(flood):
+                replies.get(session, "runaway", p.ReadId().encode(), b"runaway")
+
+        await anyio.to_thread.run_sync(send_flood)
+        calls = 4
+        sent_at = []
+        for call in range(calls):  # one after another, as a control loop calls
+            with replies.lock:
+                sent_at.append(len(replies.order))
+            replies.get(session, f"legit-{call}", p.ReadId().encode(), b"legit")
+            assert await replies.outcome(f"legit-{call}") == p.ReadIdReply(BOARD).encode().hex()
+        order = await anyio.to_thread.run_sync(replies.wait, flood + calls, 60.0)
+        answered = [i for i, (who, o) in enumerate(order) if who == "runaway" and "Error" not in o]
+        ahead = []
+        for call in range(calls):
+            at = next(i for i, (who, _) in enumerate(order) if who == f"legit-{call}")
+            ahead.append(sum(1 for i in answered if sent_at[call] <= i < at))
+        print(f"\nrunaway replies ahead of each legit call: {ahead}")
+        assert sum(1 for i in answered if i >= sent_at[-1]) > CLIENT_QUERIES, "flood over"
+        # the first call finds the runaway's whole share on the board; later ones half of it
+        # (plus the one or two answered while a request crossed to the board)
+        assert max(ahead[1:]) <= CLIENT_QUERIES // 2 + 2, ahead
+        undeclare(token)
+
+
+def test_the_share_shrinks_while_another_client_is_active_and_grows_back() -> None:
+    """ClientQueues alone, on a clock of its own: a client over its share gives places
+    back as its queries are answered, and fills its whole share again once the other
+    client has been quiet for ACTIVE_WINDOW."""
+    clock = [0.0]
+    queues = ClientQueues(now=lambda: clock[0])
+    flood = [cast(zenoh.Query, object()) for _ in range(40)]
+    assert [queues.admit(b"runaway", q) for q in flood] == [True] * 16 + [False] * 24
+    legit = cast(zenoh.Query, object())
+    assert queues.admit(b"legit", legit) is True  # its own share: never behind the backlog
+    assert queues.share() == CLIENT_QUERIES // 2
+    # 16 on the board, share 8: the first 8 answers admit nothing, then one for one
+    following = [queues.done(q) for q in flood[:9]]
+    assert following[:8] == [[]] * 8 and following[8] == [flood[16]]
+    queues.done(legit)  # the other client is done, but was heard just now
+    assert queues.share() == CLIENT_QUERIES // 2
+    clock[0] += ACTIVE_WINDOW * 2
+    later = cast(zenoh.Query, object())
+    assert queues.admit(b"runaway", later) is False  # behind its own queue; ages the other out
+    assert queues.share() == CLIENT_QUERIES
+    # 8 on the board, one answered: the share grew back to 16 and is filled again
+    assert queues.done(flood[9]) == flood[17:26]
+    assert MIN_SHARE <= CLIENT_QUERIES // 8

@@ -29,7 +29,14 @@ def test_every_shipped_baud_and_profile_has_both_images() -> None:
         for baud in _resources.FIRMWARE_BAUDS
         for profile in UNO_PROFILES
         for kind in ("elf", "hex")
-    )
+    ) + [
+        f"{_resources.board_image_stem(baud, board=board)}.{kind}"
+        for baud in _resources.FIRMWARE_BAUDS
+        for board in _resources.BOARDS
+        if board != "uno"
+        for kind in ("elf", "hex")
+    ]
+    expected.sort()
     assert shipped == expected
     makefile = (REPO / "firmware" / "Makefile").read_text()
     bauds = " ".join(str(baud) for baud in _resources.FIRMWARE_BAUDS)

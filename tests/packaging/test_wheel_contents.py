@@ -28,6 +28,13 @@ DATA = {
         for profile in UNO_PROFILES
         for kind in ("hex", "elf")
     ),
+    *(
+        f"arduinoio_async/_data/firmware/{_resources.board_image_stem(baud, board=board)}.{kind}"
+        for baud in _resources.FIRMWARE_BAUDS
+        for board in _resources.BOARDS
+        if board != "uno"
+        for kind in ("hex", "elf")
+    ),
     # the virtual Uno harness, compiled on first use (setup.py maps firmware/sim here)
     *(
         f"arduinoio_async/_data/sim/{path.name}"
