@@ -28,6 +28,7 @@ import anyio
 
 from arduinoio_async import D2, D3, D4, D7, D8, D12
 from arduinoio_async.board import Board
+from arduinoio_async.protocol.pins import DigitalPin
 from arduinoio_async.sim import VirtualUno
 
 from ._results import command_line, merge_result
@@ -36,12 +37,14 @@ PINS = (D4, D7, D8, D12)
 PERIOD_US = 20_000
 
 
-async def measure(step_us: int, encoder_rate: int) -> dict[str, Any]:
+async def measure(
+    step_us: int, encoder_rate: int, pins: tuple[DigitalPin, ...] = PINS, show: float = 0.0
+) -> dict[str, Any]:
     async with (
         VirtualUno(profile="sensing") as uno,
         Board.open(uno.port, baudrate=uno.baud) as board,
     ):
-        inputs = [await board.pulse_input(pin, timeout_ms=100) for pin in PINS]
+        inputs = [await board.pulse_input(pin, timeout_ms=100) for pin in pins]
         if encoder_rate:
             await uno.drive("D2", 0)
             await uno.drive("D3", 0)
@@ -52,8 +55,8 @@ async def measure(step_us: int, encoder_rate: int) -> dict[str, Any]:
         errors: list[float] = []
         worst: dict[str, Any] = {}
         for base in range(1000, 2001, step_us):
-            widths = [min(2000, base + 7 * k) for k in range(len(PINS))]
-            for pin, width in zip(PINS, widths, strict=True):
+            widths = [min(2000, base + 7 * k) for k in range(len(pins))]
+            for pin, width in zip(pins, widths, strict=True):
                 await uno.rcpulse(pin.name, width_us=width, period_us=PERIOD_US)
             start = {s.pin: s.pulses for s in await uno.rcpulse_status()}
             with anyio.fail_after(30):
@@ -66,6 +69,9 @@ async def measure(step_us: int, encoder_rate: int) -> dict[str, Any]:
                 state = await handle.read()
                 truth = next(s for s in await uno.rcpulse_status() if s.pin == int(handle.pin))
                 error = abs(state.width_us - truth.last_width_us)
+                if show and error > show:  # signed: + a late fall, - a late rise
+                    signed = state.width_us - truth.last_width_us
+                    print(f"{handle.pin.name} set {width} us: board - truth {signed:+.3f} us")
                 errors.append(error)
                 if error >= max(errors):
                     worst = {
@@ -88,14 +94,22 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--step-us", type=int, default=50)
     parser.add_argument("--encoder-rate", type=int, default=5_000, help="edges/s, 0: none")
+    parser.add_argument(
+        "--pins",
+        default="D4 D7 D8 D12",
+        help="the inputs, from D4 D7 D8 D12 (one: no channel beside)",
+    )
+    parser.add_argument("--show", type=float, default=0.0, help="print each read off by more (us)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
-    result = anyio.run(measure, args.step_us, args.encoder_rate)
+    pins = tuple(pin for pin in PINS if pin.name in args.pins.split())
+    result = anyio.run(measure, args.step_us, args.encoder_rate, pins, args.show)
     result = {
         "command": command_line(),
         "machine": platform.node(),
         "load_avg_at_start": os.getloadavg()[0],
-        "load": f"4 RC channels at 50 Hz + an encoder on D2/D3 at {args.encoder_rate} edges/s",
+        "load": f"{len(pins)} RC channels at 50 Hz + an encoder on D2/D3 at "
+        f"{args.encoder_rate} edges/s",
         "clock": "simulated time (the harness's sources); widths by CPU cycles",
         **result,
     }

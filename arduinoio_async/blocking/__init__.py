@@ -80,6 +80,7 @@ from ._handles import (
     _Blocking,
 )
 from ._imu import BlockingMPU6050
+from ._pulse_in import BlockingPulseInput
 from ._sonars import BlockingSonar
 from ._spi import BlockingSpiBus
 from ._stepper import BlockingStepper
@@ -241,6 +242,15 @@ class BlockingBoard(_Blocking):
                 period_ms=period_ms, speed_m_s=speed_m_s, temperature_c=temperature_c
             )
         )
+
+    def pulse_input(
+        self, pin: DigitalPin, *, timeout_ms: int = 100, slot: int | None = None
+    ) -> BlockingPulseInput:
+        """An RC receiver channel's pulse widths on any digital pin (``Board.pulse_input``)."""
+        handle = self._runner.call(
+            lambda: self.handle.pulse_input(pin, timeout_ms=timeout_ms, slot=slot)
+        )
+        return BlockingPulseInput(self._runner, handle)
 
     def spi(
         self,

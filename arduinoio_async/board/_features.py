@@ -32,6 +32,7 @@ STREAM_FLAG_FEATURES: dict[p.StreamFlags, tuple[p.Feature, str]] = {
     p.StreamFlags.ENCODERS: (p.Feature.ENCODER, "quadrature encoders"),
     p.StreamFlags.STEPPERS: (p.Feature.STEPPER, "steppers"),
     p.StreamFlags.SONAR: (p.Feature.SONAR, "sonars"),
+    p.StreamFlags.PULSE_IN: (p.Feature.PULSE_IN, "pulse-width inputs"),
     p.StreamFlags.I2C: (p.Feature.I2C_STREAM, "I2C blocks"),
 }
 

@@ -18,6 +18,7 @@ from ..protocol.pins import AnalogPin, Function
 from ._features import require_stream_features
 from .i2c_blocks import I2CBlock, block_requests, blocks_bytes
 from .motors import check_stream
+from .pulse_inputs import pulse_input_slots
 from .sonars import Sonar
 from .streaming import DEFAULT_BUFFER, SampleStream, run_stream, stream_request
 
@@ -55,6 +56,7 @@ class StreamMethods:
         encoders: bool = False,
         i2c: Sequence[I2CBlock] = (),
         sonars: bool = False,
+        pulse_inputs: bool = False,
     ) -> AsyncIterator[SampleStream]:
         """Samples taken by the board's timer every ``period_ms`` (0.25 ms and up).
 
@@ -67,12 +69,16 @@ class StreamMethods:
         period (:mod:`arduinoio_async.board.i2c_blocks`; set up the bus first).
         ``sonars=True`` carries the latest reading of each sonar slot up to the highest
         one set up now (``Sample.sonars``; set the sonars up first).
+        ``pulse_inputs=True`` carries the pulse inputs' last widths and lost flags
+        (``Sample.pulse_widths``, ``Sample.pulse_lost``; set the inputs up first: the
+        samples carry the slots up to the highest one in use when the stream starts).
         """
         board = cast("BoardCore", self)
         for pin in analog:
             board.model.require(pin, Function.ANALOG_INPUT)
         blocks = block_requests(i2c) if i2c else []
         i2c_bytes = blocks_bytes(i2c) if i2c else None
+        pulse_ins = pulse_input_slots(board) if pulse_inputs else None
         request = stream_request(
             analog,
             levels,
@@ -83,6 +89,7 @@ class StreamMethods:
             encoders,
             i2c_bytes,
             sonar_slots(board) if sonars else None,
+            pulse_ins,
         )
         require_stream_features(board, p.StreamFlags(request.flags))
         check_stream(board)  # duty PWM on D5/D6 holds the timer the samples need

@@ -15,6 +15,8 @@ the failsafe as usual, and while ``state.lost`` is true stop steering from the r
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -26,7 +28,9 @@ from .handles import PinHandle
 if TYPE_CHECKING:
     from ._core import BoardCore
 
-__all__ = ["PulseInput", "PulseState", "scale_position", "scale_throttle"]
+__all__ = ["PulseInput", "PulseState", "pulse_input_slots", "scale_position", "scale_throttle"]
+
+logger = logging.getLogger(__name__)
 
 #: The RC end points most transmitters send (microseconds).
 DEFAULT_LOW_US = 1000
@@ -58,6 +62,19 @@ def scale_position(width_us: float, low_us: float, centre_us: float, high_us: fl
 def scale_throttle(width_us: float, low_us: float, high_us: float) -> float:
     """``width_us`` as 0..1: ``low_us`` -> 0, ``high_us`` -> 1, clamped."""
     return max(0.0, min(1.0, (width_us - low_us) / (high_us - low_us)))
+
+
+def pulse_input_slots(board: BoardCore) -> int:
+    """How many slots the board's stream block carries: the highest slot a live
+    :class:`PulseInput` holds, + 1 (0 for none), as the board counts them at START."""
+    return max(
+        (
+            claim.handle.slot + 1
+            for claim in board.roles.values()
+            if isinstance(claim.handle, PulseInput) and not claim.handle.released
+        ),
+        default=0,
+    )
 
 
 def _state(reply: p.PulseInReadReply | p.PulseInSignal) -> PulseState:
@@ -98,6 +115,25 @@ class PulseInput(PinHandle):
         """The last width, its age and whether the signal is lost, read from the board now."""
         self.check_usable()
         return _state(await self.board.request(p.PulseInRead(self.slot)))
+
+    def on_signal(self, callback: Callable[[PulseState], None]) -> Callable[[], None]:
+        """Call ``callback(state)`` when this input's signal is lost (``state.lost``: no
+        pulse for ``timeout_ms``, with the last width) or comes back (the first pulse after a
+        loss or after set-up, with its width): the board's PulseInSignal events, sent once
+        per change, so an RC override hears of a loss without polling.  Returns the
+        unsubscriber.  The callback runs in the link's reader: keep it short (set an
+        event, send to a stream); its exceptions are logged.
+        """
+        slot = self.slot
+
+        def on_event(event: p.Event) -> None:
+            if isinstance(event, p.PulseInSignal) and event.slot == slot and not self.released:
+                try:
+                    callback(_state(event))
+                except Exception:  # a listener's bug must not hurt the link
+                    logger.exception("%r: on_signal callback %r failed", self, callback)
+
+        return self.board.link.subscribe(on_event)
 
     async def position(self) -> float | None:
         """The stick position -1..1 by the end points; None while the signal is lost."""

@@ -76,6 +76,12 @@ class Sample:
     #: Per block: 0 if read, else the error code of the failed step (an
     #: :class:`~arduinoio_async.protocol.ErrorCode`: NACK, timeout).
     i2c_status: tuple[int, ...] | None = None
+    #: The width in microseconds of the last pulse of each pulse input slot 0..n-1 (n: the
+    #: highest slot with an input when the stream started, + 1; 0 where no pulse came yet),
+    #: if the stream includes pulse inputs.
+    pulse_widths: tuple[int, ...] | None = None
+    #: Per slot: the signal is lost (or the slot has no input): its width is old.
+    pulse_lost: tuple[bool, ...] | None = None
 
     def level(self, pin: DigitalPin) -> bool:
         """The level of ``pin`` in this sample; raises ValueError when the stream was
@@ -117,6 +123,12 @@ class Sample:
         if frame.flags & p.StreamFlags.SONAR:
             sonars = sonar_block(data[pos:])
             pos += 1 + 3 * len(sonars)
+        pulse_widths = pulse_lost = None
+        if frame.flags & p.StreamFlags.PULSE_IN:
+            slots = p.split_pulse_in_block(data[pos:])
+            pos += 1 + 3 * len(slots)
+            pulse_widths = tuple(width for width, _ in slots)
+            pulse_lost = tuple(lost for _, lost in slots)
         i2c = i2c_status = None
         if frame.flags & p.StreamFlags.I2C:
             # free slots (length 0, status 0) are left out: the blocks come in slot order
@@ -137,6 +149,8 @@ class Sample:
             sonars=sonars,
             i2c=i2c,
             i2c_status=i2c_status,
+            pulse_widths=pulse_widths,
+            pulse_lost=pulse_lost,
         )
 
 
@@ -150,10 +164,12 @@ def stream_request(
     encoders: bool = False,
     i2c_bytes: int | None = None,
     sonars: int | None = None,
+    pulse_ins: int | None = None,
 ) -> p.StreamStart:
     """Validate a stream's parameters and build its START request (``i2c_bytes``: the
     data bytes of the I2C blocks it reads, None for none; ``sonars``: the sonar slots the
-    block carries, None for no sonars)."""
+    block carries, None for no sonars; ``pulse_ins``: the pulse input slots it carries,
+    None for no pulse inputs)."""
     mask = 0
     for pin in analog:
         require(pin, Function.ANALOG_INPUT)
@@ -169,20 +185,23 @@ def stream_request(
         flags |= p.StreamFlags.STEPPERS
     if encoders:
         flags |= p.StreamFlags.ENCODERS
+    if pulse_ins is not None:
+        flags |= p.StreamFlags.PULSE_IN
     if i2c_bytes is not None:
         flags |= p.StreamFlags.I2C
     if sonars is not None:
         flags |= p.StreamFlags.SONAR
     if not mask and not flags:
         raise ValueRangeError("stream content", "nothing", "at least one channel or flag")
-    size = p.sample_payload_size(mask, flags, i2c_bytes or 0, sonars or 0)
+    size = p.sample_payload_size(mask, flags, i2c_bytes or 0, sonars or 0, pulse_ins or 0)
     if size > p.STREAM_MAX_VALUES:
         raise ValueRangeError(
             "stream content",
             f"{size} value bytes",
             f"at most {p.STREAM_MAX_VALUES} a sample (steppers take {4 * p.STEPPER_COUNT}, "
             f"encoders {4 * p.ENCODER_SLOTS}, each analog channel 2, counters 8, edges 4, "
-            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS}, sonars 1 + 3 a slot)",
+            f"levels 2, I2C blocks their bytes + {2 * p.I2C_BLOCK_SLOTS}, sonars 1 + 3 a slot, "
+            "pulse inputs 1 + 3 a slot)",
         )
     finite = isinstance(period_ms, int | float) and math.isfinite(period_ms)
     period_us = round(period_ms * 1000) if finite else 0

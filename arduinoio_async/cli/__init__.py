@@ -23,6 +23,7 @@ from . import (
     _encoder_commands,
     _flash,
     _motor_commands,
+    _pulse_in_commands,
     _sonar_commands,
     _spi_commands,
     _stepper_commands,
@@ -44,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     _stepper_commands.add_commands(sub)
     _encoder_commands.add_commands(sub)
     _sonar_commands.add_commands(sub)
+    _pulse_in_commands.add_commands(sub)
     _spi_commands.add_commands(sub)
     _stream_commands.add_commands(sub)
     _flash.add_commands(sub)

@@ -33,6 +33,8 @@ async def pin_roles(board: Board) -> dict[str, str]:
             roles[pin.name] = _pwm_kind(pin)
         elif reply.counter & bit:
             roles[pin.name] = "counter"
+        elif reply.pulse_input & bit:
+            roles[pin.name] = "pulse-width input"
     return roles
 
 

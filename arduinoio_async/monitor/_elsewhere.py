@@ -44,6 +44,8 @@ def role_words(reply: p.ReadPinRolesReply, pin: DigitalPin) -> str | None:
         return "servo PWM" if pin_mask(Function.SERVO_PWM) & bit else "software PWM"
     if reply.counter & bit:
         return "counter"
+    if reply.pulse_input & bit:
+        return "pulse-width input"
     return None
 
 

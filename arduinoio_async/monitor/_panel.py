@@ -42,6 +42,7 @@ from ._counts import CountSource
 from ._devices import DeviceView, EncoderView, MotorView
 from ._elsewhere import RolesElsewhere
 from ._imu_view import ImuView
+from ._rc_view import RcInputView
 from ._sonar_view import SonarView
 from ._sources import Activity, ActivitySource, PinKey, StreamSource
 from ._spi_view import SpiView
@@ -153,6 +154,7 @@ class BoardPanel:
             SpiView(board, on_change=self.changed),
             SonarView(board, on_change=self.changed),
             ImuView(board, on_change=self.changed),
+            RcInputView(board, on_change=self.changed),
         ]
         #: Bit n = last known level of Dn; ``known`` says which bits a source reported.
         self.levels = 0

@@ -34,6 +34,7 @@ CLAIMS: frozenset[type[p.Request[Any]]] = frozenset(
         p.CounterConfig,
         p.EncoderConfig,
         p.SonarConfig,
+        p.PulseInConfig,
         p.SpiConfig,
         p.I2CBlock,
         p.PinRelease,
@@ -49,6 +50,9 @@ I2C_BLOCK_KEY = -32
 #: The claim key of sonar slot ``s`` is ``SONAR_KEY - s`` (between the encoders' and the
 #: I2C blocks'): a set-up of a slot in use reconfigures it on the board.
 SONAR_KEY = -16
+#: The claim key of pulse input slot ``s`` is ``PULSE_IN_KEY - s`` (between the sonars'
+#: and the I2C blocks').
+PULSE_IN_KEY = -24
 
 
 def role_of(request: p.Request[Any]) -> tuple[int, str] | None:
@@ -71,7 +75,8 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     """Every (pin, role) ``request`` sets up or releases: :func:`role_of`'s, a stepper's
     pins (its step and direction pins, a limit switch), and an encoder's: its set-up claims
     both its pins and its slot (key ``-1 - slot``: a set-up of a slot in use reconfigures it
-    on the board), in a role naming both pins, so only the same encoder is shared."""
+    on the board), in a role naming both pins, so only the same encoder is shared; a pulse
+    input's pin and slot likewise."""
     if isinstance(request, p.StepperConfig):
         n = request.index
         return [
@@ -86,6 +91,10 @@ def roles_of(request: p.Request[Any]) -> list[tuple[int, str]]:
     if isinstance(request, p.SonarConfig):
         role = f"sonar D{request.trigger}/D{request.echo} (slot {request.slot})"
         return [(request.trigger, role), (request.echo, role), (SONAR_KEY - request.slot, role)]
+    if isinstance(request, p.PulseInConfig):
+        # the pin and the slot: a set-up of a slot in use moves it on the board
+        role = f"pulse-width input D{request.pin} (slot {request.slot})"
+        return [(request.pin, role), (PULSE_IN_KEY - request.slot, role)]
     if isinstance(request, p.SpiConfig):
         # the SPI bridge claims D11-D13 and its chip select in one role naming the chip
         # select: another client's bus (another chip select) is refused on D11
@@ -155,6 +164,8 @@ class PinHolders:
             name = f"D{pin}"
         elif pin <= I2C_BLOCK_KEY:
             name = f"I2C block slot {I2C_BLOCK_KEY - pin}"
+        elif pin <= PULSE_IN_KEY:
+            name = f"pulse input slot {PULSE_IN_KEY - pin}"
         elif pin <= SONAR_KEY:
             name = f"sonar slot {SONAR_KEY - pin}"
         else:

@@ -133,6 +133,10 @@ class StreamFlags(IntFlag):
     #: started), then per slot a u16 distance in mm (SONAR_NO_ECHO, SONAR_NO_READING) and
     #: a u8 age of that reading in 1.024 ms steps (255: that old or more).
     SONAR = 0x20
+    #: The pulse inputs (extension): a u8 count n (the highest configured PULSE_IN slot
+    #: + 1 when the stream started), then per slot 0..n-1 a u16 width in microseconds and
+    #: a u8 lost flag (1: signal lost, or no input on that slot).
+    PULSE_IN = 0x40
     #: The I2C register blocks (I2C_BLOCK_SLOTS of them, slot 0 first): per slot a u8
     #: length (0: a free slot), a u8 status (0: read this period; else the error code of
     #: the failed step) and that many bytes.

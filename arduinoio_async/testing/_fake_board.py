@@ -26,6 +26,7 @@ from ..protocol.timers import Timer
 from ..transport import MemoryByteStream, memory_link
 from ._fake_encoder import EncoderModels
 from ._fake_i2c_blocks import I2CBlockModels
+from ._fake_pulse_in import PulseInModels
 from ._fake_sonar import SonarModels
 from ._fake_spi import SpiModels
 from ._fake_stepper import FakeSteppers
@@ -48,7 +49,7 @@ _CHANGE_FRAME_BYTES = len(p.GpioChange(2, p.GpioState.FELL, 0, 0).encode())
 
 
 @dataclass
-class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, FakeWire):
+class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, PulseInModels, FakeWire):
     """A board model on an in-memory link; ``host_stream`` is the host's end."""
 
     board_id: int = 0x0001
@@ -149,6 +150,7 @@ class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, FakeWire)
             **self._encoder_handlers(),
             **self._sonar_handlers(),
             **self._spi_handlers(),
+            **self._pulse_in_handlers(),
             **self._i2c_block_handlers(),
             p.StreamStart: self._stream_start,
             p.StreamStop: lambda r: p.StreamStopReply(self.stream.stop()),
@@ -206,6 +208,8 @@ class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, FakeWire)
                 self._report_change(pin, level)
             if state.role == "encoder":
                 self._encoder_edge(pin)
+            if state.role == "pulse-input":
+                self._pulse_in_edge(pin, level)
 
     def set_analog(self, channel: int, value: int) -> None:
         """Move an analog input: a watched channel that moved past its deadband reports
@@ -308,6 +312,7 @@ class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, FakeWire)
         self.counters = dict.fromkeys(self.counters, 0)
         self.encoders.clear()
         self.sonars.clear()
+        self.pulse_inputs.clear()
         self.spi_config = None
         self.change_sequence = 0
         with contextlib.suppress(anyio.WouldBlock):
@@ -354,13 +359,6 @@ class FakeBoard(I2CBlockModels, SpiModels, SonarModels, EncoderModels, FakeWire)
     def _write_id(self, request: p.WriteId) -> p.Frame:
         self.board_id = request.board_id
         return p.WriteIdReply(request.board_id)
-
-    def _pin_roles(self, request: p.ReadPinRoles) -> p.Frame:
-        def mask(role: str) -> int:  # the reply's u16 masks hold D0-D15 (a Mega's others: none)
-            return sum(1 << n for n, pin in self._pins.items() if pin.role == role and n < 16)
-
-        pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
-        return p.ReadPinRolesReply(mask("input"), mask("output"), pwm, mask("counter"))
 
     def _set_decoder(self, framing: p.Framing) -> None:
         self.framing = framing

@@ -152,3 +152,11 @@ class GpioModels(PeripheralModels):
             self._changes_in.send_nowait(report)
         except anyio.WouldBlock:
             self.changes_dropped += 1
+
+    def _pin_roles(self, request: p.ReadPinRoles) -> p.Frame:
+        def mask(role: str) -> int:  # the reply's u16 masks hold D0-D15 (a Mega's others: none)
+            return sum(1 << n for n, pin in self._pins.items() if pin.role == role and n < 16)
+
+        pwm = mask("pwm") | mask("duty")  # duty-cycle PWM is reported as PWM
+        roles = (mask("input"), mask("output"), pwm, mask("counter"))
+        return p.ReadPinRolesReply(*roles, mask("pulse-input"))

@@ -113,6 +113,7 @@ uint8_t misc_handle(const aio_request_t *rq, aio_reply_t *rp)
         p = aio_put16(p, role_mask(ROLE_GPIO_OUT));
         p = aio_put16(p, (uint16_t)(role_mask(ROLE_PWM) | role_mask(ROLE_DUTY))); /* duty PWM is PWM */
         p = aio_put16(p, role_mask(ROLE_COUNTER));
+        p = aio_put16(p, role_mask(ROLE_PULSE_IN)); /* 0 in an image without them */
         break;
     default:
         return AIO_ERR_UNKNOWN_DESCRIPTOR; /* not reached: the parser checked the tags */

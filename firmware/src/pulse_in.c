@@ -62,13 +62,14 @@ void pulse_in_poll(void)
         if (q->pin == PINS_COUNT)
             continue;
         if (pulse_take(s, &width, &end)) {
+            uint8_t was_lost = q->lost, irq = hal_irq_save(); /* the stream reads both */
             q->width_us = (uint16_t)(width > 0xFFFFu ? 0xFFFFu : width);
+            q->lost = 0;
+            hal_irq_restore(irq);
             q->end_us = end;
             q->aged = 0;
-            if (q->lost) {
-                q->lost = 0;
+            if (was_lost)
                 signal_event(s);
-            }
             continue;
         }
         if (q->aged)
@@ -83,6 +84,25 @@ void pulse_in_poll(void)
             signal_event(s);
         }
     }
+}
+
+uint8_t pulse_in_stream_slots(void)
+{
+    uint8_t s = SLOTS;
+    while (s && slots[s - 1u].pin == PINS_COUNT)
+        s--;
+    return s;
+}
+
+uint8_t *pulse_in_put_stream(uint8_t *p, uint8_t n)
+{
+    uint8_t s;
+    for (s = 0; s < n; s++) {
+        uint8_t none = slots[s].pin == PINS_COUNT; /* a free slot: width 0, lost */
+        p = aio_put16(p, none ? 0u : slots[s].width_us);
+        *p++ = (uint8_t)(slots[s].lost | none);
+    }
+    return p;
 }
 
 static void detach(uint8_t s)
@@ -128,10 +148,14 @@ static uint8_t configure(const uint8_t *d)
     detach(s);
     hal_pin_mode(pin, HAL_IN); /* a receiver drives the line both ways */
     pins_role[pin] = ROLE_PULSE_IN;
-    slots[s].pin = pin;
-    slots[s].lost = 1;
+    {
+        uint8_t irq = hal_irq_save(); /* the stream reads these */
+        slots[s].lost = 1;
+        slots[s].width_us = 0;
+        slots[s].pin = pin;
+        hal_irq_restore(irq);
+    }
     slots[s].aged = 1;
-    slots[s].width_us = 0;
     slots[s].timeout_ms = timeout;
     pulse_watch(s, pins_bit_of(pin));
     return 0;

@@ -32,6 +32,7 @@
 #include "stepper.h"
 #include "i2cblock.h"
 #include "sonar.h"
+#include "pulse_in.h"
 
 #ifndef BAUD
 #define BAUD 115200UL
@@ -44,7 +45,8 @@
 #define STREAM_FLAGS                                                                     \
     (AIO_STREAM_LEVELS | AIO_STREAM_EDGES | AIO_STREAM_COUNTERS |                        \
      (AIO_WITH_STEPPER ? AIO_STREAM_STEPPERS : 0u) | (AIO_WITH_ENCODER ? AIO_STREAM_ENCODERS : 0u) | \
-     (AIO_WITH_SONAR ? AIO_STREAM_SONAR : 0u) | (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
+     (AIO_WITH_SONAR ? AIO_STREAM_SONAR : 0u) | (AIO_WITH_PULSE_IN ? AIO_STREAM_PULSE_IN : 0u) | \
+     (AIO_WITH_I2C_STREAM ? AIO_STREAM_I2C : 0u))
 
 static volatile uint8_t running;
 static uint8_t mask, flags;
@@ -52,6 +54,11 @@ static uint8_t mask, flags;
 static uint8_t sonars;               /* the sonar slots the samples carry (frozen at START) */
 #else
 #define sonars 0u
+#endif
+#if AIO_WITH_PULSE_IN
+static uint8_t pulse_ins;            /* the pulse input slots the samples carry (frozen at START) */
+#else
+#define pulse_ins 0u
 #endif
 static uint8_t adc_shift;            /* ADC clock of the chain: 16 MHz >> adc_shift */
 static uint16_t seq;                 /* sequence number of the next sample */
@@ -81,8 +88,8 @@ uint8_t stream_running(void) { return running; }
 
 uint8_t stream_converts(void) { return running && mask; }
 
-/* `sn`: the sonar slots, if f holds SONAR */
-static uint8_t value_bytes(uint8_t m, uint8_t f, uint8_t sn)
+/* `sn`: the sonar slots, if f holds SONAR; `pn`: the pulse input slots, if PULSE_IN */
+static uint8_t value_bytes(uint8_t m, uint8_t f, uint8_t sn, uint8_t pn)
 {
     uint8_t n = 0;
     for (; m; m >>= 1)
@@ -106,6 +113,12 @@ static uint8_t value_bytes(uint8_t m, uint8_t f, uint8_t sn)
         n += 1u + 3u * sn;
 #else
     (void)sn;
+#endif
+#if AIO_WITH_PULSE_IN
+    if (f & AIO_STREAM_PULSE_IN)
+        n += 1u + 3u * pn;
+#else
+    (void)pn;
 #endif
 #if AIO_WITH_I2C_STREAM
     if (f & AIO_STREAM_I2C)
@@ -170,7 +183,7 @@ void stream_adc_done(uint16_t value)
 static void sample(void)
 {
     uint8_t *p = frame;
-    uint8_t len = value_bytes(mask, flags, sonars);
+    uint8_t len = value_bytes(mask, flags, sonars, pulse_ins);
     uint16_t r, f;
 
     *p++ = AIO_CT_EVENT;
@@ -182,7 +195,7 @@ static void sample(void)
     p = aio_put32(p, instant);
     *p++ = len;
     pos = (uint8_t)(p - frame);
-    p += (uint8_t)(len - value_bytes(0, flags, sonars)); /* analog values come from the chain */
+    p += (uint8_t)(len - value_bytes(0, flags, sonars, pulse_ins)); /* analog values come from the chain */
     if (flags & AIO_STREAM_LEVELS)
         p = aio_put16(p, hal_pin_levels() & AIO_PINS_DIGITAL_INPUT);
     if (flags & AIO_STREAM_EDGES) {
@@ -208,6 +221,12 @@ static void sample(void)
     if (flags & AIO_STREAM_SONAR) {
         *p++ = sonars;
         p = sonar_stream_put(p, sonars);
+    }
+#endif
+#if AIO_WITH_PULSE_IN
+    if (flags & AIO_STREAM_PULSE_IN) {
+        *p++ = pulse_ins;
+        p = pulse_in_put_stream(p, pulse_ins);
     }
 #endif
     frame_len = (uint8_t)(HDR + len + 1u);
@@ -301,7 +320,7 @@ static void stop(void)
 
 uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
 {
-    uint8_t m, f, s, shift, sn = sonar_stream_count();
+    uint8_t m, f, s, shift, sn = sonar_stream_count(), pn;
     uint16_t period, r;
 
     if (rq->dt != AIO_DT_STREAM_START && rq->dt != AIO_DT_STREAM_STOP)
@@ -315,9 +334,14 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     m = rq->data[0];
     f = rq->data[1];
     period = aio_be16(rq->data + 2);
+#if AIO_WITH_PULSE_IN
+    pn = pulse_in_stream_slots();
+#else
+    pn = 0;
+#endif
     if (m & ~((1u << AIO_ANALOG_CHANNELS) - 1u) ||
         f & ~STREAM_FLAGS ||
-        (m == 0 && f == 0) || value_bytes(m, f, sn) > AIO_STREAM_MAX_VALUES ||
+        (m == 0 && f == 0) || value_bytes(m, f, sn, pn) > AIO_STREAM_MAX_VALUES ||
         period < AIO_STREAM_MIN_PERIOD_US || period > AIO_STREAM_MAX_PERIOD_US ||
         period % AIO_STREAM_PERIOD_STEP_US)
         return AIO_ERR_VALUE_OUT_OF_RANGE;
@@ -329,9 +353,9 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
         return AIO_ERR_PIN_BUSY; /* duty PWM on D5/D6 holds the alarm timer */
     if (m && analog_watched())
         return AIO_ERR_PIN_BUSY; /* the ADC samples watched channels */
-    if (!stream_admit(value_bytes(m, f, sn), period, BAUD))
+    if (!stream_admit(value_bytes(m, f, sn, pn), period, BAUD))
         return AIO_ERR_LINK_CAPACITY;
-    shift = stream_adc_clock((uint8_t)(value_bytes(m, 0, 0) / 2u), period);
+    shift = stream_adc_clock((uint8_t)(value_bytes(m, 0, 0, 0) / 2u), period);
     if (!shift)
         return AIO_ERR_VALUE_OUT_OF_RANGE; /* not reached: 6 channels take 78 us at 1 MHz */
     stop();
@@ -341,6 +365,9 @@ uint8_t stream_handle(const aio_request_t *rq, aio_reply_t *rp)
     flags = f;
 #if AIO_WITH_SONAR
     sonars = sn;
+#endif
+#if AIO_WITH_PULSE_IN
+    pulse_ins = pn;
 #endif
     adc_shift = shift;
     channel_count = 0;

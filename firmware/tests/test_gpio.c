@@ -59,16 +59,16 @@ void test_gpio(void)
     EXPECT(fake_pin_mode[3] == 0);
     CHECK(B(2, 4, 3), B(2, 4, 3)); /* releasing a free pin */
 
-    /* READ_PIN_ROLES: masks for input, output, PWM, counter; bit n = Dn */
+    /* READ_PIN_ROLES: masks for input, output, PWM, counter, pulse input; bit n = Dn */
     board();
-    CHECK(B(1, 8), B(1, 8, 0, 0, 0, 0, 0, 0, 0, 0));
+    CHECK(B(1, 8), B(1, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0));
     CHECK(B(2, 1, 7, 0x00), B(2, 1, 7, 0x00));
     CHECK(B(2, 1, 13, 0x01), B(2, 1, 13, 0x01));
     CHECK(B(5, 1, 3, 0x05, 0xDC), B(5, 1, 3, 0x05, 0xDC));
     CHECK(B(5, 1, 9, 0x05, 0xDC), B(5, 1, 9, 0x05, 0xDC));
-    CHECK(B(1, 8), B(1, 8, 0x00, 0x80, 0x20, 0x00, 0x02, 0x08, 0x00, 0x00));
+    CHECK(B(1, 8), B(1, 8, 0x00, 0x80, 0x20, 0x00, 0x02, 0x08, 0x00, 0x00, 0, 0));
     CHECK(B(2, 4, 9), B(2, 4, 9));
-    CHECK(B(1, 8), B(1, 8, 0x00, 0x80, 0x20, 0x00, 0x00, 0x08, 0x00, 0x00));
+    CHECK(B(1, 8), B(1, 8, 0x00, 0x80, 0x20, 0x00, 0x00, 0x08, 0x00, 0x00, 0, 0));
 }
 
 /* GPIO_WATCH and the GPIO_CHANGE events sent from the pin-change interrupt */

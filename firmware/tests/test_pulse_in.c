@@ -146,9 +146,43 @@ static void pulse_in_loss(void)
     EXPECT(read_in(3, &width, &age, &lost) && age == 65535u && lost == 1);
 }
 
+/* The stream's PULSE_IN block: a count (the highest configured slot + 1 at START), then
+ * per slot u16 width and u8 lost (1 for a slot without an input). */
+static void pulse_in_stream(void)
+{
+    board();
+    CHECK(B(0x0C, 1, 1, 4, 0, 30), B(0x0C, 1, 1, 4, 0, 30));
+    CHECK(B(1, 8), B(1, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0x00, 0x10)); /* READ_PIN_ROLES: D4 */
+    CHECK(B(7, 1, 0, 0x40, 0x27, 0x10), B(7, 1, 0, 0x40, 0x27, 0x10)); /* every 10 ms */
+    pulse(4, 2u * 1234u + 1u, 10);
+    run();
+    take(); /* the "back" event */
+    fake_advance(100);
+    take();
+    EXPECT(outn == 11u + 7u + 1u && out[0] == AIO_CT_EVENT && out[1] == AIO_DT_EVENT_STREAM_SAMPLE &&
+           out[3] == 0x40 && out[10] == 7 && out[11] == 2 && be16(out + 12) == 0 && out[14] == 1 &&
+           be16(out + 15) == 1234u && out[17] == 0);
+    /* lost after 30 ms: the sample keeps the last width and says so */
+    fake_advance(300);
+    run();
+    take();
+    fake_advance(100);
+    take();
+    EXPECT(outn == 19u && be16(out + 15) == 1234u && out[17] == 1);
+    CHECK(B(7, 2), B(7, 2, 0, 5));
+    /* no input at all: a block of count 0 */
+    CHECK(B(2, 4, 4), B(2, 4, 4));
+    CHECK(B(7, 1, 0, 0x40, 0x27, 0x10), B(7, 1, 0, 0x40, 0x27, 0x10));
+    fake_advance(100);
+    take();
+    EXPECT(outn == 11u + 1u + 1u && out[10] == 1 && out[11] == 0);
+    CHECK(B(7, 2), B(7, 2, 0, 1));
+}
+
 void test_pulse_in(void)
 {
     pulse_in_errors();
     pulse_in_widths();
     pulse_in_loss();
+    pulse_in_stream();
 }

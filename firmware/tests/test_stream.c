@@ -13,7 +13,6 @@ void test_stream(void)
     board();
     CHECK(B(7, 1, 0, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* empty */
     CHECK(B(7, 1, 0x40, 0, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE));
-    CHECK(B(7, 1, 1, 0x40, 0x03, 0xE8), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* no such flag (PULSE_IN's, not yet carried) */
     CHECK(B(7, 1, 1, 0, 0x03, 0xE7), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 999 */
     CHECK(B(7, 1, 1, 0, 0x00, 0xF9), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 249 */
     CHECK(B(7, 1, 1, 0, 0x01, 0x13), B(0x87, 1, AIO_ERR_VALUE_OUT_OF_RANGE)); /* 275 */

@@ -22,6 +22,6 @@ async def test_the_fake_board_reports_pin_roles_like_the_firmware() -> None:
         await board.digital_input(D3)
         await board.servo(D9, pulse_us=1500)
         roles = await board.request(p.ReadPinRoles())
-        assert roles == p.ReadPinRolesReply(1 << 3, 0, 1 << 9, 0)
+        assert roles == p.ReadPinRolesReply(1 << 3, 0, 1 << 9, 0, 0)
         await board.release(D3)
         assert (await board.request(p.ReadPinRoles())).gpio_input == 0

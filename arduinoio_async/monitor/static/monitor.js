@@ -178,6 +178,10 @@
       control(view, "encoder",
         { a: encoders.a.value.trim().toUpperCase(), b: encoders.b.value.trim().toUpperCase(), mode: encoders.mode.value },
         (slot) => `encoder ${encoders.a.value}/${encoders.b.value} in slot ${slot}`));
+    const rc = root.querySelector("form.rc-inputs");
+    rc.querySelector(".rc-add").addEventListener("click", () =>
+      control(view, "rc_input", { pin: rc.pin.value.trim().toUpperCase(), timeout_ms: Number(rc.timeout.value) },
+        (slot) => `RC input ${rc.pin.value} in slot ${slot}`));
 
     const sonars = root.querySelector("form.sonars");
     sonars.querySelector(".sonar-add").addEventListener("click", () =>
@@ -250,6 +254,22 @@
     renderMotors(view, snapshot.motors);
     renderSpi(view, snapshot.spi);
     renderImu(view, snapshot.imu);
+    renderRcInputs(view, snapshot.rc_inputs);
+  }
+
+  // RC inputs: width (us) and stick position, or the lost signal with the last width.
+  function renderRcInputs(view, inputs) {
+    const form = view.root.querySelector("form.rc-inputs");
+    const list = form.querySelector(".rc-rows");
+    form.dataset.supported = inputs && inputs.supported ? "true" : "false";
+    if (!inputs || !inputs.supported) {
+      list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "not in this firmware" }));
+      return;
+    }
+    list.replaceChildren(...inputs.rows.map((r) => Object.assign(document.createElement("li"), {
+      textContent: r.lost ? `slot ${r.slot} (${r.pin}): signal lost (last ${r.width_us} us)`
+        : `slot ${r.slot} (${r.pin}): ${r.width_us} us · position ${r.position}`,
+    })));
   }
 
   // DC motors: a speed slider (-100..100 %), brake and coast; the state the board was given.

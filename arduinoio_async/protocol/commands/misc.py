@@ -163,11 +163,14 @@ class ReadPinRolesReply(Reply):
     gpio_output: Annotated[int, U16]
     pwm: Annotated[int, U16]
     counter: Annotated[int, U16]
+    #: RC pulse-width inputs (0 in an image without them).
+    pulse_input: Annotated[int, U16]
 
 
 @request_frame(ReadPinRolesReply, extension=True)
 class ReadPinRoles(Request[ReadPinRolesReply]):
-    """Which digital pins are GPIO inputs, GPIO outputs, PWM (servo or software) or counters."""
+    """Which digital pins are GPIO inputs, GPIO outputs, PWM (servo or software), counters
+    or pulse-width inputs."""
 
 
 @echo

@@ -12,6 +12,7 @@ from typing import Annotated
 from .._constants import (
     ENCODER_SLOTS,
     I2C_BLOCK_SLOTS,
+    PULSE_IN_SLOTS,
     SONAR_SLOTS,
     STEPPER_COUNT,
     STREAM_FRAME_OVERHEAD,
@@ -34,6 +35,7 @@ __all__ = [
     "StreamStopReply",
     "sample_payload_size",
     "split_i2c_blocks",
+    "split_pulse_in_block",
     "split_sonar_block",
     "stream_fits_link",
     "stream_min_period_us",
@@ -84,9 +86,10 @@ class StreamSample(_Sampled, Event):
     position of each stepper slot 0-3 (0 for a slot without a stepper), if ENCODERS: one
     i32 count per encoder slot (ENCODER_SLOTS, slot 0 first; a free slot reads 0), if
     SONAR: u8 count n, then per sonar slot 0..n-1 u16 distance in mm and u8 age in
-    1.024 ms steps (:func:`split_sonar_block`), if I2C: per I2C block slot
-    (I2C_BLOCK_SLOTS, slot 0 first) u8 length, u8 status and that many bytes
-    (:func:`split_i2c_blocks`).
+    1.024 ms steps (:func:`split_sonar_block`), if PULSE_IN: u8 count n, then per pulse
+    input slot 0..n-1 u16 width in us and u8 lost (:func:`split_pulse_in_block`), if I2C:
+    per I2C block slot (I2C_BLOCK_SLOTS, slot 0 first) u8 length, u8 status and that many
+    bytes (:func:`split_i2c_blocks`).
     """
 
     sequence: Annotated[int, U16]
@@ -95,10 +98,13 @@ class StreamSample(_Sampled, Event):
 
     def __post_init__(self) -> None:
         fixed = sample_payload_size(
-            self.analog_mask, self.flags & ~(StreamFlags.I2C | StreamFlags.SONAR)
+            self.analog_mask,
+            self.flags & ~(StreamFlags.I2C | StreamFlags.SONAR | StreamFlags.PULSE_IN),
         )
         if self.flags & StreamFlags.SONAR:
             fixed += sonar_block_size(self.payload[fixed:])
+        if self.flags & StreamFlags.PULSE_IN:
+            fixed += pulse_in_block_size(self.payload[fixed:])
         if self.flags & StreamFlags.I2C:
             split_i2c_blocks(self.payload[fixed:])  # raises ValueError if malformed
         elif len(self.payload) != fixed:
@@ -122,6 +128,24 @@ def split_sonar_block(data: bytes) -> list[tuple[int, int]]:
     ]
 
 
+def pulse_in_block_size(data: bytes) -> int:
+    """Bytes of the pulse input block at the start of ``data`` (its first byte counts the
+    slots); ValueError if the count is impossible or the block is cut short."""
+    if not data or data[0] > PULSE_IN_SLOTS or len(data) < 1 + 3 * data[0]:
+        raise ValueError("stream sample's pulse input block is malformed or cut short")
+    return 1 + 3 * data[0]
+
+
+def split_pulse_in_block(data: bytes) -> list[tuple[int, bool]]:
+    """The pulse input block at the start of ``data``: ``(width_us, lost)`` per slot
+    (slot 0 first; a slot without an input reads lost)."""
+    size = pulse_in_block_size(data)
+    return [
+        (int.from_bytes(data[pos : pos + 2], "big"), bool(data[pos + 2]))
+        for pos in range(1, size, 3)
+    ]
+
+
 def split_i2c_blocks(data: bytes) -> list[tuple[int, bytes]]:
     """The I2C part of a sample: ``(status, bytes)`` per block slot (slot 0 first); the
     part is self-describing (each slot's length precedes it), so the host needs no copy of
@@ -140,11 +164,16 @@ def split_i2c_blocks(data: bytes) -> list[tuple[int, bytes]]:
 
 
 def sample_payload_size(
-    analog_mask: int, flags: StreamFlags, i2c_bytes: int = 0, sonars: int = 0
+    analog_mask: int,
+    flags: StreamFlags,
+    i2c_bytes: int = 0,
+    sonars: int = 0,
+    pulse_ins: int = 0,
 ) -> int:
     """Bytes of values a sample with this channel mask and these flags carries
     (``i2c_bytes``: the configured I2C blocks' lengths added up, if the flags hold I2C;
-    ``sonars``: the sonar slots the block carries, if the flags hold SONAR)."""
+    ``sonars``: the sonar slots the block carries, if the flags hold SONAR; ``pulse_ins``:
+    the pulse input slots the block carries, if the flags hold PULSE_IN)."""
     size = 2 * (analog_mask & 0x3F).bit_count()
     if flags & StreamFlags.LEVELS:
         size += 2
@@ -158,6 +187,8 @@ def sample_payload_size(
         size += 4 * ENCODER_SLOTS
     if flags & StreamFlags.SONAR:
         size += 1 + 3 * sonars
+    if flags & StreamFlags.PULSE_IN:
+        size += 1 + 3 * pulse_ins
     if flags & StreamFlags.I2C:
         size += 2 * I2C_BLOCK_SLOTS + i2c_bytes
     return size
