@@ -29,9 +29,9 @@ from typing import TYPE_CHECKING, Any, cast
 import anyio
 import zenoh
 
+from ..board.imu import MPU6050
 from ..errors import ArduinoIOError, UsageError
 from ..protocol import I2CSpeed
-from . import _imu
 from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import BoardConfig, BridgeConfig, InputConfig, OutputConfig
@@ -398,29 +398,20 @@ class BoardNode:
     async def _publish_imu(
         self, source: InputConfig, publisher: Publisher, task_status: anyio.abc.TaskStatus[None]
     ) -> None:
-        """An MPU-6050 read every ``period``, stamped with the middle of each read."""
-        bus = await self.board.i2c(I2CSpeed.KHZ_400)
-        who = (await bus.read(source.address, _imu.WHO_AM_I, 1))[0]
-        if who != _imu.MPU6050_ID:
-            log.warning("%s: I2C 0x%02X answers WHO_AM_I 0x%02X, not an MPU-6050's 0x68",
-                        self.config.name, source.address, who)  # fmt: skip
-        await bus.write(source.address, _imu.PWR_MGMT_1, b"\x00")  # wake up
+        """An MPU-6050 polled every ``period`` (a board without ``stream_ms``), stamped with
+        the middle of each read; the helper sets the entry's ranges and scales by them."""
+        imu = MPU6050(await self.board.i2c(I2CSpeed.KHZ_400), source.address)
+        await imu.configure(accel_g=cast(Any, source.accel_g), gyro_dps=cast(Any, source.gyro_dps))
         task_status.started()
         while True:
             sent = time.time_ns()
             try:
-                data = await bus.read(source.address, _imu.ACCEL_XOUT_H, _imu.LENGTH)
+                reading = await imu.read()
             except ArduinoIOError as exc:
                 await self._read_failed(source.topic, exc)
             else:
                 stamp = msgs.Stamp((sent + time.time_ns()) // 2)
-                reading = _imu.decode(data)
-                payload = msgs.imu(
-                    stamp,
-                    self.config.frame_id,
-                    reading.angular_velocity,
-                    reading.linear_acceleration,
-                )
+                payload = msgs.imu(stamp, self.config.frame_id, reading.gyro, reading.accel)
                 self._put(publisher, payload)
             await anyio.sleep(source.period)
 

@@ -58,6 +58,8 @@ class BoardClock:
         self.spread_ns = 0
         #: The latest (unwrapped board us, host ns) :meth:`to_host_ns` returned.
         self._last_out: tuple[int, int] | None = None
+        #: The newest pair observed: no board time up to it happened after its host time.
+        self._latest: tuple[int, int] | None = None
 
     def unwrap(self, board_us: int) -> int:
         """``board_us`` (32-bit, wrapping) as a count that keeps growing."""
@@ -76,6 +78,8 @@ class BoardClock:
         if self._envelope and board < self._envelope[-1][0] - RESET_JUMP_US:
             self.reset()
             board = self.unwrap(board_us)
+        if self._latest is None or board >= self._latest[0]:
+            self._latest = (board, host_ns)
         bucket = board // self._bucket_us
         if self._envelope and self._envelope[-1][0] // self._bucket_us == bucket:
             last_board, last_host = self._envelope[-1]
@@ -101,6 +105,7 @@ class BoardClock:
         self._fit = None
         self.spread_ns = 0
         self._last_out = None
+        self._latest = None
 
     def _refit(self) -> None:
         points = list(self._envelope)
@@ -136,7 +141,11 @@ class BoardClock:
         Monotonic for board times in order: when a refit moved the line earlier, a later
         board time gets a stamp after the previous one (by :data:`SLEW` of the elapsed
         board time) until the line catches up, so stamps never go back; an earlier board
-        time than the last converted one gets the line's value.
+        time than the last converted one gets the line's value.  Not after the host time
+        its frame (or a later one) was observed (frames decoded at once: 1 us apart):
+        while the first buckets give a poor slope (a simulated clock running in bursts),
+        the line can point seconds ahead, and a stamp after its frame's arrival is wrong
+        for certain.
         """
         if self._fit is None:
             raise RuntimeError("no stamped frame observed yet")
@@ -150,6 +159,11 @@ class BoardClock:
         last = self._last_out
         if last is not None and board >= last[0]:
             host = max(host, last[1] + int((board - last[0]) * 1000 * SLEW))
+        latest = self._latest
+        if latest is not None and board <= latest[0]:
+            host = min(host, latest[1])
+        if last is not None and board > last[0]:  # frames decoded together: 1 us apart
+            host = max(host, last[1] + 1000)
         if last is None or board >= last[0]:
             self._last_out = (board, host)
         return host

@@ -50,6 +50,8 @@ class InputConfig:
     period: float = 0.1  # analog: seconds between readings
     scale: float = 1.0  # analog: volts at the pin -> published volts (a divider)
     address: int = 0x68  # imu: the MPU-6050's I2C address
+    accel_g: int = 2  # imu: accelerometer range, +-2, 4, 8 or 16 g
+    gyro_dps: int = 250  # imu: gyroscope range, +-250, 500, 1000 or 2000 deg/s
     pin_b: DigitalPin | None = None  # encoder: pin B (``pin`` is A)
     #: encoder: counts per revolution of the joint in the decoding ``mode``'s units
     #: (an x4 count per edge: 4 x the encoder's lines, times any gear ratio).
@@ -219,7 +221,7 @@ def _check_stream_timer(
 ) -> None:
     """The board's stream (encoders, or analog inputs with stream_ms) is timed by Timer0,
     which a motor's duty PWM on D5/D6 holds: the board would refuse the stream at start."""
-    streams = any(s.kind == "encoder" or (stream_ms and s.kind in ("volts", "battery"))
+    streams = any(s.kind == "encoder" or (stream_ms and s.kind in ("volts", "battery", "imu"))
                   for s in inputs)  # fmt: skip
     if not streams:
         return
@@ -342,8 +344,22 @@ def _input(
     scale = item.get("scale", 1.0)
     if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale):
         raise ConfigError(f"{where}.scale: {scale!r} is not a number")
+    ranges = [item.get(key, default) for key, default in (("accel_g", 2), ("gyro_dps", 250))]
+    for (key, choices), value in zip(_IMU_RANGES.items(), ranges, strict=True):
+        if kind != "imu" and key in item:
+            raise ConfigError(f"{where}.{key}: only an imu has {key!r}")
+        if isinstance(value, bool) or value not in choices:
+            raise ConfigError(f"{where}.{key}: {value!r} is not one of {_or(_names(choices))}")
     topic = _topic(item.get("topic"), node_ns, topics, where)
-    return InputConfig(pin, kind, topic, pull_up, period, float(scale), address)
+    return InputConfig(pin, kind, topic, pull_up, period, float(scale), address, *ranges)
+
+
+#: An MPU-6050's ranges: accelerometer in g, gyroscope in deg/s.
+_IMU_RANGES = {"accel_g": (2, 4, 8, 16), "gyro_dps": (250, 500, 1000, 2000)}
+
+
+def _names(values: tuple[int, ...]) -> str:
+    return ", ".join(map(str, values))
 
 
 def _output(

@@ -64,7 +64,9 @@ INPUTS: dict[str, Kind] = {
     "volts": Kind(msgs.FLOAT32, "analog", keys=frozenset({"period", "scale"})),
     "battery": Kind(msgs.BATTERY_STATE, "analog", keys=frozenset({"period", "scale"})),
     "counter": Kind(msgs.INT64, "counter", keys=frozenset({"period"})),
-    "imu": Kind(msgs.IMU, "i2c", keys=frozenset({"period", "address"})),
+    #: An MPU-6050: from the board's stream (an I2C register block per sample) when the
+    #: board has ``stream_ms``, else polled every ``period``.
+    "imu": Kind(msgs.IMU, "i2c", keys=frozenset({"period", "address", "accel_g", "gyro_dps"})),
     "encoder": Kind(
         msgs.JOINT_STATE,
         "encoder",

@@ -1,10 +1,16 @@
 """A board's firmware-timed stream as ROS messages, each stamped with the board's time.
 
 One stream per board carries every streamed input (the board runs one): analog inputs
-(``Float32`` volts or ``BatteryState``) when the board has ``stream_ms``, and encoders
-(``sensor_msgs/JointState``) always.  Each sample's board time goes through the node's
+(``Float32`` volts or ``BatteryState``) and MPU-6050 IMUs (``sensor_msgs/Imu``, one
+14-byte I2C register block each, read by the board every period) when the board has
+``stream_ms``, and encoders (``sensor_msgs/JointState``) always.  Each sample's board
+time goes through the node's
 :class:`~._clock.BoardClock` into ``header.stamp``, so a stamp says when the board
 sampled, not when the host got round to it.
+
+An IMU publishes one message per sample, in m/s^2 and rad/s at the ranges its entry
+sets (:class:`~arduinoio_async.board.imu.MPU6050` scales them); a sample whose block
+read failed (the device NACKed) publishes nothing for that IMU, and the board counts it.
 
 An encoder publishes when its count changed since its last message, and at least every
 ``period`` seconds of board time while it stands still (velocity 0 then).  Its velocity
@@ -23,8 +29,9 @@ from typing import TYPE_CHECKING, Any, cast
 
 import anyio
 
+from ..board.imu import MPU6050
 from ..errors import ArduinoIOError
-from ..protocol import VCC_MV
+from ..protocol import VCC_MV, I2CSpeed
 from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import InputConfig
@@ -46,8 +53,9 @@ DEFAULT_STREAM_MS = 10.0
 
 
 def streamed(inputs: Sequence[InputConfig], stream_ms: float | None) -> list[InputConfig]:
-    """The inputs that come from the stream: encoders always, analog ones with stream_ms."""
-    analog = ("volts", "battery") if stream_ms is not None else ()
+    """The inputs that come from the stream: encoders always, analog inputs and IMUs with
+    stream_ms (without it an IMU is polled over I2C every ``period``)."""
+    analog = ("volts", "battery", "imu") if stream_ms is not None else ()
     return [s for s in inputs if s.kind == "encoder" or s.kind in analog]
 
 
@@ -80,9 +88,12 @@ class StreamedInputs:
         self.frame_id = frame_id
         self._put = put
         self._link_lost = link_lost
-        self.analog = [(s, publisher(s)) for s in sources if s.kind != "encoder"]
+        self.analog = [(s, publisher(s)) for s in sources if s.kind in ("volts", "battery")]
         self._encoders = [(s, publisher(s)) for s in sources if s.kind == "encoder"]
+        self._imu_sources = [(s, publisher(s)) for s in sources if s.kind == "imu"]
         self.joints: list[_Joint] = []
+        #: Each IMU's helper (its ranges scale the block) and publisher, in block order.
+        self.imus: list[tuple[MPU6050, Publisher]] = []
 
     async def run(
         self, *, task_status: anyio.abc.TaskStatus[None] = anyio.TASK_STATUS_IGNORED
@@ -94,12 +105,23 @@ class StreamedInputs:
                 cast("DigitalPin", source.pin), source.pin_b, mode=cast(Any, source.mode)
             )
             self.joints.append(_Joint(source, publisher, handle.slot))
+        if self._imu_sources:
+            bus = await self.board.i2c(I2CSpeed.KHZ_400)
+            for source, publisher in self._imu_sources:
+                imu = MPU6050(bus, source.address)
+                await imu.configure(accel_g=cast(Any, source.accel_g),
+                                    gyro_dps=cast(Any, source.gyro_dps))  # fmt: skip
+                self.imus.append((imu, publisher))
+        blocks = [imu.block for imu, _ in self.imus]
         pins = [cast("AnalogPin", source.pin) for source, _ in self.analog]
         started = False
         while True:
             try:
                 async with self.board.stream(
-                    analog=pins, encoders=bool(self.joints), period_ms=self.period_ms
+                    analog=pins,
+                    encoders=bool(self.joints),
+                    i2c=blocks,
+                    period_ms=self.period_ms,
                 ) as samples:
                     if not started:
                         started = True
@@ -125,6 +147,12 @@ class StreamedInputs:
             else:
                 payload = msgs.battery_state(stamp, self.frame_id, volts)
             self._put(publisher, payload)
+        for index, (imu, publisher) in enumerate(self.imus):
+            data = sample.i2c[index]
+            if data is None:  # the read failed on the board (counted there)
+                continue
+            motion = imu.decode(data)
+            self._put(publisher, msgs.imu(stamp, self.frame_id, motion.gyro, motion.accel))
         for joint in self.joints:
             now = EncoderSample(sample.encoders[joint.slot], sample.board_time_us)
             last = joint.last

@@ -47,8 +47,17 @@ NESTED = {
         "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
         "float64[] effort\n"
     ),
+    "geometry_msgs/msg/Quaternion": "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
+    "geometry_msgs/msg/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
+    "sensor_msgs/msg/Imu": (
+        "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n"
+        "float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n"
+        "float64[9] angular_velocity_covariance\ngeometry_msgs/Vector3 linear_acceleration\n"
+        "float64[9] linear_acceleration_covariance\n"
+    ),
 }
-DEFINITIONS["sensor_msgs/msg/JointState"] = NESTED["sensor_msgs/msg/JointState"]
+for _name in ("sensor_msgs/msg/JointState", "sensor_msgs/msg/Imu"):
+    DEFINITIONS[_name] = NESTED[_name]
 
 _out = threading.Lock()
 
@@ -64,10 +73,18 @@ def local_definitions() -> None:
 
 
 def fields(message: Any) -> dict[str, Any]:
-    """What the test compares: ``data``, or a JointState's fields and stamp."""
+    """What the test compares: ``data``, or a JointState's or an Imu's fields and stamp."""
     if hasattr(message, "data"):
         return {"data": message.data}
     stamp = message.header.stamp
+    if hasattr(message, "linear_acceleration"):
+        a, w = message.linear_acceleration, message.angular_velocity
+        return {
+            "accel": [float(a.x), float(a.y), float(a.z)],
+            "gyro": [float(w.x), float(w.y), float(w.z)],
+            "frame_id": message.header.frame_id,
+            "stamp_ns": stamp.sec * 1_000_000_000 + stamp.nanosec,
+        }
     return {
         "name": list(message.name),
         "position": [float(x) for x in message.position],

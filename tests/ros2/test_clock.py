@@ -89,3 +89,20 @@ def test_stamps_of_later_board_times_never_go_back_when_the_line_moves_down() ->
     assert min(steps) > 0, [s for s in steps if s <= 0][:5]
     # Converged: the last stamp is on the new line again (late by the least transit).
     assert stamps[-1] - true_host_ns(1999 * 1_000) <= MIN_TRANSIT_NS + clock.spread_ns
+
+
+def test_a_stamp_is_never_after_its_frame_was_observed() -> None:
+    """A simulated board whose clock paused for 0.5 s of host time early on (a loaded
+    machine): the first buckets' slope says the host runs 3x the board, and the line
+    points far ahead of when frames really arrive.  A sample cannot have happened after
+    the host decoded it, so no stamp may be later than its frame's observation."""
+    clock = BoardClock(bucket_s=0.25, buckets=20)
+    late = []
+    for step in range(1500):  # 1 ms apart; a 0.5 s pause of the board at 0.3 s
+        board_us = step * 1_000
+        host_ns = true_host_ns(board_us) + MIN_TRANSIT_NS + (500_000_000 if step >= 300 else 0)
+        clock.observe(board_us, host_ns)
+        stamp = clock.to_host_ns(board_us)
+        if stamp > host_ns:
+            late.append((step, stamp - host_ns))
+    assert not late, late[:5]
