@@ -6,11 +6,12 @@ classes allow.  The virtual Uno paints the free RAM below the stack pointer
 (``stack_paint``, from the end of .bss as ``avr-size`` gives it), then the workload runs:
 on an image with steppers, four of them at 10,000 steps/s with a limit switch closing; on
 one with encoders, two of them (INT0/INT1 and pin-change pins) fed 5,000 edges/s each by
-the harness's quadrature generators; then for every image a 1 kHz stream carrying their
-positions or counts, four tasks pipelining GPIO writes, transactions, I2C reads of the
-fixture's EEPROM, an analog watch, servo PWM, and a failsafe trip that stops everything;
-``stack_low`` finds the lowest byte the stack overwrote.  Goal: at least 400 B never
-reached, on every image.
+the harness's quadrature generators; on the sensing image also two RC inputs fed 50 Hz
+pulses, a sonar firing every 10 ms and the MPU-6050's register block in every sample;
+then for every image a 1 kHz stream carrying their positions or counts, four tasks
+pipelining GPIO writes, transactions, I2C reads of the fixture's EEPROM, an analog watch,
+servo PWM, and a failsafe trip that stops everything; ``stack_low`` finds the lowest byte
+the stack overwrote.  Goal: at least 400 B never reached, on every image.
 
     .venv/bin/python -m benchmarks.stack_depth --json benchmarks/results/motors.json
 
@@ -32,7 +33,8 @@ import anyio
 from arduinoio_async import A0, D2, D3, D4, D5, D6, D7, D8, D9, D10, D12, D13
 from arduinoio_async import protocol as p
 from arduinoio_async.board import Board
-from arduinoio_async.protocol.profiles import UNO_PROFILES, profile
+from arduinoio_async.board.imu import MPU6050
+from arduinoio_async.protocol.profiles import UNO_PROFILES, Profile, profile
 from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.harness import find_firmware_elf
 
@@ -49,7 +51,8 @@ def image_size(elf: Path) -> tuple[int, int, int]:
     return text, data, bss
 
 
-async def workload(uno: VirtualUno, board: Board, with_steppers: bool, with_encoders: bool) -> None:
+async def workload(uno: VirtualUno, board: Board, image: Profile) -> None:
+    with_steppers, with_encoders = image.has("STEPPER"), image.has("ENCODER")
     # encoders on D2/D3 (INT0/INT1) and D8/D12 (pin-change); steppers on the rest
     if not with_steppers:
         pins = []
@@ -73,13 +76,33 @@ async def workload(uno: VirtualUno, board: Board, with_steppers: bool, with_enco
         await board.encoder(D8, D12)
         for a, b in (("D2", "D3"), ("D8", "D12")):
             await uno.quadrature(a, b, edges=30_000, rate=5_000, reverse=0.01, jitter=0.2)
+    # The sensing image's other timed inputs, all at once: two RC inputs (pin-change
+    # stamps), a sonar firing every 10 ms, and the MPU-6050's block read by the TWI
+    # interrupt every stream period.
+    pulse_inputs = image.has("PULSE_IN") and not with_steppers
+    sonars = image.has("SONAR") and not with_steppers
+    for pin in (D4, D5) if pulse_inputs else ():
+        await uno.rcpulse(pin.name, width_us=1500)
+        await board.pulse_input(pin)
+    if sonars:
+        await uno.sonar("D6", "D7", distance_mm=1000)
+        await board.sonar(D6, D7)
+        await board.sonar_timing(period_ms=10)
     servo = await board.servo(D9, pulse_us=1500)
     led = await board.digital_output(D10)
-    bus = await board.i2c()
+    bus = await board.i2c(p.I2CSpeed.KHZ_400)
+    blocks = [MPU6050(bus).block] if image.has("I2C_STREAM") else []
+    if blocks:
+        await MPU6050(bus).configure()
     async with (
         board.analog(A0).watch(deadband=4) as _changes,
         board.stream(
-            steppers=with_steppers, encoders=with_encoders and not with_steppers, period_ms=1
+            steppers=with_steppers,
+            encoders=with_encoders and not with_steppers,
+            sonars=sonars,
+            pulse_inputs=pulse_inputs,
+            i2c=blocks,
+            period_ms=1,
         ) as samples,
         anyio.create_task_group() as tg,
     ):
@@ -125,7 +148,7 @@ async def deepest(baud: int, name: str) -> dict[str, Any]:
         Board.open(uno.port, baudrate=baud) as b,
     ):
         await uno.command("stack_paint", **{"from": start})
-        await workload(uno, b, image.has("STEPPER"), image.has("ENCODER"))
+        await workload(uno, b, image)
         low: dict[str, Any] = await uno.command("stack_low", **{"from": start})
     return {
         "stack_free_min_bytes": low["free_min"],
