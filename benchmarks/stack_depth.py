@@ -120,7 +120,8 @@ async def workload(uno: VirtualUno, board: Board, image: Profile) -> None:
                 async with board.transaction() as tx:
                     tx.add(p.GpioWrite(int(D10), True))
                     tx.add(p.GpioRead(int(D10)))
-                await bus.read(0x50, 0, 16)
+                if not blocks:  # with blocks in the stream, the bus is the stream's
+                    await bus.read(0x50, 0, 16)
 
         tg.start_soon(drain)
         for k, stepper in enumerate(steppers):
