@@ -37,7 +37,7 @@ def test_peer_benchmark_tiny_run_writes_rows_and_renders(tmp_path: Path) -> None
     readme.write_text("x\n<!-- peers:summary:begin -->\n<!-- peers:summary:end -->\ny\n")
     out = tmp_path / "peers.json"
     args = [sys.executable, "-m", "benchmarks.peers.peer_bench", "--json", str(out)]
-    args += ["--doc", str(doc), "--readme", str(readme), "--n", "4", "--rounds", "2"]
+    args += ["--doc", str(doc), "--readme", str(readme), "--n", "4", "--rounds", "1"]
     args += ["--seconds", "1", "--writes", "40", "--opens", "1"]
     run = subprocess.run(args, cwd=REPO, capture_output=True, text=True, timeout=580, check=False)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
