@@ -10,10 +10,10 @@ cannot drift from either (``tests/protocol/test_generated.py`` checks).
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from .boards import BOARD_MODELS, WIRE_FUNCTIONS
+from .docgen import rewrite_block, splice_block
 
 __all__ = ["BEGIN", "DOC_PATH", "END", "main", "render", "splice"]
 
@@ -43,21 +43,11 @@ def render() -> str:
 
 def splice(document: str) -> str:
     """``document`` with its generated block replaced by a fresh rendering."""
-    head, _, rest = document.partition(BEGIN)
-    _, _, tail = rest.partition(END)
-    return f"{head}{BEGIN}\n{render()}\n{END}{tail}"
+    return splice_block(document, BEGIN, END, render())
 
 
 def main(argv: list[str] | None = None) -> int:
-    if not DOC_PATH.is_file():
-        print(f"{DOC_PATH} not found: run this from a clone of the project", file=sys.stderr)
-        return 1
-    text = DOC_PATH.read_text()
-    if BEGIN not in text or END not in text:
-        print(f"{DOC_PATH} lacks the generated-block markers", file=sys.stderr)
-        return 1
-    DOC_PATH.write_text(splice(text))
-    return 0
+    return rewrite_block(DOC_PATH, BEGIN, END, render)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ table as the firmware header, so the document cannot drift from the code (a test
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from ._constants import FIRMWARE_BAUDS, STREAM_FRAME_OVERHEAD, ClassTag, StreamFlags
@@ -93,23 +94,34 @@ def render_layouts() -> str:
     return "\n".join(out)
 
 
+def splice_block(document: str, begin: str, end: str, body: str) -> str:
+    """``document`` with the block between ``begin`` and ``end`` replaced by ``body``."""
+    head, _, rest = document.partition(begin)
+    _, _, tail = rest.partition(end)
+    return f"{head}{begin}\n{body}\n{end}{tail}"
+
+
+def rewrite_block(path: Path, begin: str, end: str, render: Callable[[], str]) -> int:
+    """Re-render the generated block of the doc at ``path``; 1 with a one-line error if the
+    file or its markers are missing (run from a clone of the project)."""
+    if not path.is_file():
+        print(f"{path} not found: run this from a clone of the project", file=sys.stderr)
+        return 1
+    text = path.read_text()
+    if begin not in text or end not in text:
+        print(f"{path} lacks the generated-block markers", file=sys.stderr)
+        return 1
+    path.write_text(splice_block(text, begin, end, render()))
+    return 0
+
+
 def splice(document: str) -> str:
     """``document`` with its generated block replaced by a fresh rendering."""
-    head, _, rest = document.partition(BEGIN)
-    _, _, tail = rest.partition(END)
-    return f"{head}{BEGIN}\n{render_layouts()}\n{END}{tail}"
+    return splice_block(document, BEGIN, END, render_layouts())
 
 
 def main(argv: list[str] | None = None) -> int:
-    if not DOC_PATH.is_file():
-        print(f"{DOC_PATH} not found: run this from a clone of the project", file=sys.stderr)
-        return 1
-    text = DOC_PATH.read_text()
-    if BEGIN not in text or END not in text:
-        print(f"{DOC_PATH} lacks the generated-block markers", file=sys.stderr)
-        return 1
-    DOC_PATH.write_text(splice(text))
-    return 0
+    return rewrite_block(DOC_PATH, BEGIN, END, render_layouts)
 
 
 if __name__ == "__main__":
