@@ -8,8 +8,6 @@ harness's MPU-6050 model, the bytes it served on each read.
 
 from __future__ import annotations
 
-from typing import Any
-
 import anyio
 import pytest
 
@@ -17,21 +15,11 @@ from arduinoio_async import A0, I2CSpeed
 from arduinoio_async.board import Board
 from arduinoio_async.board.imu import MPU6050
 from arduinoio_async.board.streaming import Sample
-from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
 
+from .imu_log import served
+
 pytestmark = pytest.mark.sim
-
-
-async def served(uno: VirtualUno, first: int) -> list[bytes]:
-    """The MPU-6050 model's logged reads from index ``first`` on."""
-    out: list[bytes] = []
-    while True:
-        reply: dict[str, Any] = await uno.command("imu_reads", **{"from": first + len(out)})
-        assert reply["from"] == first + len(out), "the model's log ring overran"
-        out += [bytes(data) for _, data in reply["reads"]]
-        if first + len(out) >= reply["logged"]:
-            return out
 
 
 async def test_stream_blocks_and_bus_come_back_after_a_reset(

@@ -12,7 +12,6 @@ is ``python -m benchmarks.sensors_imu --encoders``; this one takes a few seconds
 from __future__ import annotations
 
 from itertools import pairwise
-from typing import Any
 
 import anyio
 import pytest
@@ -21,8 +20,9 @@ from arduinoio_async import A0, A1, A2, A3, D2, D3, D4, D7, D8, D12, I2CSpeed
 from arduinoio_async.board import Board
 from arduinoio_async.board.imu import MPU6050
 from arduinoio_async.board.streaming import Sample
-from arduinoio_async.sim import VirtualUno
 from arduinoio_async.sim.pytest_plugin import VirtualUnoFactory
+
+from .imu_log import served
 
 pytestmark = pytest.mark.sim
 
@@ -30,17 +30,6 @@ ANALOG = [A0, A1, A2, A3]
 MILLIVOLTS = [600, 1800, 3100, 4400]
 #: 3 s of samples at 1 kHz.
 SAMPLES = 3000
-
-
-async def served(uno: VirtualUno, first: int) -> list[bytes]:
-    """The MPU-6050 model's logged reads from index ``first`` on (14 bytes each)."""
-    out: list[bytes] = []
-    while True:
-        reply: dict[str, Any] = await uno.command("imu_reads", **{"from": first + len(out)})
-        assert reply["from"] == first + len(out), "the model's log ring overran"
-        out += [bytes(data) for _, data in reply["reads"]]
-        if first + len(out) >= reply["logged"]:
-            return out
 
 
 async def test_analog_encoders_imu_and_sonar_in_one_1khz_stream(
