@@ -11,7 +11,8 @@ the model's read of that period.  ``imu_stream_hz`` is samples per second of boa
 ``sensors.json`` (keys ``imu``, ``imu_stream_hz``, ``imu_stream_lost``), the other keys
 left as they are.
 
-``--encoders`` adds two quadrature encoders to the same stream (D2/D3 on INT0/INT1, D4/D12 on
+``--encoders`` adds two quadrature encoders and a sonar (D7/D8, 1,500 mm, fired every 40 ms)
+to the same stream (D2/D3 on INT0/INT1, D4/D12 on
 pin-change interrupts), each fed by the harness's quadrature generator at
 ``--encoder-rate`` edges/s for the whole run (one forwards, one backwards); their streamed
 counts must end at the generators' positions (``encoder_count_error``, goal 0).  The keys
@@ -31,7 +32,7 @@ from typing import Any
 
 import anyio
 
-from arduinoio_async import A0, A1, A2, A3, D2, D3, D4, D12, I2CSpeed
+from arduinoio_async import A0, A1, A2, A3, D2, D3, D4, D7, D8, D12, I2CSpeed
 from arduinoio_async.board import Board
 from arduinoio_async.board.i2c_blocks import block_errors
 from arduinoio_async.board.imu import MPU6050
@@ -40,6 +41,8 @@ from arduinoio_async.sim import VirtualUno
 from ._results import command_line, merge_result
 
 GOAL_HZ = 1000
+#: The sonar's target in the ``--encoders`` run (fired every 40 ms).
+SONAR_MM = 1500
 BATCH = 1000
 
 
@@ -68,10 +71,14 @@ async def measure(baud: int, seconds: float, encoder_rate: int) -> dict[str, Any
             for pin in ("D2", "D3", "D4", "D12"):
                 await uno.drive(pin, 0)
             encoders = [await board.encoder(a=D2, b=D3), await board.encoder(a=D4, b=D12)]
+            await uno.sonar("D7", "D8", distance_mm=SONAR_MM)
+            await board.sonar(D7, D8)
+            await board.sonar_timing(period_ms=40)
         imu = MPU6050(await board.i2c(I2CSpeed.KHZ_400))
         await imu.configure(accel_g=4, gyro_dps=500)
         first = (await uno.command("imu"))["logged"]
         last_counts: tuple[int, ...] = ()
+        sonar_heard, sonar_error = 0, 0.0
         received = mismatched = invalid = 0
         t_first = t_last = 0
         wraps = 0
@@ -79,6 +86,7 @@ async def measure(baud: int, seconds: float, encoder_rate: int) -> dict[str, Any
             analog=[A0, A1, A2, A3],
             i2c=[imu.block],
             encoders=bool(encoders),
+            sonars=bool(encoders),
             period_ms=1,
             buffer=10 * BATCH,
         ) as samples:
@@ -95,6 +103,11 @@ async def measure(baud: int, seconds: float, encoder_rate: int) -> dict[str, Any
                     await uno.quadrature("D4", "D12", edges=edges, rate=encoder_rate, direction=-1)
                 if sample.encoders is not None:
                     last_counts = sample.encoders
+                if sample.sonars is not None:
+                    reading = sample.sonars[0]
+                    if reading.distance_mm is not None:
+                        sonar_heard += 1
+                        sonar_error = max(sonar_error, abs(reading.distance_mm - SONAR_MM))
                 block = sample.i2c[0] if sample.i2c else None
                 batch.append(block)
                 if len(batch) == BATCH or received == total:
@@ -156,7 +169,7 @@ def main() -> int:
         "load_avg_at_start": load,
         "baud": args.baud,
         "load": "1 kHz stream: A0-A3 + one 14-byte MPU-6050 block at 400 kHz I2C (sensing image)"
-        + (" + two quadrature encoders" if args.encoders else ""),
+        + (" + two quadrature encoders + a sonar" if args.encoders else ""),
         **result,
     }
     print(
