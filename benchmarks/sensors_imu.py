@@ -144,6 +144,9 @@ async def measure(baud: int, seconds: float, encoder_rate: int) -> dict[str, Any
                 "encoder_rate_each": encoder_rate,
                 "encoder_edges_each": edges,
                 "encoder_count_error": count_error,
+                "sonar_set_mm": SONAR_MM,
+                "sonar_samples_with_a_reading": sonar_heard,
+                "sonar_error_mm_max": sonar_error,
             }
             if encoders
             else {}
