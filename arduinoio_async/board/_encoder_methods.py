@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
-from ._slots import choose_slot
+from ._slots import choose_slot, set_up_pair
 from .encoders import Encoder, ModeName, encoder_mode
 
 if TYPE_CHECKING:
@@ -50,20 +50,6 @@ class EncoderMethods:
         decoding = encoder_mode(mode)
         slot = choose_slot(board, Encoder, p.ENCODER_SLOTS, slot, "encoder")
         handle = Encoder(board, a, b, slot, decoding)
-        roles = board.roles
-        roles.check_free(handle)
-        roles.check_free(handle.partner)
         setup = p.EncoderConfig(slot, int(a), int(b), decoding)
-        roles.claim(handle, setup)
-        try:
-            roles.claim(handle.partner, setup)
-        except BaseException:
-            roles.withdraw(handle, None)
-            raise
-        try:
-            await board.request(setup)
-        except BaseException:
-            roles.withdraw(handle.partner, None)
-            roles.withdraw(handle, None)
-            raise
+        await set_up_pair(board, handle, handle.partner, setup, setup)
         return handle

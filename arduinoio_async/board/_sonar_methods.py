@@ -16,7 +16,7 @@ from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
 from ..protocol.pins import require as require_capable
-from ._slots import choose_slot
+from ._slots import choose_slot, set_up_pair
 from .sonars import Sonar, SonarEcho, speed_of_sound
 
 if TYPE_CHECKING:
@@ -57,22 +57,8 @@ class SonarMethods:
             raise ValueRangeError("sonar echo pin", echo.name, "a pin other than the trigger")
         slot = choose_slot(board, Sonar, p.SONAR_SLOTS, slot, "sonar")
         handle = Sonar(board, trigger, echo, slot)
-        roles = board.roles
-        roles.check_free(handle)
-        roles.check_free(handle.partner)
         setup = p.SonarConfig(slot, int(trigger), int(echo))
-        roles.claim(handle, setup)
-        try:
-            roles.claim(handle.partner, _timing(board))
-        except BaseException:
-            roles.withdraw(handle, None)
-            raise
-        try:
-            await board.request(setup)
-        except BaseException:
-            roles.withdraw(handle.partner, None)
-            roles.withdraw(handle, None)
-            raise
+        await set_up_pair(board, handle, handle.partner, setup, _timing(board))
         return handle
 
     async def sonar_timing(
