@@ -36,6 +36,16 @@ class QuadratureGenerator:
     #: The latest the harness applied an edge after its due time (simulated us): the
     #: generator's own fidelity (its edges run from the event list, normally exact).
     max_late_us: float = 0.0
+    #: The firmware's side: the longest an edge on A or B waited until the CPU entered
+    #: the interrupt vector that answers that pin (simulated us; INT0/INT1 or the pin's
+    #: pin-change group), where the CPU was when that edge came (its byte address: look
+    #: it up with ``avr-addr2line``) and whether interrupts were on then, and how many
+    #: edges were measured.  An edge that waits longer than the next edge of the same
+    #: encoder is a skipped state: this is the encoder's rate limit.
+    max_irq_latency_us: float = 0.0
+    max_irq_latency_pc: int = 0
+    max_irq_latency_interrupts_on: bool = True
+    irq_latency_edges: int = 0
 
 
 class QuadratureMethods:

@@ -373,8 +373,13 @@ void my_run(avr_t *a)
 		}
 		a->cycle += sleep_for(sleep);
 	}
-	if ((a->state == cpu_Running || a->state == cpu_Sleeping) && a->interrupt_state)
+	if ((a->state == cpu_Running || a->state == cpu_Sleeping) && a->interrupt_state) {
+		avr_flashaddr_t before = a->pc;
 		avr_service_interrupts(a);
+		/* a vector entered: the quadrature generators measure their pins' interrupt latency */
+		if (a->pc != before && a->pc < 64u * a->vector_size)
+			quadrature_vector_taken(a->pc / a->vector_size, a->cycle);
+	}
 }
 
 /* Handle ready descriptors after a ppoll (wait_fds) or poll with 0 timeout. */

@@ -43,6 +43,17 @@ struct quadgen {
 	uint64_t max_late_c;           /* the latest an edge was applied after its due cycle */
 	int glitch_pin;                /* -1: none in progress */
 	uint64_t rng;
+	/* interrupt latency (quadrature_vector_taken): per pin (0 = A, 1 = B) the cycle of its
+	 * first edge the pin's vector has not yet been entered for (0: none), and where the
+	 * CPU was then; the worst wait so far, with that place */
+	uint64_t pend_c[2];
+	uint32_t pend_pc[2];
+	int pend_i[2];
+	uint64_t max_irq_c;
+	uint32_t max_irq_pc;
+	int max_irq_i;
+	unsigned long long irq_waits;  /* edges whose vector was entered (the measured ones) */
+	int lv[2];                     /* the levels last driven on A, B (-1: none yet) */
 };
 
 static struct quadgen q[NQUAD];
@@ -63,10 +74,27 @@ static int level_at(const struct quadgen *g, int pin)
 	return pin == g->a ? A[p] : B[p];
 }
 
+/* The first edge on pin k (0 = A, 1 = B) not yet answered by its vector. */
+static void pend(struct quadgen *g, int k)
+{
+	if (!g->pend_c[k]) {
+		g->pend_c[k] = avr->cycle ? avr->cycle : 1;
+		g->pend_pc[k] = avr->pc;
+		g->pend_i[k] = avr->sreg[S_I];
+	}
+}
+
 static void put_levels(struct quadgen *g)
 {
-	circuit_set_driven(g->a, level_at(g, g->a));
-	circuit_set_driven(g->b, level_at(g, g->b));
+	int la = level_at(g, g->a), lb = level_at(g, g->b);
+	if (g->active && g->lv[0] >= 0 && g->lv[0] != la)
+		pend(g, 0);
+	if (g->active && g->lv[1] >= 0 && g->lv[1] != lb)
+		pend(g, 1);
+	g->lv[0] = la;
+	g->lv[1] = lb;
+	circuit_set_driven(g->a, la);
+	circuit_set_driven(g->b, lb);
 }
 
 int quadrature_running(void)
@@ -118,7 +146,10 @@ static void edge(struct quadgen *g)
 		g->since_glitch = 0;
 		/* a pulse on the pin that did not just change, back before the next edge */
 		int p = (g->position & 1) ? g->b : g->a;
-		circuit_set_driven(p, !level_at(g, p));
+		int k = p == g->b;
+		pend(g, k);
+		g->lv[k] = !level_at(g, p);
+		circuit_set_driven(p, g->lv[k]);
 		g->glitch_pin = p;
 		g->glitch_end_t = avr->cycle + g->glitch_c;
 		g->glitches++;
@@ -153,6 +184,48 @@ int run_quadrature(uint64_t now)
 		}
 	}
 	return progress;
+}
+
+/* The interrupt vector number that answers a change of harness pin p now (0: none):
+ * the external interrupt when its EIMSK bit is set (the Uno's D2/D3 = INT0/INT1, the
+ * Mega's D2/D3 = INT4/INT5), else the pin's pin-change group. */
+#define EIMSK_ADDR 0x3D
+static unsigned vector_of_pin(int p)
+{
+	uint8_t eimsk = avr->data[EIMSK_ADDR];
+	if (opt->mega2560) {
+		if (p == 2 && (eimsk & 0x10u)) return 5;
+		if (p == 3 && (eimsk & 0x20u)) return 6;
+		if (p >= 10 && p <= 13) return 9;   /* PB4-7: PCINT0 */
+		if (p == 14 || p == 15) return 10;  /* PJ1/PJ0: PCINT1 */
+		return 0;
+	}
+	if (p == 2 && (eimsk & 0x01u)) return 1;
+	if (p == 3 && (eimsk & 0x02u)) return 2;
+	if (p <= 7) return 5;  /* PCINT2 */
+	if (p <= 13) return 3; /* PCINT0 */
+	return 4;              /* PCINT1 */
+}
+
+void quadrature_vector_taken(unsigned vector, uint64_t cycle)
+{
+	for (int i = 0; i < NQUAD; i++) {
+		struct quadgen *g = &q[i];
+		if (!g->used)
+			continue;
+		for (int k = 0; k < 2; k++) {
+			if (!g->pend_c[k] || vector_of_pin(k ? g->b : g->a) != vector)
+				continue;
+			uint64_t waited = cycle - g->pend_c[k];
+			g->irq_waits++;
+			if (waited > g->max_irq_c) {
+				g->max_irq_c = waited;
+				g->max_irq_pc = g->pend_pc[k];
+				g->max_irq_i = g->pend_i[k];
+			}
+			g->pend_c[k] = 0;
+		}
+	}
 }
 
 static struct quadgen *find(int a, int b)
@@ -224,7 +297,12 @@ void cmd_quadrature(struct jobj *o, struct sbuf *r)
 		g->position = 0; /* a new pair starts at 0 with its pins low */
 		g->reversals = g->skips = g->glitches = g->edges = 0;
 		g->max_late_c = 0;
+		g->lv[0] = g->lv[1] = -1;
 	}
+	g->pend_c[0] = g->pend_c[1] = 0;
+	g->max_irq_c = g->irq_waits = 0;
+	g->max_irq_pc = 0;
+	g->max_irq_i = 1;
 	g->used = g->active = 1;
 	g->a = a;
 	g->b = b;
@@ -257,9 +335,12 @@ void cmd_quadrature_status(struct jobj *o, struct sbuf *r)
 			continue;
 		sb_add(r, "%s{\"a\": %d, \"b\": %d, \"active\": %s, \"position\": %lld, \"edges\": %llu, "
 			  "\"left\": %llu, \"reversals\": %llu, \"skips\": %llu, \"glitches\": %llu, "
-			  "\"max_late_us\": %.3f}",
+			  "\"max_late_us\": %.3f, \"max_irq_latency_us\": %.3f, \"max_irq_latency_pc\": %u, "
+			  "\"max_irq_latency_interrupts_on\": %s, \"irq_latency_edges\": %llu}",
 		       first ? "" : ", ", g->a, g->b, g->active ? "true" : "false", g->position, g->edges, g->left,
-		       g->reversals, g->skips, g->glitches, (double)g->max_late_c / CYC_PER_US);
+		       g->reversals, g->skips, g->glitches, (double)g->max_late_c / CYC_PER_US,
+		       (double)g->max_irq_c / CYC_PER_US, (unsigned)g->max_irq_pc, g->max_irq_i ? "true" : "false",
+		       g->irq_waits);
 		first = 0;
 	}
 	sb_add(r, "]}");

@@ -10,6 +10,9 @@
 int quadrature_running(void);
 void schedule_quadrature(void);
 int run_quadrature(uint64_t now);
+/* the CPU entered interrupt vector `vector` at `cycle` (pacing.c's run loop): the
+ * generators' pins it answers stop waiting (their max_irq_latency_us) */
+void quadrature_vector_taken(unsigned vector, uint64_t cycle);
 
 /* control commands (control.c's table) */
 void cmd_quadrature(struct jobj *o, struct sbuf *r);
