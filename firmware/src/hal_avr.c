@@ -367,6 +367,7 @@ ISR(TIMER0_COMPA_vect)
 
 static uint8_t stream_first;
 static uint16_t stream_wraps, stream_left;
+static volatile uint8_t alarm_running, alarms_missed; /* TIMER0_COMPB_vect below */
 
 void hal_stream_timer_start(uint32_t period)
 {
@@ -375,6 +376,7 @@ void hal_stream_timer_start(uint32_t period)
     stream_first = FIRST(period);
     stream_wraps = WRAPS(period);
     stream_left = stream_wraps;
+    alarms_missed = 0;
     OCR0B = (uint8_t)(TCNT0 + stream_first);
     TIFR0 = _BV(OCF0B);
     TIMSK0 |= _BV(OCIE0B);
@@ -389,11 +391,16 @@ void hal_stream_timer_stop(void)
     hal_irq_restore(s);
 }
 
-/* Interrupts enabled from the first instruction (a PWM edge must not wait);
- * no other COMPB can come for a step (at least one count after the OCR0B
- * write; a stream period is 500 counts or more, and the sample takes far
- * less than a step of 128). */
-ISR(TIMER0_COMPB_vect, ISR_NOBLOCK)
+/* The period's bookkeeping runs with interrupts off (a few cycles: a soft
+ * PWM edge waits at most that), the sample with them on.  A period that ends
+ * while the last one's sample is still being taken (only when other
+ * interrupts take the whole CPU: no other COMPB comes for a step of 128
+ * counts otherwise) does not nest a second sample into the first: it is
+ * counted and taken when the first returns (stream_alarm drops it, marked as
+ * a sequence gap, if the first is still converting).  Nested, each period
+ * pushed another frame until the stack ran into the variables
+ * (tests/e2e/test_interrupt_overload.py). */
+ISR(TIMER0_COMPB_vect)
 {
     if (stream_left) {
         stream_left--;
@@ -402,7 +409,20 @@ ISR(TIMER0_COMPB_vect, ISR_NOBLOCK)
     }
     stream_left = stream_wraps; /* before the match it schedules */
     OCR0B = (uint8_t)(OCR0B + stream_first);
-    stream_alarm();
+    if (alarm_running) {
+        alarms_missed++;
+        return;
+    }
+    alarm_running = 1;
+    for (;;) {
+        sei();
+        stream_alarm();
+        cli();
+        if (!alarms_missed)
+            break;
+        alarms_missed--;
+    }
+    alarm_running = 0;
 }
 
 /* ---------------------------------------------------------------- INT0/INT1 */
