@@ -400,19 +400,9 @@ void hal_stream_timer_stop(void)
  * a sequence gap, if the first is still converting).  Nested, each period
  * pushed another frame until the stack ran into the variables
  * (tests/e2e/test_interrupt_overload.py). */
-ISR(TIMER0_COMPB_vect)
+void isr_stream_alarm(void) __attribute__((used, externally_visible, noinline));
+void isr_stream_alarm(void)
 {
-    if (stream_left) {
-        stream_left--;
-        OCR0B = (uint8_t)(OCR0B + HALF);
-        return;
-    }
-    stream_left = stream_wraps; /* before the match it schedules */
-    OCR0B = (uint8_t)(OCR0B + stream_first);
-    if (alarm_running) {
-        alarms_missed++;
-        return;
-    }
     alarm_running = 1;
     for (;;) {
         sei();
@@ -423,6 +413,25 @@ ISR(TIMER0_COMPB_vect)
         alarms_missed--;
     }
     alarm_running = 0;
+}
+ISR_TRAMPOLINE(isr_stream_alarm_call, isr_stream_alarm);
+
+/* The vector itself makes no C call (the trampoline saves what the sample's
+ * code may clobber, once a period), so the steps between periods save only the
+ * few registers they use: interrupts are off for them. */
+ISR(TIMER0_COMPB_vect)
+{
+    if (stream_left) {
+        stream_left--;
+        OCR0B = (uint8_t)(OCR0B + HALF);
+        return;
+    }
+    stream_left = stream_wraps; /* before the match it schedules */
+    OCR0B = (uint8_t)(OCR0B + stream_first);
+    if (alarm_running)
+        alarms_missed++;
+    else
+        ISR_CALL(isr_stream_alarm_call);
 }
 
 /* ---------------------------------------------------------------- INT0/INT1 */
