@@ -24,7 +24,7 @@ from . import _messages as msgs
 from ._clock import BoardClock
 from ._config import BoardConfig, InputConfig
 from ._endpoints import Node, Publisher
-from ._sources import INPUTS, RangeReading, range_payload
+from ._sources import INPUTS, PulseReading, RangeReading, pulse_payload, range_payload
 
 if TYPE_CHECKING:
     from ..board import Board
@@ -100,6 +100,9 @@ class Inputs:
             return
         if source.kind == "sonar":
             await self._publish_sonar(source, publisher, task_status)
+            return
+        if source.kind == "rc":
+            await self._publish_rc(source, publisher, task_status)
             return
         if source.kind == "counter":
             counter = await self.board.counter(cast("CounterPin", source.pin))
@@ -192,4 +195,26 @@ class Inputs:
                     stamp = msgs.Stamp(time.time_ns() - reading.age_ms * 1_000_000)
                     payload = range_payload(stamp, self.config.frame_id, RangeReading(metres))
                     self._put(publisher, payload)
+            await anyio.sleep(source.period)
+
+    async def _publish_rc(
+        self, source: InputConfig, publisher: Publisher, task_status: anyio.abc.TaskStatus[None]
+    ) -> None:
+        """An RC receiver channel timed by the board, its last width published every
+        ``period`` as -1..1 (:func:`pulse_payload`); NaN while the board reports the signal
+        lost (no pulse for ``timeout_ms``) or before the first pulse, never a stale width."""
+        ends = {key: source.rc[key] for key in ("low_us", "centre_us", "high_us")}
+        rc = await self.board.pulse_input(
+            cast("DigitalPin", source.pin), timeout_ms=source.rc["timeout_ms"], **ends
+        )
+        task_status.started()
+        while True:
+            try:
+                state = await rc.read()
+            except ArduinoIOError as exc:
+                await self._read_failed(source.topic, exc)
+            else:
+                width = None if state.lost or not state.width_us else state.width_us
+                reading = PulseReading(width, ends["low_us"], ends["centre_us"], ends["high_us"])
+                self._put(publisher, pulse_payload(reading))
             await anyio.sleep(source.period)
