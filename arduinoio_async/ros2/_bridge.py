@@ -94,6 +94,7 @@ class BoardNode(Outputs, Inputs):
         self.outputs: list[_Command] = []
         self.published = 0
         self.command_errors = 0
+        self.rc_lost: set[str] = set()
         #: Called as ``on_change(topic, sequence, stamp_ns, decoded_ns)`` after each change
         #: an input published: its attachment's sequence number, the board's time of the
         #: edge in host nanoseconds (:class:`BoardClock`) and the host time its frame was
@@ -152,13 +153,15 @@ class BoardNode(Outputs, Inputs):
 
     async def status(self) -> msgs.Status:
         """The board's ``DiagnosticStatus``: ERROR when unplugged or its link failsafe
-        fired, WARN while an output is in its safe state for want of commands."""
+        fired, WARN while an output is in its safe state for want of commands or an RC
+        input's signal is lost."""
         timed_out = [c.config.topic for c in self.outputs if c.timed_out]
         values = {
             "board_id": f"0x{self.config.board_id:04X}",
             "connected": str(bool(self.board.connected)).lower(),
             "link_failsafe_tripped": str(bool(self.board.failsafe_tripped)).lower(),
             "command_timeouts": " ".join(timed_out),
+            "rc_signal_lost": " ".join(sorted(self.rc_lost)),
             "command_errors": str(self.command_errors),
             "published": str(self.published),
             "clock_drift_ppm": f"{self.clock.drift_ppm:.1f}",
@@ -175,6 +178,8 @@ class BoardNode(Outputs, Inputs):
             level, text = msgs.DIAG_ERROR, "board unplugged or link failsafe fired"
         elif timed_out:
             level, text = msgs.DIAG_WARN, "no fresh command: safe state on " + ", ".join(timed_out)
+        elif self.rc_lost:
+            level, text = msgs.DIAG_WARN, "RC signal lost on " + ", ".join(sorted(self.rc_lost))
         else:
             level, text = msgs.DIAG_OK, "ok"
         name = f"{self.node.namespace.rstrip('/')}/{self.config.name}"

@@ -47,6 +47,8 @@ class Inputs:
     clock: BoardClock
     published: int
     on_change: Callable[[str, int, int, int], None] | None
+    #: The rc inputs' topics whose signal is lost now (the diagnostics list them).
+    rc_lost: set[str]
 
     def _publisher(self, source: InputConfig) -> Publisher:
         return self.node.publisher(source.topic, INPUTS[source.kind].ros_type)
@@ -215,6 +217,10 @@ class Inputs:
                 await self._read_failed(source.topic, exc)
             else:
                 width = None if state.lost or not state.width_us else state.width_us
+                if width is None:
+                    self.rc_lost.add(source.topic)
+                else:
+                    self.rc_lost.discard(source.topic)
                 reading = PulseReading(width, ends["low_us"], ends["centre_us"], ends["high_us"])
                 self._put(publisher, pulse_payload(reading))
             await anyio.sleep(source.period)

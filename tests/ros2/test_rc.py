@@ -42,7 +42,7 @@ async def test_an_rc_channel_arrives_normalised_and_a_lost_signal_as_nan(
     await uno.rcpulse("D4", width_us=1750)
     async with (
         Board.open(uno.port, baudrate=uno.baud) as board,
-        running_bridge(rc_config(), {1: board}) as (port, _),
+        running_bridge(rc_config(), {1: board}) as (port, nodes),
         sdk_peer(port) as peer,
     ):
         await peer.subscribe(TOPIC, msgs.FLOAT32)
@@ -51,9 +51,13 @@ async def test_an_rc_channel_arrives_normalised_and_a_lost_signal_as_nan(
             return m.get("topic") == TOPIC and not math.isnan(m["data"]) and m["data"] > 0
 
         got = await peer.message(steady)
+        assert (await nodes[0].status()).values["rc_signal_lost"] == ""
         (source,) = await uno.rcpulse_status()
         assert source.pulses > 0
         assert got["data"] == pytest.approx((source.last_width_us - 1500) / 500, abs=0.01)
         await uno.rcpulse_stop("D4")
         lost = await peer.message(lambda m: m.get("topic") == TOPIC and math.isnan(m["data"]))
         assert math.isnan(lost["data"])
+        status = await nodes[0].status()
+        assert status.values["rc_signal_lost"] == TOPIC and status.level == msgs.DIAG_WARN
+        assert "RC signal lost" in status.message
