@@ -21,6 +21,7 @@ from ..errors import UsageError
 from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
 from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function, capable_pins
 from ..protocol.timers import TIMER_OF, Timer
+from ._config_rc import rc_values
 from ._sources import INPUTS, OUTPUTS, PIN_NEEDS
 from ._wire import fully_qualified
 
@@ -28,9 +29,8 @@ __all__ = ["BoardConfig", "BridgeConfig", "ConfigError", "InputConfig", "OutputC
 
 #: Input kinds -> the pins they need (from the table in :mod:`._sources`).
 INPUT_KINDS = {name: kind.pins for name, kind in INPUTS.items()}
-#: Output kinds -> the pins they need.
+#: Output kinds -> the pins they need (likewise).
 OUTPUT_KINDS = {name: kind.pins for name, kind in OUTPUTS.items()}
-_PIN_TEXT = PIN_NEEDS
 #: Keys only an encoder takes.
 _ENCODER_KEYS = INPUTS["encoder"].keys - {"period"}
 
@@ -59,6 +59,7 @@ class InputConfig:
     mode: str = "x4"  # encoder: x1, x2 or x4
     joint: str = ""  # encoder: the JointState's joint name
     echo: DigitalPin | None = None  # sonar: the echo pin (``pin`` is the trigger)
+    rc: Mapping[str, int] = field(default_factory=dict)  # rc: :mod:`._config_rc`'s values
 
 
 @dataclass(frozen=True)
@@ -280,7 +281,7 @@ def _pin(value: object, kind: str, need: str, where: str) -> DigitalPin | Analog
         "sonar": pin in capable_pins(Function.SONAR),
     }[need]
     if not ok:
-        raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({_PIN_TEXT[need]} can)")
+        raise ConfigError(f"{where}.pin: {value} cannot be a {kind!r} ({PIN_NEEDS[need]} can)")
     return pin
 
 
@@ -344,14 +345,17 @@ def _input(
     scale = item.get("scale", 1.0)
     if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale):
         raise ConfigError(f"{where}.scale: {scale!r} is not a number")
-    ranges = [item.get(key, default) for key, default in (("accel_g", 2), ("gyro_dps", 250))]
+    ranges: tuple[Any, Any] = (item.get("accel_g", 2), item.get("gyro_dps", 250))
     for (key, choices), value in zip(_IMU_RANGES.items(), ranges, strict=True):
         if kind != "imu" and key in item:
             raise ConfigError(f"{where}.{key}: only an imu has {key!r}")
         if isinstance(value, bool) or value not in choices:
             raise ConfigError(f"{where}.{key}: {value!r} is not one of {_or(_names(choices))}")
+    rc, problem = rc_values(item, kind)
+    if problem:
+        raise ConfigError(f"{where}.{problem}")
     topic = _topic(item.get("topic"), node_ns, topics, where)
-    return InputConfig(pin, kind, topic, pull_up, period, float(scale), address, *ranges)
+    return InputConfig(pin, kind, topic, pull_up, period, float(scale), address, *ranges, rc=rc)
 
 
 #: An MPU-6050's ranges: accelerometer in g, gyroscope in deg/s.

@@ -75,6 +75,12 @@ INPUTS: dict[str, Kind] = {
     ),
     #: An HC-SR04: ``pin`` is the trigger, ``echo`` the echo pin (the sensing image).
     "sonar": Kind(msgs.RANGE, "sonar", keys=frozenset({"echo", "period"})),
+    #: An RC receiver channel (the sensing image's pulse inputs), -1..1 or NaN when lost.
+    "rc": Kind(
+        msgs.FLOAT32,
+        "digital",
+        keys=frozenset({"period", "timeout_ms", "low_us", "centre_us", "high_us"}),
+    ),
 }
 OUTPUTS: dict[str, Kind] = {
     "bool": Kind(msgs.BOOL, "digital", keys=frozenset({"timeout", "safe"})),

@@ -71,7 +71,7 @@ def test_the_example_configuration_loads() -> None:
          r"inputs\[1\]\.pin: D3 is used twice on this board"),
         ({"inputs": [{"pin": "D3", "type": "switch", "topic": "a"}]},
          r"inputs\[0\]\.type: 'switch' is not one of battery, bool, counter, encoder, imu, "
-         r"sonar, volts"),
+         r"rc, sonar, volts"),
         ({"inputs": [{"pin": "D3", "type": "bool", "topic": "a", "pullup": True}]},
          r"inputs\[0\]: unknown key 'pullup'"),
         ({"outputs": [{"pin": "D2", "type": "bool", "topic": "a", "timeout": 0}]},
@@ -192,3 +192,33 @@ def test_a_file_that_is_not_yaml_or_not_there(tmp_path: Path) -> None:
     bad.write_text("- 1\n")
     with pytest.raises(ConfigError, match="expected a mapping"):
         load(bad)
+
+
+def test_an_rc_entry_with_its_defaults_and_its_own_end_points() -> None:
+    entry = {"pin": "D4", "type": "rc", "topic": "rc_steer"}
+    source = parse(config(inputs=[entry])).boards[0].inputs[0]
+    assert (source.pin, source.kind, source.topic) == (D4, "rc", "/robot/front/rc_steer")
+    defaults = {"timeout_ms": 100, "low_us": 1000, "centre_us": 1500, "high_us": 2000}
+    assert dict(source.rc) == defaults
+    throttle = {**entry, "low_us": 1100, "centre_us": 1100, "high_us": 1900, "timeout_ms": 60}
+    source = parse(config(inputs=[throttle])).boards[0].inputs[0]
+    assert dict(source.rc) == {"timeout_ms": 60, "low_us": 1100, "centre_us": 1100, "high_us": 1900}
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        ({"pin": "A0", "type": "rc"}, r"inputs\[0\]\.pin: A0 cannot be a 'rc' \(D2-D13 can\)"),
+        ({"pin": "D4", "type": "rc", "timeout_ms": 0},
+         r"inputs\[0\]\.timeout_ms: 0 is not 1-65535"),
+        ({"pin": "D4", "type": "rc", "timeout_ms": 1.5},
+         r"inputs\[0\]\.timeout_ms: 1\.5 is not a whole number of ms"),
+        ({"pin": "D4", "type": "rc", "low_us": 2000, "high_us": 1000},
+         r"inputs\[0\]\.low_us/centre_us/high_us: need low <= centre < high, got 2000/1500/1000"),
+        ({"pin": "D4", "type": "bool", "low_us": 900},
+         r"inputs\[0\]\.low_us: only an rc input takes 'low_us'"),
+    ],
+)  # fmt: skip
+def test_rc_entry_mistakes(entry: dict[str, Any], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        parse(config(inputs=[{**entry, "topic": "x"}]))
