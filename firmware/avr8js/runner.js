@@ -103,6 +103,10 @@ function main() {
   // read-only RXC and UDRE flags, so firmware that writes UCSR0A = U2X0 | TXC0 (to clear
   // TXC before a frame, as firmware/src/uart.c does) never sees UDRE again and never
   // transmits.  The datasheet: RXC/UDRE/FE/DOR/UPE are read-only, TXC is write-1-to-clear.
+  // avr8js 0.21 bug 2: its UDRE interrupt is not `constant`, so entering the vector clears
+  // UDRE; an ISR that finds nothing to send (it turns UDRIE off, as uart.c's does) leaves
+  // UDRE clear for ever.  On the chip UDRE is cleared only by writing UDR.
+  usart.UDRE.constant = true;
   const ucsraHook = cpu.writeHooks[board.usart.UCSRA];
   cpu.writeHooks[board.usart.UCSRA] = (value, oldValue, addr, mask) => {
     const readOnly = cpu.data[board.usart.UCSRA] & 0xbc; // RXC, UDRE, FE, DOR, UPE
@@ -214,6 +218,7 @@ function main() {
       cpu.tick();
     }
     feed();
+    if (DEBUG && cpu.cycles % 1600000 < 160000) process.stderr.write(`tick ucsrb=${cpu.data[0xc1].toString(16)} ucsra=${cpu.data[0xc0].toString(16)} pc=${cpu.pc} cyc=${cpu.cycles} next=${cpu.nextInterrupt} ie=${JSON.stringify(cpu.pendingInterrupts && cpu.pendingInterrupts.length)}\n`);
     setImmediate(slice);
   };
   server.listen(0, '127.0.0.1', () => {
