@@ -169,13 +169,26 @@ function main() {
     if (DEBUG && rxQueue.length) process.stderr.write(`rx pending ${rxQueue.length} ucsrb=${cpu.data[0xc1].toString(16)} ucsra=${cpu.data[0xc0].toString(16)} sreg=${cpu.data[0x5f].toString(16)} pc=${cpu.pc} cyc=${cpu.cycles}\n`);
     if (rxQueue.length && usart.writeByte(rxQueue[0])) rxQueue.shift();
   };
-  usart.onRxComplete = feed;
+  // avr8js keeps one received byte (no 2-byte FIFO, no DOR): a byte arriving before the
+  // firmware read the last one overwrites it.  So the host's bytes go in at line rate but
+  // never before RXC is clear: this runner cannot show receive overruns (simavr can).
+  const udrRead = cpu.readHooks[board.usart.UDR];
+  cpu.readHooks[board.usart.UDR] = (addr) => {
+    const value = udrRead(addr);
+    feed();
+    return value;
+  };
   usart.onByteTransmit = (b) => { if (DEBUG) process.stderr.write(`tx ${b}\n`); if (client) client.write(Buffer.from([b])); };
   const server = net.createServer((sock) => {
     if (client) client.destroy();
     client = sock;
     sock.setNoDelay(true);
-    sock.on('data', (d) => { for (const b of d) rxQueue.push(b); });
+    sock.on('data', (d) => {
+      for (const b of d) rxQueue.push(b);
+      // now, not at the end of the next slice: a frame split over two TCP reads must not
+      // sit 10 ms of firmware time in the middle (the firmware times out a partial frame)
+      if (!usart.rxBusy && !(cpu.data[board.usart.UCSRA] & 0x80)) feed();
+    });
     sock.on('close', () => { if (client === sock) client = null; });
     sock.on('error', () => {});
   });
@@ -217,7 +230,7 @@ function main() {
       avr.avrInstruction(cpu);
       cpu.tick();
     }
-    feed();
+    if (!usart.rxBusy && !(cpu.data[board.usart.UCSRA] & 0x80)) feed();
     if (DEBUG && cpu.cycles % 1600000 < 160000) process.stderr.write(`tick ucsrb=${cpu.data[0xc1].toString(16)} ucsra=${cpu.data[0xc0].toString(16)} pc=${cpu.pc} cyc=${cpu.cycles} next=${cpu.nextInterrupt} ie=${JSON.stringify(cpu.pendingInterrupts && cpu.pendingInterrupts.length)}\n`);
     setImmediate(slice);
   };

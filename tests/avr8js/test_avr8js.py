@@ -137,6 +137,8 @@ async def test_gpio_over_jumpers(runner: tuple[str, Runner]) -> None:
                     partner = await r.ask(op="pin", pin=dst)
                     assert partner["level"] == int(level), (src, dst, level)
                     assert bool(await inp.read()) == level, (src, dst, level)
+                await b.release(DigitalPin(src))
+                await b.release(DigitalPin(dst))
 
 
 async def test_analog_against_set_voltage(runner: tuple[str, Runner]) -> None:
