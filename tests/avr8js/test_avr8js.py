@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import anyio
+import anyio.lowlevel
 import pytest
 
 from arduinoio_async import open_board
@@ -101,7 +102,7 @@ async def _wait_level(r: Runner, pin: int, level: int) -> dict[str, Any]:
             state = await r.ask(op="pin", pin=pin)
             if state["level"] == level:
                 return state
-            await anyio.sleep(0)  # checkpoint: the runner answers from its own loop
+            await anyio.lowlevel.checkpoint()  # each ask already waits on the runner
 
 
 async def test_identity_and_description(runner: tuple[str, Runner]) -> None:
@@ -165,8 +166,9 @@ async def test_servo_width(runner: tuple[str, Runner]) -> None:
             with anyio.fail_after(20):
                 while True:
                     before = (await r.ask(op="pulses", pin=9))["rises"]
-                    while (now := await r.ask(op="pulses", pin=9))["rises"] < before + 2:
-                        await anyio.sleep(0.01)
+                    now = await r.ask(op="pulses", pin=9)
+                    while now["rises"] < before + 2:  # two edges: a whole new pulse
+                        now = await r.ask(op="pulses", pin=9)
                     if abs(now["last_high_cycles"] / 16 - width) <= 1:
                         break
             assert abs(now["last_high_cycles"] / 16 - width) <= 1
