@@ -13,6 +13,7 @@ import random
 import shutil
 import subprocess
 from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
 
@@ -90,6 +91,7 @@ def runner(request: pytest.FixtureRequest) -> Iterator[tuple[str, Runner]]:
         r.close()
 
 
+@asynccontextmanager
 async def _open(r: Runner) -> AsyncIterator[Board]:
     # avr8js runs a few times slower than the chip on a loaded machine: generous timeouts.
     async with open_board(f"socket://127.0.0.1:{r.port}", timeout=10, ready_timeout=30) as b:
@@ -108,7 +110,7 @@ async def _wait_level(r: Runner, pin: int, level: int) -> dict[str, Any]:
 async def test_identity_and_description(runner: tuple[str, Runner]) -> None:
     """The board answers ID, capabilities and its own description on avr8js."""
     mcu, r = runner
-    async for b in _open(r):
+    async with _open(r) as b:
         await b.read_id()
         assert b.capabilities.baud == 1_000_000
         assert b.model.mcu.lower().replace("atmega", "") in mcu.replace("uno", "328p")
@@ -119,7 +121,7 @@ async def test_gpio_over_jumpers(runner: tuple[str, Runner]) -> None:
     the driven pin's level seen by the emulator, and the partner's read by the library."""
     _mcu, r = runner
     rng = random.Random(29)
-    async for b in _open(r):
+    async with _open(r) as b:
         served = set(b.model.pin_numbers(Function.DIGITAL_OUTPUT)) & set(
             b.model.pin_numbers(Function.DIGITAL_INPUT)
         )
@@ -147,7 +149,7 @@ async def test_analog_against_set_voltage(runner: tuple[str, Runner]) -> None:
     mcu, r = runner
     if mcu != "uno":
         pytest.skip("avr8js 0.21's ADC models the ATmega328P mux only (no ADC8-15, no MUX5)")
-    async for b in _open(r):
+    async with _open(r) as b:
         for channel, mv in ((0, 1250), (1, 3300), (2, 4800)):
             assert (await r.ask(op="adc", channel=channel, mv=mv))["ok"]
             raw = await b.analog(AnalogPin(channel)).read()
@@ -159,7 +161,7 @@ async def test_servo_width(runner: tuple[str, Runner]) -> None:
     mcu, r = runner
     if mcu != "uno":
         pytest.skip("the Mega image's servo timer is not modelled by this runner yet")
-    async for b in _open(r):
+    async with _open(r) as b:
         servo = await b.servo(DigitalPin.D9)
         for width in (1000, 1500, 1999):
             await servo.set_pulse(width)
