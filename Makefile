@@ -12,11 +12,11 @@ APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev av
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
 .PHONY: all setup system-deps venv firmware sim bootloader package-data monitor-assets lint docs \
-        test test-fast bench bench-peers generate clean
+        test test-fast bench bench-peers generate clean avr8js
 
 all: setup firmware sim
 
-setup: system-deps venv monitor-assets
+setup: system-deps venv monitor-assets avr8js
 
 # Installs only what is missing, so a second run costs a dpkg query per package.
 system-deps:
@@ -51,6 +51,17 @@ $(MONITOR_VENDOR)/uPlot.iife.min.js: $(MONITOR_NPM)/package.json $(MONITOR_NPM)/
 	mkdir -p $(MONITOR_VENDOR)
 	cp $(MONITOR_NPM)/node_modules/uplot/dist/uPlot.iife.min.js $(MONITOR_NPM)/node_modules/uplot/dist/uPlot.min.css $(MONITOR_VENDOR)/
 	cp $(MONITOR_NPM)/node_modules/uplot/LICENSE $(MONITOR_VENDOR)/uPlot.LICENSE
+	touch $@
+
+# The second emulator (firmware/avr8js/runner.js, tests/avr8js): avr8js pinned by its
+# package-lock.json, installed like the monitor's uPlot (never committed, never fetched at run time).
+AVR8JS_DIR := firmware/avr8js
+avr8js: $(AVR8JS_DIR)/node_modules/.installed
+
+$(AVR8JS_DIR)/node_modules/.installed: $(AVR8JS_DIR)/package.json $(AVR8JS_DIR)/package-lock.json
+	@command -v npm >/dev/null || { $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
+	cd $(AVR8JS_DIR) && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
 	touch $@
 
 firmware: system-deps
