@@ -12,7 +12,7 @@ APT_PACKAGES := gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev av
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
 .PHONY: all setup system-deps venv firmware sim bootloader package-data monitor-assets lint docs \
-        test test-fast bench bench-peers generate clean avr8js
+        test test-fast bench bench-peers generate clean avr8js avr8js-check
 
 all: setup firmware sim
 
@@ -63,6 +63,10 @@ $(AVR8JS_DIR)/node_modules/.installed: $(AVR8JS_DIR)/package.json $(AVR8JS_DIR)/
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends npm; }
 	cd $(AVR8JS_DIR) && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
 	touch $@
+
+# The avr8js checks are opt-in (tests/avr8js says why).
+avr8js-check: avr8js firmware
+	AIO_AVR8JS=1 $(BIN)/pytest tests/avr8js -q -p no:cacheprovider
 
 firmware: system-deps
 	$(MAKE) -C firmware
