@@ -10,8 +10,9 @@ search steps the aggregate rate up until one fails (100,000 edges each); the bes
 rate is then soaked for 10**6 edges in all, stepping down while a soak loses a count.
 Rates are edges per *simulated* second (the generator's clock; firmware/sim/README.md,
 "Two clocks").  No percentile: counts and rates only.  ``sensors.json`` collects the
-sensor benchmarks' keys: this one merges its own (``encoders``, ``encoder_max_edges_per_s``)
-and leaves the others as they are.
+sensor benchmarks' keys: this one merges its own (``encoders``, ``encoder_max_edges_per_s``,
+``encoder_max_irq_latency_us``: the soak's longest wait from an edge to the vector that
+answers its pin, the harness's probe) and leaves the others as they are.
 
     .venv/bin/python -m benchmarks.sensors_encoders --json benchmarks/results/sensors.json
 """
@@ -63,17 +64,25 @@ async def run_rate(
     generators = await uno.wait_quadrature(timeout=600)
     lost = 0
     invalid = 0
+    ours = []
     for enc, (a, _b) in zip(encoders, PAIRS, strict=True):
         g = next(g for g in generators if g.a == int(a[1:]))
+        ours.append(g)
         state = await enc.read()
         lost += abs(state.count - (g.position - before.get(g.a, 0)))
         invalid += state.invalid
+    # the harness's probe: the longest an edge waited for the vector that answers its pin
+    worst = max(ours, key=lambda g: g.max_irq_latency_us)
     return {
         "aggregate_edges_per_s": aggregate,
         "edges": 2 * edges_each,
         "count_error": lost,
         "invalid": invalid,
         "ok": lost == 0 and invalid == 0,
+        "max_irq_latency_us": worst.max_irq_latency_us,
+        "max_irq_latency_pin": f"D{worst.a}/D{worst.b}",
+        "max_irq_latency_pc": f"0x{worst.max_irq_latency_pc:x}",
+        "max_irq_latency_interrupts_on": worst.max_irq_latency_interrupts_on,
     }
 
 
@@ -129,6 +138,8 @@ async def measure(baud: int, search_edges: int, soak_edges: int) -> dict[str, An
         "encoder_max_edges_per_s": best if ok else 0,
         "encoder_goal_edges_per_s": GOAL,
         "encoder_goal_met": ok and best >= GOAL,
+        # the soak's worst edge-to-vector wait (simulated us; the rate limit's cause)
+        "encoder_max_irq_latency_us": soak["max_irq_latency_us"] if soak else None,
         "clock": "simulated time (the harness generator's edges per simulated second)",
         "search_edges_per_rate": search_edges,
         "soak": soak,
@@ -156,13 +167,15 @@ def main() -> int:
     }
     print(
         f"encoder_max_edges_per_s: {result['encoder_max_edges_per_s']} "
-        f"(goal {GOAL}, met: {result['encoder_goal_met']})"
+        f"(goal {GOAL}, met: {result['encoder_goal_met']}); "
+        f"encoder_max_irq_latency_us: {result['encoder_max_irq_latency_us']}"
     )
     if args.json:
 
         def update(data: dict[str, Any]) -> None:
             data["encoders"] = result
             data["encoder_max_edges_per_s"] = result["encoder_max_edges_per_s"]
+            data["encoder_max_irq_latency_us"] = result["encoder_max_irq_latency_us"]
 
         merge_result(args.json, update)
     return 0
