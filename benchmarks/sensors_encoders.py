@@ -5,7 +5,8 @@ driven by the harness's quadrature generators (firmware/sim/quadrature.c) with r
 reversals (1 % of edges) and 20 % interval jitter, while a 1 kHz stream (A0-A3 and the
 encoder counts) and pipelined GPIO writes (8 in flight, D13) run at 1 Mbaud.  A rate
 passes when both boards' counts equal the generators' positions and no invalid transition
-was seen (a skipped state is a lost state, even when the count comes out right).  The
+was seen (a skipped state is a lost state, even when the count comes out right) and every
+GPIO write was answered in time (``command_timeouts``: the main loop starved).  The
 search steps the aggregate rate up until one fails (100,000 edges each); the best passing
 rate is then soaked for 10**6 edges in all, stepping down while a soak loses a count.
 Rates are edges per *simulated* second (the generator's clock; firmware/sim/README.md,
@@ -30,6 +31,7 @@ import anyio
 from arduinoio_async import A0, A1, A2, A3, D2, D3, D8, D9, D13
 from arduinoio_async.board import Board
 from arduinoio_async.board.encoders import Encoder
+from arduinoio_async.errors import LinkError
 from arduinoio_async.sim import VirtualUno
 
 from ._results import command_line, merge_result
@@ -38,24 +40,43 @@ PAIRS = (("D2", "D3"), ("D8", "D9"))
 GOAL = 100_000
 
 
-async def hammer(board: Board, stop: anyio.Event) -> int:
-    """Pipelined GPIO writes to D13 until ``stop``; returns how many were answered."""
+async def hammer(board: Board, stop: anyio.Event, timeouts: list[int]) -> int:
+    """Pipelined GPIO writes to D13 until ``stop``; returns how many were answered.
+
+    A write the board does not answer in time (or aborted by the resync after one) is
+    counted in ``timeouts[0]`` (the rate then fails: the commands are part of the load the
+    goal names) and the writes go on: with the interrupts taking most of the CPU the main
+    loop answers late, and the search must record that rate as failed rather than end.
+    """
     led = await board.digital_output(D13)
     done = 0
+
+    async def write(level: bool) -> None:
+        try:
+            await led.write(level)
+        except LinkError:  # a timeout, or the resync after one that aborts the rest
+            timeouts[0] += 1
+
     while not stop.is_set():
         async with anyio.create_task_group() as tg:
             for i in range(8):
-                tg.start_soon(led.write, bool(i & 1))
+                tg.start_soon(write, bool(i & 1))
         done += 8
     return done
 
 
 async def run_rate(
-    uno: VirtualUno, encoders: list[Encoder], aggregate: float, edges_each: int, seed: int
+    uno: VirtualUno,
+    encoders: list[Encoder],
+    aggregate: float,
+    edges_each: int,
+    seed: int,
+    timeouts: list[int],
 ) -> dict[str, Any]:
     """Both generators at ``aggregate / 2`` edges/s each; counts vs ground truth."""
     for enc in encoders:
         await enc.reset()
+    timeouts_before = timeouts[0]
     before = {g.a: g.position for g in await uno.quadrature_status()}
     for i, (a, b) in enumerate(PAIRS):
         await uno.quadrature(
@@ -73,12 +94,14 @@ async def run_rate(
         invalid += state.invalid
     # the harness's probe: the longest an edge waited for the vector that answers its pin
     worst = max(ours, key=lambda g: g.max_irq_latency_us)
+    late = timeouts[0] - timeouts_before
     return {
         "aggregate_edges_per_s": aggregate,
         "edges": 2 * edges_each,
         "count_error": lost,
         "invalid": invalid,
-        "ok": lost == 0 and invalid == 0,
+        "command_timeouts": late,
+        "ok": lost == 0 and invalid == 0 and late == 0,
         "max_irq_latency_us": worst.max_irq_latency_us,
         "max_irq_latency_pin": f"D{worst.a}/D{worst.b}",
         "max_irq_latency_pc": f"0x{worst.max_irq_latency_pc:x}",
@@ -97,6 +120,7 @@ async def measure(baud: int, search_edges: int, soak_edges: int) -> dict[str, An
             await uno.drive(b, 0)
         encoders = [await board.encoder(a=D2, b=D3), await board.encoder(a=D8, b=D9)]
         stop = anyio.Event()
+        timeouts = [0]
         samples = 0
         gaps = 0
         async with (
@@ -110,10 +134,12 @@ async def measure(baud: int, search_edges: int, soak_edges: int) -> dict[str, An
                     samples += 1
 
             tg.start_soon(consume)
-            tg.start_soon(hammer, board, stop)
+            tg.start_soon(hammer, board, stop, timeouts)
             passed: list[float] = []
             for aggregate in (20_000, 25_000, 30_000, 40_000, 50_000, 60_000, 80_000, 100_000):
-                row = await run_rate(uno, encoders, aggregate, search_edges // 2, seed=aggregate)
+                row = await run_rate(
+                    uno, encoders, aggregate, search_edges // 2, aggregate, timeouts
+                )
                 rows.append(row)
                 print(row, flush=True)
                 if not row["ok"]:
@@ -123,7 +149,7 @@ async def measure(baud: int, search_edges: int, soak_edges: int) -> dict[str, An
             best, soak, soaks = 0.0, None, []
             while passed:
                 rate = passed.pop()
-                soak = await run_rate(uno, encoders, rate, soak_edges // 2, seed=7)
+                soak = await run_rate(uno, encoders, rate, soak_edges // 2, 7, timeouts)
                 soaks.append(soak)
                 print("soak", soak, flush=True)
                 if soak["ok"]:
