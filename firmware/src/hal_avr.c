@@ -480,6 +480,65 @@ void isr_counter1(void) __attribute__((used, externally_visible, noinline));
 void isr_counter1(void) { counter_event(1); }
 ISR_TRAMPOLINE(isr_counter1_call, isr_counter1);
 
+#if AIO_WITH_ENCODER && defined(__AVR_ATmega328P__)
+/* The Uno's INT0/INT1: encoder_step() (encoder.h, the reference the host tests
+ * run) written out in assembly, on a slot pointer instead of one inlined copy
+ * per slot, the levels as two port bytes instead of a 16-bit word, and 9
+ * registers saved instead of 11: ~95 cycles an edge instead of ~150 (issue 27;
+ * benchmarks/sensors_encoders.py measures the ceiling and the harness's
+ * edge-to-vector wait).  The counter's path is the trampoline call as in C,
+ * with r1 cleared for it. */
+#include <stddef.h>
+
+#include "clock.h"
+#define ENC_ASM_OPERANDS(index)                                                                    \
+    [slot] "i"(&encoder_int_slot[index]), [size] "M"(sizeof(encoder_slot_t)),                      \
+        [base] "i"(encoder_slots), [use] "i"(&int_encoder), [bit] "I"(index),                      \
+        [pind] "I"(_SFR_IO_ADDR(PIND)), [pinb] "I"(_SFR_IO_ADDR(PINB)),                            \
+        [st] "I"(offsetof(encoder_slot_t, state)), [fr] "I"(offsetof(encoder_slot_t, fresh)),      \
+        [mv] "I"(offsetof(encoder_slot_t, moved)), [el] "I"(offsetof(encoder_slot_t, edge_low)),  \
+        [es] "I"(offsetof(encoder_slot_t, edge_sub)), [inv] "I"(offsetof(encoder_slot_t, invalid)), \
+        [ma] "I"(offsetof(encoder_slot_t, mask_a)), [mb] "I"(offsetof(encoder_slot_t, mask_b)),   \
+        [tab] "I"(offsetof(encoder_slot_t, table)), [t0] "i"(&clock_ticks),                         \
+        [tcnt] "i"(_SFR_MEM_ADDR(TCNT2)), [tifr] "I"(_SFR_IO_ADDR(TIFR2)), [ocf] "I"(OCF2A),       \
+        [half] "M"(100) /* clock.c's TICK_COUNTS / 2 */
+#define ENC_ASM_BODY(counter)                                                                              \
+    "push r24\n\tin r24, __SREG__\n\tpush r24\n\t"                                                \
+    "lds r24, %[use]\n\tsbrc r24, %[bit]\n\trjmp 1f\n\t"                                           \
+    "push r1\n\tclr r1\n\tcall " #counter "\n\tpop r1\n\trjmp 9f\n"                                \
+    "1:\n\tlds r24, %[slot]\n\tcpi r24, 0xFF\n\tbrne 0f\n\trjmp 9f\n0:\n\t"                                       \
+    "push r0\n\tpush r1\n\tpush r25\n\tpush r26\n\tpush r27\n\tpush r30\n\tpush r31\n\t"         \
+    "ldi r25, %[size]\n\tmul r24, r25\n\tmovw r30, r0\n\t"                                          \
+    "subi r30, lo8(-(%[base]))\n\tsbci r31, hi8(-(%[base]))\n\t"                                     \
+    /* r26 = position: A ^ B in bit 0, B in bit 1 */                                              \
+    "in r24, %[pind]\n\tin r25, %[pinb]\n\tldi r26, 0\n\t"                                          \
+    "ldd r27, Z+%[ma]\n\tand r27, r24\n\tbrne 2f\n\tldd r27, Z+%[ma]+1\n\tand r27, r25\n\tbreq 3f\n" \
+    "2:\n\tldi r26, 1\n"                                                                            \
+    "3:\n\tldd r27, Z+%[mb]\n\tand r27, r24\n\tbrne 4f\n\tldd r27, Z+%[mb]+1\n\tand r27, r25\n\tbreq 5f\n" \
+    "4:\n\tldi r27, 3\n\teor r26, r27\n"                                                             \
+    /* r27 = table[state | position] (lpm: Z to the table, then back to the slot) */               \
+    "5:\n\tldd r27, Z+%[st]\n\tor r27, r26\n\tldd r24, Z+%[tab]\n\tldd r25, Z+%[tab]+1\n\t"        \
+    "movw r0, r30\n\tmovw r30, r24\n\tadd r30, r27\n\tldi r27, 0\n\tadc r31, r27\n\t"              \
+    "lpm r27, Z\n\tmovw r30, r0\n\t"                                                               \
+    "sbrs r27, 5\n\trjmp 8f\n\t"                                                                   \
+    "lsl r26\n\tlsl r26\n\tmov r24, r27\n\tandi r24, 0x10\n\tor r24, r26\n\tstd Z+%[st], r24\n\t"  \
+    "sbrs r27, 3\n\trjmp 6f\n\t"                                                                   \
+    "ldd r24, Z+%[inv]\n\tldd r25, Z+%[inv]+1\n\tadiw r24, 1\n\tstd Z+%[inv], r24\n\tstd Z+%[inv]+1, r25\n" \
+    "6:\n\tandi r27, 7\n\tsubi r27, 2\n\tbreq 8f\n\t"                                              \
+    "mov r26, r27\n\tlsl r26\n\tsbc r26, r26\n\t"                                                   \
+    "ldd r24, Z+%[mv]\n\tldd r25, Z+%[mv]+1\n\tadd r24, r27\n\tadc r25, r26\n\t"                     \
+    "std Z+%[mv], r24\n\tstd Z+%[mv]+1, r25\n\t"                                                    \
+    /* hal_stamp(): the tick count's low half, +1 if its interrupt is pending */                   \
+    "lds r24, %[t0]\n\tlds r25, %[t0]+1\n\tlds r26, %[tcnt]\n\t"                                     \
+    "sbis %[tifr], %[ocf]\n\trjmp 7f\n\tcpi r26, %[half]\n\tbrsh 7f\n\tadiw r24, 1\n"                 \
+    "7:\n\tstd Z+%[el], r24\n\tstd Z+%[el]+1, r25\n\tstd Z+%[es], r26\n\tldi r24, 1\n\tstd Z+%[fr], r24\n" \
+    "8:\n\tpop r31\n\tpop r30\n\tpop r27\n\tpop r26\n\tpop r25\n\tpop r1\n\tpop r0\n"           \
+    "9:\n\tpop r24\n\tout __SREG__, r24\n\tpop r24\n\treti\n\t"
+_Static_assert(sizeof(encoder_slot_t) < 256u, "one mul for the slot's address");
+
+ISR(HAL_INT_A_vect, ISR_NAKED) { __asm__ volatile(ENC_ASM_BODY(isr_counter0_call) : : ENC_ASM_OPERANDS(0)); }
+ISR(HAL_INT_B_vect, ISR_NAKED) { __asm__ volatile(ENC_ASM_BODY(isr_counter1_call) : : ENC_ASM_OPERANDS(1)); }
+#else
 ISR(HAL_INT_A_vect)
 {
     if (int_encoder & 1u)
@@ -495,3 +554,4 @@ ISR(HAL_INT_B_vect)
     else
         ISR_CALL(isr_counter1_call);
 }
+#endif
