@@ -213,6 +213,7 @@ _REFUSAL_REASONS = {
     "PIN_NOT_CAPABLE": "the pin cannot do that",
     "PIN_NOT_CONFIGURED": "the pin is not set up for that",
     "PIN_BUSY": "the pin is busy",
+    "SLOT_BUSY": "another client of the served board holds that slot",
     "VALUE_OUT_OF_RANGE": "a value is out of range",
     "I2C_NACK_ADDRESS": "no I2C device answered at that address",
     "I2C_NACK_DATA": "the I2C device refused a data byte",
@@ -233,6 +234,7 @@ _REFUSAL_HINTS = {
     "PIN_BUSY": "{pin} already has another role on the board (given by an earlier command "
     "or program; roles last until released or reset): free it with board.release({pin}) "
     "or `arduinoio release {pin}`, or reset the board with `arduinoio reset`",
+    "SLOT_BUSY": "leave the slot out to take a free one, or name another slot",
     "PIN_NOT_CONFIGURED": "{pin} does not have the role this request needs on the board: "
     "configure it first (roles end at every reset of the board)",
     "PIN_NOT_CAPABLE": "Table III of the paper lists what each pin can do",

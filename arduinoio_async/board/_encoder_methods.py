@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
-from ._slots import choose_slot, set_up_pair
+from ._slots import set_up_pair, take_slot
 from .encoders import Encoder, ModeName, encoder_mode
 
 if TYPE_CHECKING:
@@ -48,8 +48,11 @@ class EncoderMethods:
         if a is b:
             raise ValueRangeError("encoder pin B", b.name, "a pin other than A")
         decoding = encoder_mode(mode)
-        slot = choose_slot(board, Encoder, p.ENCODER_SLOTS, slot, "encoder")
-        handle = Encoder(board, a, b, slot, decoding)
-        setup = p.EncoderConfig(slot, int(a), int(b), decoding)
-        await set_up_pair(board, handle, handle.partner, setup, setup)
-        return handle
+
+        async def set_up(chosen: int) -> Encoder:
+            handle = Encoder(board, a, b, chosen, decoding)
+            setup = p.EncoderConfig(chosen, int(a), int(b), decoding)
+            await set_up_pair(board, handle, handle.partner, setup, setup)
+            return handle
+
+        return await take_slot(board, Encoder, p.ENCODER_SLOTS, slot, "encoder", set_up)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, cast
 from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
-from ._slots import choose_slot
+from ._slots import take_slot
 from .pulse_inputs import DEFAULT_CENTRE_US, DEFAULT_HIGH_US, DEFAULT_LOW_US, PulseInput
 
 if TYPE_CHECKING:
@@ -49,17 +49,20 @@ class PulseInMethods:
         assert isinstance(pin, DigitalPin)
         if not 1 <= timeout_ms <= 0xFFFF:
             raise ValueRangeError("pulse input timeout_ms", timeout_ms, "1-65535")
-        slot = choose_slot(board, PulseInput, p.PULSE_IN_SLOTS, slot, "pulse input")
-        handle = PulseInput(
-            board, pin, slot, timeout_ms, low_us=low_us, centre_us=centre_us, high_us=high_us
-        )
-        roles = board.roles
-        roles.check_free(handle)
-        setup = p.PulseInConfig(slot, int(pin), timeout_ms)
-        roles.claim(handle, setup)
-        try:
-            await board.request(setup)
-        except BaseException:
-            roles.withdraw(handle, None)
-            raise
-        return handle
+
+        async def set_up(chosen: int) -> PulseInput:
+            handle = PulseInput(
+                board, pin, chosen, timeout_ms, low_us=low_us, centre_us=centre_us, high_us=high_us
+            )
+            roles = board.roles
+            roles.check_free(handle)
+            setup = p.PulseInConfig(chosen, int(pin), timeout_ms)
+            roles.claim(handle, setup)
+            try:
+                await board.request(setup)
+            except BaseException:
+                roles.withdraw(handle, None)
+                raise
+            return handle
+
+        return await take_slot(board, PulseInput, p.PULSE_IN_SLOTS, slot, "pulse input", set_up)

@@ -16,7 +16,7 @@ from .. import protocol as p
 from ..errors import ValueRangeError
 from ..protocol.pins import DigitalPin, Function
 from ..protocol.pins import require as require_capable
-from ._slots import choose_slot, set_up_pair
+from ._slots import set_up_pair, take_slot
 from .sonars import Sonar, SonarEcho, speed_of_sound
 
 if TYPE_CHECKING:
@@ -55,11 +55,14 @@ class SonarMethods:
         assert isinstance(trigger, DigitalPin) and isinstance(echo, DigitalPin)
         if trigger is echo:
             raise ValueRangeError("sonar echo pin", echo.name, "a pin other than the trigger")
-        slot = choose_slot(board, Sonar, p.SONAR_SLOTS, slot, "sonar")
-        handle = Sonar(board, trigger, echo, slot)
-        setup = p.SonarConfig(slot, int(trigger), int(echo))
-        await set_up_pair(board, handle, handle.partner, setup, _timing(board))
-        return handle
+
+        async def set_up(chosen: int) -> Sonar:
+            handle = Sonar(board, trigger, echo, chosen)
+            setup = p.SonarConfig(chosen, int(trigger), int(echo))
+            await set_up_pair(board, handle, handle.partner, setup, _timing(board))
+            return handle
+
+        return await take_slot(board, Sonar, p.SONAR_SLOTS, slot, "sonar", set_up)
 
     async def sonar_timing(
         self,

@@ -93,7 +93,8 @@ class ClientPolicy:
         """The reply of a request the server answers itself, or None: it goes to the link.
 
         Raises the refusal the client gets: a UsageError for ``WriteId``, the board's own
-        ``PIN_BUSY`` for a pin another live client holds in another role.  Records what
+        ``PIN_BUSY`` for a pin another live client holds in another role, ``SLOT_BUSY``
+        for such a slot.  Records what
         the request claims (a pin, the stream) in arrival order, before the board has it.
         """
         if isinstance(request, p.WriteId):
@@ -106,10 +107,11 @@ class ClientPolicy:
             # sends them after its reply, which may be handled after they are published.
             self._streamer_before, self.streamer = self.streamer, client
         if type(request) in CLAIMS:
-            why = self.pins.claim(client, request)
-            if why is not None:  # the client gets the board's own refusal frame
+            refusal = self.pins.claim(client, request)
+            if refusal is not None:  # the client gets a refusal frame like the board's
+                code, why = refusal
                 log.info("board 0x%04X: refused %r of %s: %s", self.board_id, request, client, why)
-                raise BoardError(p.ErrorCode.PIN_BUSY, request, why)
+                raise BoardError(code, request, why)
         return None
 
     def refused(self, client: str, request: p.Request[Any]) -> None:

@@ -124,14 +124,21 @@ class PinHolders:
 
     pins: dict[int, _Held] = field(default_factory=dict)
 
-    def claim(self, client: str, request: p.Request[Any]) -> str | None:
-        """Record what ``request`` of ``client`` claims; return why it is refused instead
-        (the role another client holds the pin in), or None."""
+    def claim(self, client: str, request: p.Request[Any]) -> tuple[p.ErrorCode, str] | None:
+        """Record what ``request`` of ``client`` claims; return the refusal instead (its
+        code and why: the role another client holds the pin or slot in), or None.
+
+        A held slot is checked before any pin and refused with ``SLOT_BUSY``, not
+        ``PIN_BUSY``: a client that did not name the slot takes the next one on that code
+        (the slots of a class are the board's, shared by every client, and a client sees
+        only its own handles), while a pin held by another client is a real conflict.
+        """
         wanted = [role for item in self._requests(request) for role in roles_of(item)]
-        for pin, role in wanted:
+        for pin, role in sorted(wanted, key=lambda item: item[0] >= 0):
             why = self._conflict(client, pin, role)
             if why is not None:
-                return why
+                code = p.ErrorCode.PIN_BUSY if pin >= 0 else p.ErrorCode.SLOT_BUSY
+                return code, why
         for pin, role in wanted:
             self._take(client, pin, role)
         return None

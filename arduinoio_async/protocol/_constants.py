@@ -59,6 +59,10 @@ class ErrorCode(IntEnum):
     EEPROM_FAILED = 0x10
     #: The request needs a stopped stepper (SET_POSITION while it moves).
     STEPPER_MOVING = 0x11
+    #: A served board's server refuses a set-up of a slot (encoder, sonar, pulse input,
+    #: I2C block) another live client holds; the board itself never sends it (a set-up of
+    #: a slot in use reconfigures it).  A client that did not name the slot takes the next.
+    SLOT_BUSY = 0x13
     #: The stream reads I2C blocks: the bus is the stream's until it stops (a one-shot
     #: read or write would collide with the stream's reads).
     I2C_STREAMING = 0x18

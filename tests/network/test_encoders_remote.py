@@ -42,6 +42,6 @@ async def test_a_remote_encoder_counts_and_holds_both_pins(serve_unos: ServeFact
         assert busy.value.code is p.ErrorCode.PIN_BUSY
         with pytest.raises(BoardError) as busy:  # and so is its slot, whatever the pins
             await b.encoder(a=D10, b=D11, slot=0)
-        assert busy.value.code is p.ErrorCode.PIN_BUSY
+        assert busy.value.code is p.ErrorCode.SLOT_BUSY
         other = await b.encoder(a=D10, b=D11, slot=1)
         assert await other.count() == 0 and await enc.count() == 400

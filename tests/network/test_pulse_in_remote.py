@@ -43,7 +43,7 @@ async def test_a_remote_pulse_input_reads_streams_and_holds_its_pin(
         assert busy.value.code is p.ErrorCode.PIN_BUSY
         with pytest.raises(BoardError) as busy:  # and its slot, whatever the pin
             await b.pulse_input(D8, slot=0)
-        assert busy.value.code is p.ErrorCode.PIN_BUSY
+        assert busy.value.code is p.ErrorCode.SLOT_BUSY
         other = await b.pulse_input(D8, slot=1)
         assert (await other.read()).lost and not (await rc.read()).lost
         async with a.stream(pulse_inputs=True, period_ms=10) as samples:

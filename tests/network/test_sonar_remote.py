@@ -33,7 +33,7 @@ async def test_a_remote_sonar_reads_the_model_and_holds_its_pins(
         assert busy.value.code is p.ErrorCode.PIN_BUSY
         with pytest.raises(BoardError) as busy:  # another client's sonar slot
             await b.sonar(D9, D10, slot=0)
-        assert busy.value.code is p.ErrorCode.PIN_BUSY
+        assert busy.value.code is p.ErrorCode.SLOT_BUSY
         while (await uno.sonar_status()).on(7).echoes < 2:
             pass
         reading = await sonar.read()
@@ -66,8 +66,9 @@ async def test_one_client_streams_sonar_while_another_reads_and_a_third_sends_no
                 last = sample
                 count += 1
                 if count == 1:
-                    # slot 1: a client's default slot choice cannot see another client's slots
-                    other = await b.sonar(D9, D10, slot=1)
+                    # the default slot: the server moves B past A's slot 0
+                    other = await b.sonar(D9, D10)
+                    assert other.slot == 1
                     for bad in (
                         p.SonarConfig(9, 9, 10),
                         p.SonarConfig(2, 9, 9),
