@@ -138,7 +138,7 @@ class Exchange:
 class Received:
     """What one call into the session produced."""
 
-    __slots__ = ("done", "events", "lost", "outgoing")
+    __slots__ = ("done", "events", "hold", "lost", "outgoing")
 
     def __init__(self) -> None:
         #: Exchanges that finished (in FIFO order); each appears once in a session's life.
@@ -148,3 +148,6 @@ class Received:
         self.outgoing = b""
         #: Why sync was lost during the call, or None.
         self.lost: str | None = None
+        #: A CRC-framed reply that ended the read is held: call the session's
+        #: ``release_held`` once the line stayed quiet for one byte time (see there).
+        self.hold = False

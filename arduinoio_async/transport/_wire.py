@@ -24,7 +24,7 @@ from ..errors import ArduinoIOError, BoardDisconnectedError
 from ..protocol.session import Received, Session, SessionState
 from ._deadline import DeadlineAlarm
 from ._link_types import PUBLIC_STATE, LinkState
-from ._streams import Abilities
+from ._streams import Abilities, LinkAttribute
 
 __all__ = ["WRITE_ERRORS", "Wire"]
 
@@ -58,6 +58,8 @@ class Wire:
     _session_state: str
     _resync_needed: anyio.Event
     _alarm: DeadlineAlarm | None
+    #: Releases a CRC reply held at the end of a read (see ``_hold_reply``).
+    _hold_timer: asyncio.TimerHandle | None = None
     _now: Callable[[], float]
     _reboots: int
     _subscribers: list[Callable[[p.Event], None]]
@@ -143,12 +145,36 @@ class Wire:
             # stamps ``_lost_at``: bytes received while in sync need no time stamp.
             self._last_rx = self._now()
             self._rx_since_loss = True
+        hold = self._hold_timer
+        if hold is not None:
+            hold.cancel()  # these bytes decide the held reply
+            self._hold_timer = None
         out = session.receive_data(data)
         self._process(out)
+        if out.hold:
+            self._hold_reply()
         if len(out.done) > 1 and self._collect_sends is not None:
             # Pipelining: the callers just woken may each send their next request in the
             # loop's next iteration; one write for all of them (see SerialByteStream).
             self._collect_sends()
+
+    def _hold_reply(self) -> None:
+        """Release the session's held reply once the line stayed quiet one byte time
+        (the CRC slip guard, docs/protocol.md 7.7).  Timers run after the readable
+        callbacks of their loop iteration, so a displaced byte already in the port's
+        buffer is read (and cancels this) before it fires."""
+        loop = self._loop
+        if loop is None:  # a reader task without a loop handle: no quiet to wait for
+            self._release_held()
+            return
+        baud = self.stream.extra(LinkAttribute.baudrate, None)
+        byte_time = 10.0 / baud if isinstance(baud, int) and baud > 0 else 1e-5
+        self._hold_timer = loop.call_later(byte_time, self._release_held)
+
+    def _release_held(self) -> None:
+        self._hold_timer = None
+        with self._lock:
+            self._process(self._session.release_held())
 
     def relay_failure(self, error: ArduinoIOError) -> None:
         """The oldest request in flight failed beyond the stream (a relaying stream's

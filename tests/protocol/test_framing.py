@@ -99,7 +99,9 @@ def test_capabilities_with_the_bit_start_a_set_framing_barrier() -> None:
     assert data == b"" and session.queued == 1
     out = session.receive_data(crc_bytes(p.SetFramingReply(CRC)))
     assert out.outgoing == crc_bytes(p.ReadId())  # framed again when it went out
-    session.receive_data(crc_bytes(p.ReadIdReply(7)))
+    # no identity expected yet: a free value, held until the line stays quiet
+    assert session.receive_data(crc_bytes(p.ReadIdReply(7))).hold
+    session.release_held()
     assert exchange.reply == p.ReadIdReply(7)
     assert session.stats.framing_switches == 1
 
@@ -202,9 +204,11 @@ def test_a_lone_crc_frame_followed_by_a_partial_candidate_waits_for_it() -> None
     out = session.receive_data(b"\x00\x00\x00\x00")  # ...and turns out garbage
     assert not exchange.done  # not trusted: a marker tells where the stream is
     assert out.outgoing == crc_bytes(p.ReadCapabilities())
-    out = session.receive_data(crc_bytes(capabilities()))
+    assert session.receive_data(crc_bytes(capabilities())).hold  # the marker's reply too
+    out = session.release_held()
     assert session.stats.retries == 1 and out.outgoing == crc_bytes(p.AnalogRead(1))
-    session.receive_data(reply)
+    assert session.receive_data(reply).hold  # ends the read: waits one quiet byte time
+    session.release_held()
     assert exchange.reply == p.AnalogReadReply(1, 500)
     # a frame followed by a whole valid frame (an event) is trusted
     exchange, _ = session.send(p.AnalogRead(2))
