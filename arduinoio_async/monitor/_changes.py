@@ -44,7 +44,7 @@ import anyio
 
 from .. import protocol as p
 from ..board.changes import Change, ChangeStream, watch_changes
-from ..protocol.pins import UNO_DIGITAL, DigitalPin
+from ..protocol.pins import DigitalPin
 from ._sources import Activity, Emit, PinKey, SubscribingSource
 
 if TYPE_CHECKING:
@@ -85,7 +85,7 @@ class ChangeSource(SubscribingSource):
         self.watched: frozenset[DigitalPin] = frozenset()
         self._lost_before = 0
         self._gap_counter: ChangeStream | None = None
-        self._seen = dict.fromkeys(UNO_DIGITAL, 0)
+        self._seen = dict.fromkeys(DigitalPin, 0)  # any model's pins (a Mega's D53 too)
         self._watching = anyio.Event()
 
     async def wait_watching(self, pins: frozenset[DigitalPin]) -> None:

@@ -31,7 +31,7 @@ import anyio
 from .. import protocol as p
 from ..board.changes import CountReports, watch_counter
 from ..errors import ArduinoIOError
-from ..protocol.pins import UNO_DIGITAL, DigitalPin
+from ..protocol.pins import DigitalPin
 from ._sources import Activity, Emit, PinKey, SubscribingSource
 
 if TYPE_CHECKING:
@@ -94,7 +94,7 @@ class CountSource(SubscribingSource):
         self.state = CountState()
         #: Counters whose count the reports follow now.
         self.reported: frozenset[DigitalPin] = frozenset()
-        self._seen = dict.fromkeys(UNO_DIGITAL, 0)
+        self._seen = dict.fromkeys(DigitalPin, 0)  # any model's pins (a Mega's D53 too)
         self._failure: ArduinoIOError | None = None
 
     @property

@@ -35,7 +35,7 @@ from ..board.motors import DutyPwm, Motor
 from ..board.roles import RoleHolder
 from ..errors import PinRoleError, UsageError
 from ..protocol.boards import UNO_R3, BoardModel
-from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function
+from ..protocol.pins import UNO_DIGITAL, AnalogPin, DigitalPin, Function
 from ._args import pin_arg
 from ._changes import ChangeSource
 from ._counts import CountSource
@@ -179,10 +179,13 @@ class BoardPanel:
         Uno, D2-D53 on a Mega)."""
         return [DigitalPin(n) for n in self.board.model.pin_numbers(Function.DIGITAL_OUTPUT)]
 
-    def analog_pins(self) -> list[AnalogPin]:
-        """The stream's channels: all six, less A4/A5 while the I2C bus uses them."""
-        busy = (AnalogPin.A4, AnalogPin.A5) if self.i2c is not None else ()
-        return [pin for pin in UNO_ANALOG if pin not in busy]
+    def analog_pins(self, *, streamed: bool = True) -> list[AnalogPin]:
+        """The board's analog inputs the stream can carry (its mask is a byte: A0-A7), less
+        those the I2C bus uses while it runs (A4/A5 on an Uno) unless ``streamed`` is False."""
+        model, i2c = self.board.model, self.board.model.pin_numbers(Function.I2C)
+        busy = set(i2c) if self.i2c is not None and streamed else set()
+        numbers = [n for n in model.pin_numbers(Function.ANALOG_INPUT) if n not in busy]
+        return [AnalogPin(c) for n in numbers if (c := n - model.digital_pins) < 8]
 
     def inputs(self) -> dict[DigitalPin, PinKey]:
         """The pins with an input role, each keyed by its handle and role (pull-up or not)."""
@@ -329,7 +332,7 @@ class BoardPanel:
             "stream": self.stream.describe(),
             "changes": self.changes.describe(),
             "i2c": None if self.i2c is None else int(self.i2c.speed),
-            "analog_pins": [pin.name for pin in UNO_ANALOG],
+            "analog_pins": [pin.name for pin in self.analog_pins(streamed=False)],
             **{device.key: device.describe() for device in self.devices},
             "message": self.message,
             "pins": [

@@ -28,6 +28,13 @@ E = p.ErrorCode
 #: other pin checks ask the fake's model (``PeripheralModels._mask``).
 SOFT_PWM = pin_mask(Function.SOFT_PWM)
 
+#: The Mega's 16-bit timers by output compare pin (OC1A/B, OC3A-C, OC4A-C, OC5A-C; the
+#: pins of protocol/boards.py's MEGA2560_HARDWARE duty map).  Each offers Timer1's table:
+#: the same 16-bit counter with TOP = ICRn.
+_MEGA_TIMER_OF: dict[int, int] = {
+    11: 1, 12: 1, 5: 3, 2: 3, 3: 3, 6: 4, 7: 4, 8: 4, 46: 5, 45: 5, 44: 5,
+}  # fmt: skip
+
 
 def has(mask: int, pin: int) -> bool:
     return pin >= 0 and bool(mask >> pin & 1)
@@ -108,11 +115,11 @@ class PeripheralModels:
         if isinstance(request, p.PwmConfig):
             if state.role not in ("free", "pwm"):
                 return self._error(request, E.PIN_BUSY)
-            if self._duty_timer_busy(Timer.TIMER0 if soft else Timer.TIMER1):
+            if self._duty_timer_busy(Timer.TIMER0 if soft else self._timer_of(pin)):
                 return self._error(request, E.PIN_BUSY)  # duty PWM holds the timer
         elif state.role != "pwm":
             return self._error(request, E.PIN_NOT_CONFIGURED)
-        error = check_pulse(pin, pulse)
+        error = check_pulse(pin, pulse, soft=soft)
         if error is not None:
             return self._error(request, error)
         state.role = "pwm"
@@ -121,21 +128,43 @@ class PeripheralModels:
             return p.PwmConfigReply(pin, pulse)
         return p.PwmSetReply(pin, pulse)
 
-    def _duty_timer_busy(self, timer: Timer) -> bool:
+    def _timer_of(self, pin: int) -> int:
+        """The timer whose output compare unit drives ``pin`` on this board's model."""
+        if self.model.key == "mega2560":
+            return _MEGA_TIMER_OF[pin]
+        return TIMER_OF[DigitalPin(pin)]
+
+    def _servo_pins_of(self, timer: int, pin: int) -> list[int]:
+        """The other servo-capable pins of ``timer`` (they would share its period)."""
+        return [
+            n
+            for n in self.model.pin_numbers(Function.SERVO_PWM)
+            if n != pin and n in self._pins and self._timer_of_or_none(n) == timer
+        ]
+
+    def _timer_of_or_none(self, pin: int) -> int | None:
+        try:
+            return self._timer_of(pin)
+        except KeyError:
+            return None
+
+    def _duty_timer_busy(self, timer: int) -> bool:
         """Duty-cycle PWM holds ``timer`` (the firmware's duty_timer_busy)."""
         return any(
-            self._pins[pin].role == "duty" and TIMER_OF[DigitalPin(pin)] is timer
-            for pin in self.duties
+            self._pins[pin].role == "duty" and self._timer_of(pin) == timer for pin in self.duties
         )
 
-    def _timer_taken(self, pin: int, timer: Timer, hz: int) -> bool:
+    def _timer_taken(self, pin: int, timer: int, hz: int) -> bool:
         """Another user holds ``pin``'s timer (the firmware's timer_taken)."""
         for other, (other_hz, _duty) in self.duties.items():
-            same_timer = TIMER_OF[DigitalPin(other)] is timer
+            same_timer = self._timer_of(other) == timer
             if other != pin and same_timer and other_hz != hz and self._pins[other].role == "duty":
                 return True
-        if timer is Timer.TIMER1 and self._pins[19 - pin].role == "pwm":
-            return True  # servo PWM on the other Timer1 pin
+        if timer != Timer.TIMER0 and any(
+            self._pins[n].role == "pwm" and not has(self._mask(Function.SOFT_PWM), n)
+            for n in self._servo_pins_of(timer, pin)
+        ):
+            return True  # servo PWM (a 20 ms period) on another pin of the timer
         if timer is Timer.TIMER0:
             stream = getattr(self, "stream", None)
             if stream is not None and stream.running:
@@ -155,8 +184,9 @@ class PeripheralModels:
             return p.PwmDutySetReply(pin, request.duty)
         if state.role not in ("free", "duty"):
             return self._error(request, E.PIN_BUSY)
-        timer = TIMER_OF[DigitalPin(pin)]
-        if request.frequency_hz not in DUTY_FREQUENCIES[timer]:
+        timer = self._timer_of(pin)
+        offered = DUTY_FREQUENCIES[Timer(timer) if timer < 3 else Timer.TIMER1]
+        if request.frequency_hz not in offered:
             return self._error(request, E.VALUE_OUT_OF_RANGE)
         if self._timer_taken(pin, timer, request.frequency_hz):
             return self._error(request, E.PIN_BUSY)
@@ -199,9 +229,13 @@ class PeripheralModels:
         return p.CounterWatchReply(request.pin, request.every)
 
 
-def check_pulse(pin: int, pulse: int) -> p.ErrorCode | None:
-    """The firmware's pulse-width rule: 0 (off) or the servo range, soft PWM in steps."""
+def check_pulse(pin: int, pulse: int, *, soft: bool | None = None) -> p.ErrorCode | None:
+    """The firmware's pulse-width rule: 0 (off) or the servo range, soft PWM in steps.
+
+    ``soft`` says whether ``pin`` is a software PWM pin of the board's model (None: the
+    Uno's, for callers without a model)."""
     valid = pulse == 0 or p.PULSE_MIN_US <= pulse <= p.PULSE_MAX_US
-    if not valid or (has(SOFT_PWM, pin) and pulse % p.SOFT_PWM_STEP_US):
+    soft_pin = has(SOFT_PWM, pin) if soft is None else soft
+    if not valid or (soft_pin and pulse % p.SOFT_PWM_STEP_US):
         return E.VALUE_OUT_OF_RANGE
     return None

@@ -58,3 +58,11 @@ async def test_an_uno_page_is_the_unos_twelve_pins_and_a_smaller_board_shows_few
     functions[Function.DIGITAL_OUTPUT] = tuple(range(2, 13))
     async with panel_on(dataclasses.replace(UNO_R3, functions=functions)) as (panel, _fake):
         assert "D13" not in pins_of(panel.snapshot())
+
+
+async def test_the_analog_row_follows_the_board_up_to_the_streams_eight_channels() -> None:
+    """An Uno shows A0-A5; a Mega A0-A7 (the stream's analog mask is one byte)."""
+    async with panel_on(UNO_R3) as (panel, _fake):
+        assert panel.snapshot()["analog_pins"] == [f"A{n}" for n in range(6)]
+    async with panel_on(MEGA2560_FULL) as (panel, _fake):
+        assert panel.snapshot()["analog_pins"] == [f"A{n}" for n in range(8)]

@@ -256,3 +256,25 @@ async def test_a_refused_subscription_shows_and_is_retried_until_the_board_takes
         fake.drive(5, True)
         await notified.until(lambda: panel.rises[D5] == 1)
         assert panel.changes.lost == 3  # counted once for the board, not once per pin
+
+
+async def test_a_mega_page_follows_inputs_and_counters_past_d13() -> None:
+    """D44 as an input and D18 (INT3) as a counter on a Mega: the page's level and count
+    follow the fake's pins (the change and count sources were sized for the Uno's D2-D13
+    and failed with a KeyError on D44)."""
+    from arduinoio_async.protocol.boards import MEGA2560_FULL
+    from arduinoio_async.protocol.pins import DigitalPin
+
+    async with monitored(fake=FakeBoard(board_id=0x0042, model=MEGA2560_FULL)) as (
+        _board,
+        fake,
+        panel,
+        notified,
+    ):
+        await panel.perform("role", {"pin": "D44", "role": "input"})
+        await panel.perform("role", {"pin": "D18", "role": "counter_rising"})
+        fake.drive(44, True)
+        await notified.until(lambda: bool(panel.levels & bit(44)))
+        for level in (True, False, True):
+            fake.drive(18, level)
+        await notified.until(lambda: panel.counters.get(DigitalPin.D18) == 2)
