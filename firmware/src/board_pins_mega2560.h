@@ -14,6 +14,8 @@
 #define BOARD_PINS_MEGA2560_H
 
 #define PINS_LAST 15u /* pins.h: the role table reaches D15 */
+/* pins.h: pin sets are 64-bit (D0-D53); the modules still narrow them to D0-D15. */
+#define AIO_PINMASK_BITS 64u
 /* D2-D9 have no pin-change interrupt (D2/D3's INT4/INT5 serve counters and encoders):
  * GPIO inputs there are polled by the main loop (gpio_poll: ~10 kHz, the tick wakes it). */
 #define AIO_PINS_POLLED_EDGES 0x03FCu

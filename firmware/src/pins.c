@@ -17,10 +17,12 @@
 
 uint8_t pins_role[PINS_COUNT];
 
+#if AIO_PINMASK_BITS <= 16
 const AIO_FLASH uint16_t pins_bit[16] = {
     1u << 0, 1u << 1, 1u << 2,  1u << 3,  1u << 4,  1u << 5,  1u << 6,  1u << 7,
     1u << 8, 1u << 9, 1u << 10, 1u << 11, 1u << 12, 1u << 13, 1u << 14, 1u << 15,
 };
+#endif
 
 void pins_init(void)
 {
@@ -29,7 +31,7 @@ void pins_init(void)
         pins_role[pin] = ROLE_FREE;
 }
 
-uint8_t pins_claim_check(uint8_t pin, uint16_t table3_mask, uint8_t same_a, uint8_t same_b)
+uint8_t pins_claim_check(uint8_t pin, aio_pinmask_t table3_mask, uint8_t same_a, uint8_t same_b)
 {
     uint8_t role;
     if (!pins_capable(pin, table3_mask))

@@ -21,6 +21,19 @@
 #define AIO_PINS_POLLED_EDGES 0u
 #endif
 
+/* A set of pins, bit n = Dn: 16 bits on the Uno (its images stay as they were), wider on a
+ * board whose header (board_pins_<board>.h, included by aio.h) sets AIO_PINMASK_BITS, e.g.
+ * the Mega's 64 for D0-D53.  Modules keep pin sets in this type so a wider board needs no
+ * code of its own (issue 29). */
+#ifndef AIO_PINMASK_BITS
+#define AIO_PINMASK_BITS 16u
+#endif
+#if AIO_PINMASK_BITS > 16
+typedef uint64_t aio_pinmask_t;
+#else
+typedef uint16_t aio_pinmask_t;
+#endif
+
 enum {
     ROLE_FREE = 0, ROLE_GPIO_IN, ROLE_GPIO_OUT, ROLE_PWM, ROLE_COUNTER, ROLE_DUTY, ROLE_STEPPER,
     ROLE_ENCODER, ROLE_SPI, ROLE_PULSE_IN, ROLE_SONAR
@@ -28,19 +41,31 @@ enum {
 
 extern uint8_t pins_role[PINS_COUNT];
 
+#if AIO_PINMASK_BITS > 16
+/* A wide board has the flash for the shift routine (a 64-bit table would be 512 B). */
+static inline __attribute__((always_inline)) aio_pinmask_t pins_bit_of(uint8_t pin)
+{
+    return (aio_pinmask_t)1 << (pin & (AIO_PINMASK_BITS - 1u));
+}
+#else
 /* 1 << n: the AVR has no barrel shifter, a variable shift is a loop. */
 extern const AIO_FLASH uint16_t pins_bit[16];
 
-static inline __attribute__((always_inline)) uint16_t pins_bit_of(uint8_t pin) { return pins_bit[pin & 15u]; }
+static inline __attribute__((always_inline)) aio_pinmask_t pins_bit_of(uint8_t pin) { return pins_bit[pin & 15u]; }
+#endif
 
-static inline __attribute__((always_inline)) uint8_t pins_capable(uint8_t pin, uint16_t table3_mask)
+static inline __attribute__((always_inline)) uint8_t pins_capable(uint8_t pin, aio_pinmask_t table3_mask)
 {
-    return pin < 16u && (table3_mask & pins_bit[pin]);
+#if AIO_PINMASK_BITS > 16
+    return pin < AIO_PINMASK_BITS && (table3_mask & pins_bit_of(pin));
+#else
+    return pin < 16u && (table3_mask & pins_bit[pin]); /* already in range: no "& 15" */
+#endif
 }
 
 /* 0, PIN_NOT_CAPABLE or PIN_BUSY for taking `pin` into a role of the group
  * given by same_role_a/same_role_b (GPIO input/output are one role). */
-uint8_t pins_claim_check(uint8_t pin, uint16_t table3_mask, uint8_t same_a, uint8_t same_b);
+uint8_t pins_claim_check(uint8_t pin, aio_pinmask_t table3_mask, uint8_t same_a, uint8_t same_b);
 
 /* Ends whatever role the pin has; leaves it a high-impedance input. */
 void pins_release(uint8_t pin);
