@@ -22,6 +22,7 @@ from ..protocol import FAILSAFE_MAX_TIMEOUT_MS, FAILSAFE_MIN_TIMEOUT_MS
 from ..protocol.pins import UNO_ANALOG, UNO_DIGITAL, AnalogPin, DigitalPin, Function, capable_pins
 from ..protocol.timers import TIMER_OF, Timer
 from ._config_rc import rc_values
+from ._config_stepper import stepper_values
 from ._sources import INPUTS, OUTPUTS, PIN_NEEDS
 from ._wire import fully_qualified
 
@@ -419,24 +420,10 @@ def _output(
 
 
 def _stepper_options(item: Mapping[str, Any], kind: str, where: str) -> dict[str, Any]:
-    """A stepper's max_speed (1-10,000 steps/s), acceleration and steps_per_rev."""
-    options: dict[str, Any] = {}
-    for key, top in (("max_speed", 10_000), ("acceleration", 1_000_000)):
-        if key not in item:
-            continue
-        if kind != "stepper":
-            raise ConfigError(f"{where}.{key}: only a stepper takes {key}")
-        value = item[key]
-        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= top:
-            raise ConfigError(f"{where}.{key}: {value!r} is not a whole number 1-{top:,}")
-        options[key] = value
-    if "steps_per_rev" in item:
-        if kind != "stepper":
-            raise ConfigError(f"{where}.steps_per_rev: only a stepper takes steps_per_rev")
-        value = item["steps_per_rev"]
-        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-            raise ConfigError(f"{where}.steps_per_rev: {value!r} is not a positive number")
-        options["steps_per_rev"] = float(value)
+    """A stepper's max_speed, acceleration and steps_per_rev (:mod:`._config_stepper`)."""
+    options, problem = stepper_values(item, kind)
+    if problem:
+        raise ConfigError(f"{where}.{problem}")
     return options
 
 

@@ -35,9 +35,10 @@ async def test_a_remote_client_streams_the_imu(serve_unos: ServeFactory) -> None
                 blocks.append(sample.i2c[0])
                 if len(blocks) == 50:
                     break
-            with pytest.raises(BoardError) as busy:  # the streaming client's block
+            with pytest.raises(BoardError) as busy:  # the streaming client's block slot
                 await b.request(p.I2CBlock(0, 0x50, 0, 4))
-            assert busy.value.code is p.ErrorCode.PIN_BUSY
+            assert busy.value.code is p.ErrorCode.SLOT_BUSY
+            assert "block 0" in str(busy.value)
         reply = await uno.command("imu_reads", **{"from": logged, "count": 50})
         assert blocks == [bytes(data) for _, data in reply["reads"]]
         assert samples.gaps == 0
