@@ -15,6 +15,7 @@ from ..protocol.session import SessionState
 from ._usb import tick_holding_bridge
 
 __all__ = [
+    "ARMED_QUIET_TIME",
     "DEFAULT_TIMEOUT",
     "FRAMING_ENV",
     "MAX_DRAIN",
@@ -33,6 +34,11 @@ DEFAULT_TIMEOUT = 0.5
 #: Silence that proves the line is drained: the board's 10 ms inter-byte gap, plus a 4 ms
 #: USB-bridge tick and a USB frame, with margin.
 QUIET_TIME = 0.03
+#: The drain's quiet time while a failsafe is armed (``max_silence`` set): twice the
+#: board's 10 ms inter-byte gap, so a resync's first probe goes out sooner and a lost
+#: probe plus a corrupted poll cannot keep the board unfed for a whole 100 ms failsafe
+#: (tests/e2e/test_failsafe_resync_silence.py).
+ARMED_QUIET_TIME = 0.02
 #: Longest drain before probing anyway.
 MAX_DRAIN = 0.25
 #: Longest pause between probes that got no answer.

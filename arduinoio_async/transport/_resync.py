@@ -7,17 +7,24 @@ ready for a frame) and the line was quiet as long, or -- with a stream running, 
 line never goes quiet -- what arrived decoded into whole frames.  The probe ends at its
 answer, or at once when garbage comes instead; unanswered probes back off, never beyond
 ``max_silence`` (a board whose failsafe is armed must hear a frame in time).
+
+While a failsafe is armed (``max_silence`` set) the drain waits ``ARMED_QUIET_TIME`` (20
+ms, twice the board's gap) and an unanswered probe is followed by the next one as soon
+as the drain allows, without a backoff: a keepalive poll corrupted on its way to the board
+and a lost first probe left the board ~110 ms without a frame (30 ms drain, 25 ms for the
+probe's answer, 30 ms of backoff, after the heartbeat before the poll), and a 100 ms
+failsafe tripped on a healthy host.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 
 import anyio
+import anyio.lowlevel
 
 from ..protocol.session import SessionState
-from ._link_types import MAX_DRAIN, MAX_PROBE_BACKOFF
+from ._link_types import ARMED_QUIET_TIME, MAX_DRAIN, MAX_PROBE_BACKOFF
 from ._wire import Wire
 
 __all__ = ["Resyncing"]
@@ -78,8 +85,11 @@ class Resyncing(Wire):
                         self._log_fault(
                             "%s: no answer to the ID probe (%d in a row)", self.name, unanswered
                         )
-                    await anyio.sleep(backoff)
-                    backoff = min(backoff * 2, MAX_PROBE_BACKOFF, self.max_silence or math.inf)
+                    if self.max_silence is None:
+                        await anyio.sleep(backoff)
+                        backoff = min(backoff * 2, MAX_PROBE_BACKOFF)
+                    else:  # armed: the next probe as soon as the drain allows
+                        await anyio.lowlevel.checkpoint()
                 elif session.state is SessionState.DRAINING:
                     logger.info(
                         "%s: probe failed (%s); draining again", self.name, session.last_loss
@@ -96,6 +106,8 @@ class Resyncing(Wire):
         session = self._session
         give_up = self._now() + MAX_DRAIN
         quiet = self.quiet_time
+        if self.max_silence is not None:
+            quiet = min(quiet, ARMED_QUIET_TIME)
         while session.state is SessionState.DRAINING:
             now = self._now()
             sent_quiet = now - self.last_send >= quiet
