@@ -24,9 +24,6 @@ volatile uint32_t clock_ticks;
 static volatile uint16_t millis;
 static uint8_t ms_div;
 static volatile uint8_t in_slow;
-/* The tick's interrupts-on part (steppers, the slow part) is running: a tick
- * that comes meanwhile only counts (see TIMER2_COMPA_vect). */
-static volatile uint8_t in_tick;
 
 void clock_init(void)
 {
@@ -101,25 +98,19 @@ __asm__(".section .text.clock_step_call,\"ax\",@progbits\n"
 #define STEPPING_OPERAND
 #endif
 
-/* Hand-written, ~45 cycles a tick (the compiled one took ~75).  The tick
- * count and the millisecond count are updated with interrupts off (about 22
- * cycles in; the low byte's overflow, once in 256 ticks, carries into the
- * upper bytes in about 20 more); then interrupts are enabled for the
- * steppers and the slow part.
+/* Hand-written, ~40 cycles a tick (the compiled one took ~75): interrupts
+ * are enabled as soon as the tick is counted (11 cycles in), so a software PWM
+ * edge waits at most that; no other TIMER2_COMPA can come within 100 us.
  * Interrupt handlers read the tick count too (hal_micros, hal_stamp: change
  * events, counter reports, encoder and pulse edges), and the hardware clears
  * OCF2A on entry, so an interrupt nested before the count was stored would
  * read the old count with no pending flag to correct it: 100 us early (seen as
  * +100 us RC pulse widths under encoder load, benchmarks/sensors_pulse.py).
- * Hence the count is stored before sei.
- * A tick that comes while an earlier tick's interrupts-on part still runs
- * (in_tick) only counts and returns: no other TIMER2_COMPA can come within
- * 100 us unless other interrupts take the whole CPU (an encoder's edges at
- * 80,000/s with the stream running did), and then each tick nested in the
- * last until the stack ran into the variables and the board crashed
- * (tests/e2e/test_interrupt_overload.py).  Such a tick's steppers and slow
- * part wait for the next tick.  r1 is cleared only for the C call (an
- * interrupted MUL may leave it nonzero). */
+ * Hence the count is stored before sei.  The low byte's overflow (once in 256
+ * ticks, every 25.6 ms) carries into the upper bytes with interrupts still
+ * off, about 20 cycles; every other tick stores one byte, which is atomic.  millis and ms_div are read by the main loop
+ * only.  r1 is cleared only for the C call (an interrupted MUL may leave it
+ * nonzero). */
 ISR(TIMER2_COMPA_vect, ISR_NAKED)
 {
     __asm__ volatile(
@@ -130,20 +121,23 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "subi r24, 0xFF\n\t"
         "breq 6f\n\t"
         "sts %[t0], r24\n\t"
+        "sei\n\t"
         "rjmp 1f\n\t"
         "6:\n\t"
         "sts %[t0], r24\n\t"
         "lds r24, %[t0]+1\n\t"
         "subi r24, 0xFF\n\t"
         "sts %[t0]+1, r24\n\t"
-        "brne 1f\n\t"
+        "brne 7f\n\t"
         "lds r24, %[t0]+2\n\t"
         "subi r24, 0xFF\n\t"
         "sts %[t0]+2, r24\n\t"
-        "brne 1f\n\t"
+        "brne 7f\n\t"
         "lds r24, %[t0]+3\n\t"
         "subi r24, 0xFF\n\t"
         "sts %[t0]+3, r24\n\t"
+        "7:\n\t"
+        "sei\n\t"
         "1:\n\t"
         "lds r24, %[div]\n\t"
         "subi r24, 0xFF\n\t"
@@ -160,12 +154,6 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "ldi r24, 0\n\t"
         "2:\n\t"
         "sts %[div], r24\n\t"
-        "lds r24, %[in_tick]\n\t"
-        "tst r24\n\t"
-        "brne 9f\n\t"
-        "inc r24\n\t"
-        "sts %[in_tick], r24\n\t"
-        "sei\n\t"
         TICK_STEPPERS
         "lds r24, %[armed]\n\t"
         "tst r24\n\t"
@@ -179,16 +167,13 @@ ISR(TIMER2_COMPA_vect, ISR_NAKED)
         "call clock_slow_call\n\t"
         "pop r1\n\t"
         "4:\n\t"
-        "ldi r24, 0\n\t"
-        "sts %[in_tick], r24\n\t"
-        "9:\n\t"
         "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
         "reti\n\t"
         :
         : [t0] "i"(&clock_ticks), [div] "i"(&ms_div), [ms] "i"(&millis), [armed] "i"(&failsafe_is_armed),
-          [watching] "i"(&analog_watching), [in_tick] "i"(&in_tick)
+          [watching] "i"(&analog_watching)
           STEPPING_OPERAND);
 }
 

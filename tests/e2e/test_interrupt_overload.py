@@ -1,13 +1,12 @@
 """Edges faster than the board can take them cost samples and time, never the board.
 
 An encoder driven past what the CPU can decode (or noise on its pins) keeps the pin
-interrupts busy all the time.  The clock tick and the stream timer enable interrupts
-for their longer parts; under such a load each new tick or period used to nest inside
-the last until the stack ran into the variables: at 80,000 edges/s over two encoders
-with a 1 kHz stream the virtual Uno crashed ("avr_sadly_crashed", SP 0x3A1) within
-0.1 s.  Now a tick or period that comes while the last one's interrupts-on part runs
-only counts (clock.c, hal_avr.c).  The oracle is the harness: the CPU's state, the
-generators' positions.
+interrupts busy all the time.  The stream timer enables interrupts for its sample; under
+such a load each new period nested inside the last until the stack ran into the
+variables: at 80,000 edges/s over two encoders with a 1 kHz stream and pipelined writes
+the virtual Uno crashed ("avr_sadly_crashed", SP 0x3A1) within 0.1 s.  Now a period that
+comes while the last one's sample runs is counted and taken after it (hal_avr.c).  The
+oracle is the harness: the CPU's state, the generators' positions.
 """
 
 from __future__ import annotations
