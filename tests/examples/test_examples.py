@@ -312,13 +312,18 @@ async def test_rc_receiver(virtual_uno_factory: VirtualUnoFactory) -> None:
         await uno.rcpulse("D4", width_us=1750)
         await uno.rcpulse("D7", width_us=1250)
         out = await run.finish()
-    assert "steering +0.50   throttle 0.25" in out, out
+    # the board's widths are good to the pin-change path's accuracy (docs/sensors.md:
+    # 12 us, 0.024 of steering's half range and 0.012 of the throttle's range)
+    shown = re.findall(r"steering ([+-]\d\.\d\d)   throttle (\d\.\d\d)", out)
+    assert shown, out
+    steer, throttle = (float(v) for v in shown[-1])
+    assert abs(steer - 0.50) <= 0.03 and abs(throttle - 0.25) <= 0.02, out
     truth = {s.pin: s for s in await uno.rcpulse_status()}
     # the source's edges land on instruction boundaries: within a 5-cycle instruction
     assert abs(truth[4].last_width_us - 1750) <= 5 / 16
     last = re.search(r"last steering pulse: (\d+) us", out)
     assert last is not None, out
-    assert abs(int(last[1]) - 1750) <= 1, out  # 1749-1751 us
+    assert abs(int(last[1]) - 1750) <= 12, out  # the documented accuracy
 
 
 async def test_sonar(virtual_uno_factory: VirtualUnoFactory) -> None:
